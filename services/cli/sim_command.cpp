@@ -1,0 +1,177 @@
+// `tandem sim`: runs the cases of a scenario in one process and prints the comparison with Table IV.
+#include "sim_command.hpp"
+
+#include <sys/stat.h>
+
+#include <cctype>
+#include <cerrno>
+#include <chrono>
+#include <cstdio>
+#include <string>
+
+#include "tandem/model/grasp.hpp"
+#include "tandem/sim/embedded.hpp"
+#include "tandem/sim/scenario_yaml.hpp"
+
+namespace tandem::cli {
+
+void sim_usage(std::FILE* f) {
+  std::fputs(
+      "usage: tandem sim <scenario.yaml> [--out DIR] [--case NAME]... [--no-csv]\n"
+      "\n"
+      "Runs every case of the scenario (or only those named with --case) on the embedded module:\n"
+      "world, supervisor and both robot controllers in one process, 1 kHz control, RK4 plant.\n"
+      "Prints per case and robot the RMS of e_p (position and orientation) and e_h, the grasp checks,\n"
+      "and the paper's Table IV beside the reported robot. Writes DIR/<case>.csv time series\n"
+      "(default DIR: runs/<scenario name>).\n"
+      "\n"
+      "RMS definition: root mean square over every control period of the whole run of\n"
+      "  e_p,pos = ||(x_d - x)_xy|| [m], e_p,phi = phi_d - phi [rad], e_h = h_ref - h_n [N],\n"
+      "with x_d from eq. (15); 'steady' columns use only the final hold after the motion.\n"
+      "\n"
+      "Exit: 0 all cases that require the grasp kept it (no slip, no contact loss, force >= h_sg after\n"
+      "the start-up transient); 1 some case failed; 2 bad arguments or scenario file.\n",
+      f);
+}
+
+namespace {
+
+bool make_dirs(const std::string& path) {
+  std::string cur;
+  for (size_t i = 0; i <= path.size(); ++i) {
+    if (i == path.size() || path[i] == '/') {
+      if (!cur.empty() && ::mkdir(cur.c_str(), 0755) != 0 && errno != EEXIST) return false;
+    }
+    if (i < path.size()) cur += path[i];
+  }
+  return true;
+}
+
+}  // namespace
+
+int sim_command(const std::vector<std::string>& args) {
+  std::string file, out_dir;
+  std::vector<std::string> only;
+  bool csv = true;
+  for (size_t i = 0; i < args.size(); ++i) {
+    const std::string& a = args[i];
+    if (a == "--help" || a == "-h") {
+      sim_usage(stdout);
+      return 0;
+    } else if (a == "--out" || a == "--case") {
+      if (i + 1 >= args.size()) {
+        std::fprintf(stderr, "tandem sim: %s needs a value\n", a.c_str());
+        return 2;
+      }
+      (a == "--out" ? out_dir : (only.emplace_back(), only.back())) = args[++i];
+    } else if (a == "--no-csv") {
+      csv = false;
+    } else if (!a.empty() && a[0] == '-') {
+      std::fprintf(stderr, "tandem sim: unknown option '%s' (see 'tandem help sim')\n", a.c_str());
+      return 2;
+    } else if (file.empty()) {
+      file = a;
+    } else {
+      std::fprintf(stderr, "tandem sim: one scenario file expected, got '%s' too\n", a.c_str());
+      return 2;
+    }
+  }
+  if (file.empty()) {
+    std::fprintf(stderr, "tandem sim: missing the scenario file\n\n");
+    sim_usage(stderr);
+    return 2;
+  }
+  sim::Scenario sc;
+  try {
+    sc = sim::load_scenario(file);
+  } catch (const sim::ConfigError& e) {
+    std::fprintf(stderr, "tandem sim: %s\n", e.what());
+    return 2;
+  }
+  for (const auto& n : only) {
+    bool found = false;
+    for (const auto& c : sc.cases) found = found || c.name == n;
+    if (!found) {
+      std::string list;
+      for (const auto& c : sc.cases) list += (list.empty() ? "" : ", ") + c.name;
+      std::fprintf(stderr, "tandem sim: no case '%s' in %s; cases: %s\n", n.c_str(), file.c_str(), list.c_str());
+      return 2;
+    }
+  }
+  if (out_dir.empty()) out_dir = "runs/" + sc.name;
+  if (csv && !make_dirs(out_dir)) {
+    std::fprintf(stderr, "tandem sim: cannot create output directory '%s'\n", out_dir.c_str());
+    return 2;
+  }
+
+  std::printf("scenario %s (%s): %zu cases, %.1f s each, T = %g s, %d RK4 substeps\n", sc.name.c_str(),
+              file.c_str(), sc.cases.size(), sc.duration, sc.period, sc.substeps);
+  const int rep = sc.report_robot;
+  // Reaching-condition gains (eq. 33-34) for each controller that asks for them.
+  for (const auto& ctrl : sc.controllers) {
+    if (ctrl.law.type == model::LawType::PD) continue;
+    for (bool dist : {false, true}) {
+      std::printf("eq. (33)-(34) bound on K for '%s'%s (axes tangent, approach, phi):", ctrl.name.c_str(),
+                  dist ? " with eq. (37)" : ", nominal");
+      for (int j = 0; j < 2; ++j) {
+        const model::Vec3 k = sim::reaching_condition_gains(sc, j, ctrl, dist, 1.0);
+        std::printf("  %s [%.2f %.2f %.2f]", sc.robots[j].name.c_str(), k(0), k(1), k(2));
+      }
+      std::printf("\n");
+    }
+  }
+  std::printf("\n%-22s %-6s %12s %12s %10s %12s %12s | %11s %9s | %s\n", "case", "robot", "e_p pos RMS",
+              "e_p phi RMS", "e_h RMS N", "e_p steady", "min h_n N", "Table IV ep", "eh", "grasp");
+  bool ok = true;
+  std::vector<sim::SeriesRow> series;
+  for (const auto& c : sc.cases) {
+    bool selected = only.empty();
+    for (const auto& n : only) selected = selected || n == c.name;
+    if (!selected) continue;
+    const auto t0 = std::chrono::steady_clock::now();
+    sim::CaseResult r;
+    try {
+      r = sim::run_case(sc, c, {}, csv ? &series : nullptr);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "tandem sim: case '%s': %s\n", c.name.c_str(), e.what());
+      return 2;
+    }
+    const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const bool held = r.grasp_held();
+    if (!held && c.require_grasp) ok = false;
+    const sim::PaperRow* paper = sim::paper_table_iv(c.paper_case);
+    for (int j = 0; j < 2; ++j) {
+      const auto& m = r.robots[j];
+      std::printf("%-22s %-6s %12.4e %12.4e %10.4f %12.4e %12.2f | ", j == 0 ? c.name.c_str() : "",
+                  sc.robots[j].name.c_str(), m.ep_pos_rms, m.ep_ori_rms, m.eh_rms, m.ep_pos_rms_steady,
+                  m.min_normal_force);
+      if (j == rep && paper != nullptr) {
+        std::printf("%11.4e %9.4g | ", paper->ep_rms, paper->eh_rms);
+      } else {
+        std::printf("%11s %9s | ", "", "");
+      }
+      if (j == 0) {
+        std::printf("%s%s", held ? "held" : "LOST", !held && !c.require_grasp ? " (allowed)" : "");
+      } else {
+        std::printf("K/K_P [%.3g %.3g %.3g]", m.gains(0), m.gains(1), m.gains(2));
+      }
+      std::printf("\n");
+    }
+    if (!held) std::printf("%-22s   -> %s\n", "", r.failure().c_str());
+    std::printf("%-22s   object RMS %.3e m, final %.3e m; %.2f s wall\n", "", r.object_pos_rms,
+                r.object_final_error, secs);
+    if (csv) {
+      std::string name;
+      for (char ch : c.name) name += (std::isalnum(static_cast<unsigned char>(ch)) || ch == '-') ? ch : '_';
+      sim::write_csv(out_dir + "/" + name + ".csv", series, sc);
+    }
+  }
+  std::printf("\nh_sg (eq. 16) = %.3f N; reference force h_ref = %.2f x h_sg. Table IV: robot on the right.\n",
+              model::safe_grasp_force(sc.object.mass, sc.object.mu_s, sc.g0), sc.grasp_safety_factor);
+  if (csv) std::printf("time series: %s/<case>.csv\n", out_dir.c_str());
+  std::printf("%s\n", ok ? "result: PASS (every case that requires it kept the safe grasp)"
+                         : "result: FAIL (a case lost the safe grasp; see above)");
+  return ok ? 0 : 1;
+}
+
+}  // namespace tandem::cli

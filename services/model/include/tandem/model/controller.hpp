@@ -1,0 +1,95 @@
+// Hybrid position/force controller of one robot (paper Sec. VII-VIII):
+//   selection matrices in the contact frame (eq. 17), force error turned into a position error through
+//   K_S^-1 (eq. 20-21 text), an LLC law per axis (sliding mode eq. 25-28, PD eq. 35-36, or a
+//   chattering-free variant), and the inverse-dynamics VLLC (eq. 21-22).
+// The step is noexcept and allocation-free; the law is sampled once per control period and held.
+#pragma once
+
+#include "tandem/model/arm.hpp"
+#include "tandem/model/reference.hpp"
+#include "tandem/model/types.hpp"
+
+namespace tandem::model {
+
+enum class LawType {
+  SlidingMode,    ///< eq. (27)-(28): K sgn(s), first order, sampled and held
+  BoundaryLayer,  ///< K sat(s / Phi): continuous inside a layer of width Phi (ref. [15])
+  SuperTwisting,  ///< k1 |s|^1/2 sgn(s) + v, v' = k2 sgn(s): second-order sliding mode (refs. [16], [17])
+  PD,             ///< eq. (35)-(36)
+};
+
+/// Per-axis gains in the contact frame, axes (tangent, approach, orientation). Under the paper's
+/// selection (eq. 17) axes 0 and 2 are position-controlled, axis 1 is force-controlled.
+struct LawGains {
+  LawType type = LawType::SlidingMode;
+  Vec3 K{10.0, 1.0, 10.0};      ///< SM / boundary-layer gain; super-twisting uses it as the bound L
+  Vec3 m{5.0, 5.0, 5.0};        ///< sliding-surface slope m of eq. (25)-(26) [1/s]
+  Vec3 phi{0.05, 0.05, 0.05};   ///< boundary-layer width [m/s]
+  Vec3 kp{400.0, 40.0, 350.0};  ///< PD K_P
+  Vec3 kd{35.0, 4.0, 35.0};     ///< PD K_D
+};
+
+/// Which parts of the model the VLLC (eq. 22) compensates in n^ (eq. 24: n~ = n^ - n is the uncertainty).
+struct Compensation {
+  bool coriolis = true;
+  bool gravity = true;
+  bool viscous = true;
+  bool coulomb = true;
+  double coulomb_band = 0.01;  ///< band of the controller's tanh(q'/band) estimate [rad/s]
+  bool contact_force = true;   ///< the J^T h term of eq. (22), from the force sensor
+};
+
+struct HybridParams {
+  Vec3 selection_p{1.0, 0.0, 1.0};  ///< diagonal of Sigma_p (eq. 17); Sigma_h = I - Sigma_p
+  double contact_stiffness = 1.0e4; ///< K_S of eq. (19) used to scale the force error [N/m]
+  bool feedforward_position = false;///< add Sigma_p x_d'' to y~ (not in eq. 21; see docs/controller.md)
+  bool feedforward_force = true;    ///< add Sigma_h x_e'' (the planned motion of the contact surface)
+  LawGains law{};
+  Compensation comp{};
+  double period = 1.0e-3;           ///< control period T [s]
+};
+
+/// What the robot reads from its arm each period.
+struct ArmSensors {
+  Vec3 q = Vec3::Zero();
+  Vec3 qd = Vec3::Zero();
+  Vec2 h = Vec2::Zero();  ///< force the end-effector exerts on the object (force sensor) [N]
+};
+
+/// Diagnostics of one step (all in the world frame unless said otherwise).
+struct ControlOutput {
+  Vec3 tau = Vec3::Zero();
+  Vec3 e_p = Vec3::Zero();        ///< x_d - x (the paper's e_p, unselected)
+  Vec3 e_c = Vec3::Zero();        ///< combined error in the contact frame (Sigma_p e_p + Sigma_h K_S^-1 e_h)
+  Vec3 s = Vec3::Zero();          ///< sliding variables in the contact frame (eq. 25-26)
+  double normal_force = 0.0;      ///< measured squeeze h_n = a . h [N]
+  double e_h = 0.0;               ///< h_ref - h_n [N]
+};
+
+class HybridController {
+ public:
+  HybridController(const ArmParams& arm, const HybridParams& params);
+  /// Clears the law's memory (force history, super-twisting integrator).
+  void reset() noexcept;
+  /// One control period: sensors at t_k and the reference for t_k in, torque for [t_k, t_k+1) out.
+  ControlOutput step(const ArmSensors& in, const ArmReference& ref) noexcept;
+  const HybridParams& params() const noexcept { return params_; }
+
+ private:
+  ArmParams arm_;
+  HybridParams params_;
+  double prev_normal_force_ = 0.0;
+  bool has_prev_ = false;
+  Vec3 twisting_v_ = Vec3::Zero();
+};
+
+/// Gains that satisfy the reaching conditions (eq. 33-34) for one arm, per contact-frame axis:
+///   K_i >= sum_j |(R^T J)_ij| eta_j + eta_margin + |x_d,i''| (if not fed forward) + m |e_i'|.
+/// J is sampled along the planned trajectory by the caller; this takes the worst case of one sample.
+Vec3 reaching_gain_bound(const Mat3& J_contact, const Vec3& eta_bound, const Vec3& xdd_contact,
+                         const Vec3& m, const Vec3& ed_bound, double eta_margin) noexcept;
+
+/// Contact-frame rotation (tangent, approach, orientation) built from the reference orientation phi.
+Mat3 contact_frame(double phi) noexcept;
+
+}  // namespace tandem::model

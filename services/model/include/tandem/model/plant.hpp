@@ -1,0 +1,109 @@
+// Plant of one basic module: two arms (eq. 2-3), the rigid object (eq. 13) and the two contacts
+// (virtual spring of eq. 19 along the contact normal, stick-slip friction along the face), integrated
+// with fixed-step RK4 and the control torque held over the control period.
+#pragma once
+
+#include <array>
+
+#include "tandem/model/arm.hpp"
+#include "tandem/model/disturbance.hpp"
+#include "tandem/model/types.hpp"
+
+namespace tandem::model {
+
+/// Rigid box held at two opposite faces. Face j (j = 0 left, 1 right) lies at half_width from the centre.
+struct ObjectParams {
+  double mass = 2.0;         ///< M [kg]
+  double half_width = 0.3;   ///< distance from the centre to each grasped face; equals the virtual stick [m]
+  double half_height = 0.1;  ///< used for the default inertia of a uniform box [m]
+  double inertia = 0.0;      ///< I_C [kg m^2]; 0 means M (w^2 + h^2) / 3 of a uniform box
+  double mu_s = 0.5;         ///< static friction coefficient of the contacts
+  double mu_k = 0.4;         ///< kinetic friction coefficient (<= mu_s)
+  double effective_inertia() const noexcept {
+    return inertia > 0.0 ? inertia : mass * (half_width * half_width + half_height * half_height) / 3.0;
+  }
+};
+
+/// Point contacts between the end-effector tips and the object faces.
+struct ContactParams {
+  double k_normal = 1.0e4;   ///< K_S of eq. (19) along the normal [N/m]
+  double d_normal = 50.0;    ///< contact damping along the normal [N s/m]
+  double k_tangent = 1.0e5;  ///< stiffness of the sticking contact along the face [N/m]
+  double d_tangent = 300.0;  ///< damping of the sticking contact along the face [N s/m]
+};
+
+struct ModuleParams {
+  std::array<ArmParams, 2> arms{};
+  ObjectParams object{};
+  ContactParams contact{};
+  std::array<Disturbance, 2> disturbance{};  ///< eq. (37), per arm
+  double g0 = 9.81;
+};
+
+/// Continuous state of the module. The object angle psi is counter-clockwise positive (a clockwise
+/// rotation by a of the grasp increases both arms' phi by a and decreases psi by a).
+struct ModuleState {
+  std::array<Vec3, 2> q{Vec3::Zero(), Vec3::Zero()};
+  std::array<Vec3, 2> qd{Vec3::Zero(), Vec3::Zero()};
+  Vec2 c = Vec2::Zero();   ///< object centre [m]
+  double psi = 0.0;        ///< object orientation [rad]
+  Vec2 cd = Vec2::Zero();  ///< object velocity
+  double psid = 0.0;
+};
+
+/// What the contacts do at one instant.
+struct ContactReading {
+  std::array<Vec2, 2> h{Vec2::Zero(), Vec2::Zero()};  ///< force each end-effector exerts on the object (paper's h)
+  std::array<double, 2> normal{0.0, 0.0};             ///< normal (squeeze) force magnitude [N]
+  std::array<double, 2> tangential{0.0, 0.0};         ///< force along the face on the object [N]
+  std::array<double, 2> penetration{0.0, 0.0};        ///< spring deflection [m]
+  std::array<bool, 2> in_contact{false, false};
+  Vec2 force_on_object = Vec2::Zero();  ///< sum of contact forces (no gravity)
+  double torque_on_object = 0.0;        ///< counter-clockwise
+};
+
+/// Counters the plant keeps (slip and contact loss per RK4 substep, saturation per control period).
+struct PlantCounters {
+  long slip_events = 0;          ///< substeps in which a contact exceeded mu_s N and slid
+  double slip_distance = 0.0;    ///< accumulated sliding along the faces [m]
+  long contact_lost = 0;         ///< substeps with a contact carrying no normal force
+  long torque_saturated = 0;     ///< control periods in which a commanded torque hit tau_max
+};
+
+class ModulePlant {
+ public:
+  explicit ModulePlant(const ModuleParams& params);
+
+  /// Sets the state and pre-loads the sticking contacts so that each face carries half the weight:
+  /// the object starts in static equilibrium when both arms press with the same normal force.
+  void reset(const ModuleState& state);
+
+  /// Advances by dt with `substeps` RK4 steps, the torques held constant (zero-order hold); t is the time
+  /// at the start of the period (for the disturbance). Torques are clipped to each arm's tau_max.
+  void step(const std::array<Vec3, 2>& tau, double t, double dt, int substeps) noexcept;
+
+  const ModuleState& state() const noexcept { return state_; }
+  const ModuleParams& params() const noexcept { return params_; }
+  const PlantCounters& counters() const noexcept { return counters_; }
+  /// Contact forces at the current state.
+  ContactReading contacts() const noexcept { return contact_forces(state_); }
+  /// End-effector pose [px, py, phi] of arm j.
+  Vec3 end_effector(int j) const noexcept { return forward_kinematics(params_.arms[j], state_.q[j]); }
+  /// Total mechanical energy of arms and object (kinetic + gravity potential, contact springs excluded).
+  double mechanical_energy() const noexcept;
+
+ private:
+  using StateVec = Eigen::Matrix<double, 18, 1>;
+  static StateVec pack(const ModuleState& s) noexcept;
+  static ModuleState unpack(const StateVec& v) noexcept;
+  ContactReading contact_forces(const ModuleState& s) const noexcept;
+  StateVec derivative(const StateVec& x, const std::array<Vec3, 2>& tau, double t) const noexcept;
+  void update_anchors() noexcept;
+
+  ModuleParams params_;
+  ModuleState state_;
+  std::array<double, 2> anchor_{0.0, 0.0};  ///< rest position of each sticking contact along its face
+  PlantCounters counters_;
+};
+
+}  // namespace tandem::model

@@ -1,0 +1,61 @@
+// Supervisor's reference generation: a time-parametrised object path and eq. (15), which turns the
+// desired absolute pose of the object into a pose reference for each end-effector.
+#pragma once
+
+#include <vector>
+
+#include "tandem/model/types.hpp"
+
+namespace tandem::model {
+
+/// Pose, velocity and acceleration of [px, py, phi] at one instant.
+struct PoseSample {
+  Vec3 pose = Vec3::Zero();
+  Vec3 vel = Vec3::Zero();
+  Vec3 acc = Vec3::Zero();
+};
+
+/// Piecewise quintic path of the object's absolute pose [p_E; phi_E] (eq. 11): rest-to-rest segments,
+/// each with zero velocity and acceleration at its ends, so the reference is C^2 (Theorem 1's assumption).
+class ObjectPath {
+ public:
+  struct Segment {
+    Vec3 to = Vec3::Zero();
+    double duration = 1.0;
+  };
+  ObjectPath() = default;
+  /// start: pose at t = 0; holds there for `hold` seconds, then runs the segments in order.
+  ObjectPath(const Vec3& start, double hold, std::vector<Segment> segments);
+  PoseSample sample(double t) const noexcept;
+  double motion_end() const noexcept;  ///< time at which the last segment ends
+
+ private:
+  Vec3 start_ = Vec3::Zero();
+  double hold_ = 0.0;
+  std::vector<Segment> segments_;
+};
+
+/// How the supervisor places the two end-effectors around the object (eq. 15).
+struct GraspGeometry {
+  double stick_length[2] = {0.3, 0.3};  ///< |r_j| [m]
+  double phi_I = -kPi;                  ///< relative orientation phi_S2 - phi_S1 (the paper's pi, mod 2 pi)
+  Vec2 p_I = Vec2::Zero();              ///< relative position of the stick tips (0: both at the centre)
+  /// Extra push of each end-effector into the object along its approach axis [m]; the supervisor sets it
+  /// to h_ref / K_S so that a position-controlled arm holds the grasp force at the planned object pose.
+  double preload = 0.0;
+};
+
+/// Reference of one arm for one control period: pose, its derivatives and the grasp force.
+struct ArmReference {
+  Vec3 x = Vec3::Zero();    ///< x_d [px, py, phi]
+  Vec3 xd = Vec3::Zero();   ///< x_d'
+  Vec3 xdd = Vec3::Zero();  ///< x_d''
+  double force = 0.0;       ///< normal grasp force reference h_ref [N]
+};
+
+/// eq. (15) for arm j (0 or 1): x_d,j = [p_Ed - r_j -/+ p_Id/2; phi_Ed -/+ phi_Id/2], with the sign
+/// "-" for j = 0 and "+" for j = 1 so that eq. (12) holds (p_I = p_S2 - p_S1). The stick r_j rotates
+/// with the reference orientation, and its derivatives are propagated exactly.
+ArmReference arm_reference(int j, const PoseSample& object, const GraspGeometry& g, double force) noexcept;
+
+}  // namespace tandem::model

@@ -1,0 +1,27 @@
+// Fixed-size Eigen types used across the model layer. Nothing here allocates.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Dense>
+
+namespace tandem::model {
+
+using Vec2 = Eigen::Vector2d;
+using Vec3 = Eigen::Vector3d;
+using Mat2 = Eigen::Matrix2d;
+using Mat3 = Eigen::Matrix3d;
+
+inline constexpr double kPi = 3.14159265358979323846;
+
+/// Unit vector of the tool (approach) axis for an orientation phi measured from the y-axis,
+/// clockwise positive (paper Sec. III): phi = 0 points along +y, phi = pi/2 along +x.
+inline Vec2 approach_axis(double phi) { return {std::sin(phi), std::cos(phi)}; }
+
+/// Wraps an angle to (-pi, pi].
+inline double wrap_angle(double a) {
+  a = std::fmod(a + kPi, 2.0 * kPi);
+  if (a <= 0.0) a += 2.0 * kPi;
+  return a - kPi;
+}
+
+}  // namespace tandem::model

@@ -1,0 +1,122 @@
+#include "tandem/model/controller.hpp"
+
+#include <cmath>
+
+namespace tandem::model {
+namespace {
+
+double sgn(double v) noexcept { return static_cast<double>((v > 0.0) - (v < 0.0)); }
+
+}  // namespace
+
+Mat3 contact_frame(double phi) noexcept {
+  // Columns: tangent t, approach a, and the orientation axis. t = (a_y, -a_x) so that t x a = +z.
+  const Vec2 a = approach_axis(phi);
+  Mat3 R = Mat3::Identity();
+  R(0, 0) = a(1);
+  R(1, 0) = -a(0);
+  R(0, 1) = a(0);
+  R(1, 1) = a(1);
+  return R;
+}
+
+HybridController::HybridController(const ArmParams& arm, const HybridParams& params)
+    : arm_(arm), params_(params) {}
+
+void HybridController::reset() noexcept {
+  prev_normal_force_ = 0.0;
+  has_prev_ = false;
+  twisting_v_.setZero();
+}
+
+ControlOutput HybridController::step(const ArmSensors& in, const ArmReference& ref) noexcept {
+  ControlOutput out;
+  const HybridParams& p = params_;
+  const double T = p.period;
+  const Vec3 x = forward_kinematics(arm_, in.q);
+  const Mat3 J = jacobian(arm_, in.q);
+  const Mat3 Jd = jacobian_dot(arm_, in.q, in.qd);
+  const Vec3 xdot = J * in.qd;
+
+  const Mat3 R = contact_frame(ref.x(2));
+  const Vec3 sel_p = p.selection_p;
+  const Vec3 sel_h = Vec3::Ones() - sel_p;  // Sigma_h = I - Sigma_p (Sec. VII)
+
+  // Position error e_p = x_d - x and its rate, expressed in the contact frame.
+  out.e_p = ref.x - x;
+  const Vec3 ep_c = R.transpose() * out.e_p;
+  const Vec3 epd_c = R.transpose() * (ref.xd - xdot);
+
+  // Force error e_h = h_ref - h along the approach axis, scaled by K_S^-1 into a position error.
+  const Vec2 a = R.block<2, 1>(0, 1);
+  out.normal_force = a.dot(in.h);
+  out.e_h = ref.force - out.normal_force;
+  const double h_rate = has_prev_ ? (out.normal_force - prev_normal_force_) / T : 0.0;
+  prev_normal_force_ = out.normal_force;
+  has_prev_ = true;
+  const double inv_ks = 1.0 / p.contact_stiffness;
+  const Vec3 eh_c(0.0, inv_ks * out.e_h, 0.0);
+  const Vec3 ehd_c(0.0, -inv_ks * h_rate, 0.0);  // the reference force is constant over a period
+
+  const Vec3 e = sel_p.cwiseProduct(ep_c) + sel_h.cwiseProduct(eh_c);
+  const Vec3 ed = sel_p.cwiseProduct(epd_c) + sel_h.cwiseProduct(ehd_c);
+  out.e_c = e;
+  const LawGains& g = p.law;
+  out.s = g.m.cwiseProduct(e) + ed;  // eq. (25)-(26)
+
+  Vec3 u;
+  for (int i = 0; i < 3; ++i) {
+    const double s = out.s(i);
+    switch (g.type) {
+      case LawType::SlidingMode:
+        u(i) = g.K(i) * sgn(s);  // eq. (27)-(28)
+        break;
+      case LawType::BoundaryLayer:
+        u(i) = g.K(i) * std::fmax(-1.0, std::fmin(1.0, s / g.phi(i)));
+        break;
+      case LawType::SuperTwisting: {
+        const double k1 = 1.5 * std::sqrt(g.K(i));
+        const double k2 = 1.1 * g.K(i);
+        u(i) = k1 * std::sqrt(std::abs(s)) * sgn(s) + twisting_v_(i);
+        twisting_v_(i) += T * k2 * sgn(s);
+        break;
+      }
+      case LawType::PD:
+        u(i) = g.kp(i) * e(i) + g.kd(i) * ed(i);  // eq. (35)-(36)
+        break;
+    }
+  }
+  // Feed-forward of the planned accelerations (x_d'' for position axes, x_e'' = x_d'' of the contact
+  // surface along the approach axis), when enabled.
+  const Vec3 xdd_c = R.transpose() * ref.xdd;
+  Vec3 ff = Vec3::Zero();
+  if (p.feedforward_position) ff += sel_p.cwiseProduct(xdd_c);
+  if (p.feedforward_force) ff += sel_h.cwiseProduct(xdd_c);
+
+  const Vec3 y_tilde = R * (u + ff);                              // eq. (20), back in the world frame
+  const Vec3 y = J.partialPivLu().solve(y_tilde - Jd * in.qd);    // eq. (21)
+
+  // eq. (22): tau = B y + n^ + J^T h
+  const Compensation& c = p.comp;
+  Vec3 n_hat = Vec3::Zero();
+  if (c.coriolis) n_hat += coriolis(arm_, in.q, in.qd) * in.qd;
+  if (c.gravity) n_hat += gravity(arm_, in.q);
+  for (int i = 0; i < 3; ++i) {
+    if (c.viscous) n_hat(i) += arm_.viscous(i) * in.qd(i);
+    if (c.coulomb) {
+      n_hat(i) += arm_.coulomb(i) * (c.coulomb_band > 0.0 ? std::tanh(in.qd(i) / c.coulomb_band) : sgn(in.qd(i)));
+    }
+  }
+  out.tau = inertia(arm_, in.q) * y + n_hat;
+  if (c.contact_force) out.tau += J.transpose() * Vec3(in.h(0), in.h(1), 0.0);
+  return out;
+}
+
+Vec3 reaching_gain_bound(const Mat3& J_contact, const Vec3& eta_bound, const Vec3& xdd_contact,
+                         const Vec3& m, const Vec3& ed_bound, double eta_margin) noexcept {
+  // eq. (33)-(34)
+  return J_contact.cwiseAbs() * eta_bound + Vec3::Constant(eta_margin) + xdd_contact.cwiseAbs() +
+         m.cwiseProduct(ed_bound.cwiseAbs());
+}
+
+}  // namespace tandem::model

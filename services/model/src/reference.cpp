@@ -1,0 +1,64 @@
+#include "tandem/model/reference.hpp"
+
+#include <cmath>
+#include <utility>
+
+namespace tandem::model {
+
+ObjectPath::ObjectPath(const Vec3& start, double hold, std::vector<Segment> segments)
+    : start_(start), hold_(hold), segments_(std::move(segments)) {}
+
+double ObjectPath::motion_end() const noexcept {
+  double t = hold_;
+  for (const auto& s : segments_) t += s.duration;
+  return t;
+}
+
+PoseSample ObjectPath::sample(double t) const noexcept {
+  PoseSample out;
+  out.pose = start_;
+  double t0 = hold_;
+  for (const auto& seg : segments_) {
+    if (t < t0) return out;  // holding at the start of this segment
+    const double T = seg.duration;
+    if (t >= t0 + T) {
+      out.pose = seg.to;
+      t0 += T;
+      continue;
+    }
+    // Rest-to-rest quintic: s(u) = 10u^3 - 15u^4 + 6u^5, u = (t - t0) / T.
+    const double u = (t - t0) / T;
+    const double s = u * u * u * (10.0 + u * (-15.0 + 6.0 * u));
+    const double sd = 30.0 * u * u * (1.0 - u) * (1.0 - u) / T;
+    const double sdd = 60.0 * u * (1.0 - u) * (1.0 - 2.0 * u) / (T * T);
+    const Vec3 delta = seg.to - out.pose;
+    out.pose += s * delta;
+    out.vel = sd * delta;
+    out.acc = sdd * delta;
+    return out;
+  }
+  return out;
+}
+
+ArmReference arm_reference(int j, const PoseSample& obj, const GraspGeometry& g, double force) noexcept {
+  const double sign = j == 0 ? -1.0 : 1.0;
+  // eq. (15): orientation
+  const double phi = obj.pose(2) + sign * 0.5 * g.phi_I;
+  const double phid = obj.vel(2);
+  const double phidd = obj.acc(2);
+  // The end-effector sits at p_E - r_j + preload * a(phi) with r_j = L a(phi); both terms are along a(phi).
+  const double L = g.stick_length[j] - g.preload;
+  const Vec2 a = approach_axis(phi);
+  const Vec2 a1(std::cos(phi), -std::sin(phi));  // da/dphi; d2a/dphi2 = -a
+  ArmReference r;
+  r.x.head<2>() = obj.pose.head<2>() + sign * 0.5 * g.p_I - L * a;
+  r.xd.head<2>() = obj.vel.head<2>() - L * a1 * phid;
+  r.xdd.head<2>() = obj.acc.head<2>() - L * (a1 * phidd - a * phid * phid);
+  r.x(2) = phi;
+  r.xd(2) = phid;
+  r.xdd(2) = phidd;
+  r.force = force;
+  return r;
+}
+
+}  // namespace tandem::model

@@ -1,0 +1,283 @@
+#include "tandem/sim/embedded.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+#include "tandem/model/grasp.hpp"
+
+namespace tandem::sim {
+namespace {
+
+using model::Vec3;
+
+model::GraspGeometry grasp_geometry(const Scenario& sc, double h_ref) {
+  model::GraspGeometry g;
+  g.stick_length[0] = g.stick_length[1] = sc.object.half_width;
+  g.preload = h_ref / sc.contact.k_normal;
+  return g;
+}
+
+model::ObjectPath object_path(const Scenario& sc) { return {sc.start, sc.hold, sc.segments}; }
+
+model::ModuleParams module_params(const Scenario& sc, const CaseConfig& cc) {
+  model::ModuleParams mp;
+  for (int j = 0; j < 2; ++j) mp.arms[j] = sc.robots[j].arm;
+  mp.arms[0].base = {-0.5 * sc.base_distance, sc.base_height};
+  mp.arms[1].base = {0.5 * sc.base_distance, sc.base_height};
+  mp.object = sc.object;
+  mp.contact = sc.contact;
+  mp.g0 = sc.g0;
+  for (int j = 0; j < 2; ++j) mp.arms[j].g0 = sc.g0;
+  for (int j : sc.disturbed_robots) {
+    mp.disturbance[j].enabled = cc.disturbance;
+    mp.disturbance[j].scale = cc.disturbance_scale;
+  }
+  return mp;
+}
+
+struct Rms {
+  double sum = 0.0;
+  long n = 0;
+  void add(double v) {
+    sum += v * v;
+    ++n;
+  }
+  double value() const { return n > 0 ? std::sqrt(sum / static_cast<double>(n)) : 0.0; }
+};
+
+}  // namespace
+
+std::string CaseResult::failure() const {
+  std::ostringstream os;
+  if (!finite) os << "the simulation diverged (NaN/inf); ";
+  if (counters.slip_events > 0) {
+    os << "the object slipped (" << counters.slip_events << " slip substeps, " << counters.slip_distance
+       << " m); ";
+  }
+  if (counters.contact_lost > 0) os << "a contact opened (" << counters.contact_lost << " substeps); ";
+  for (int j = 0; j < 2; ++j) {
+    if (robots[j].min_normal_force < safe_grasp_force) {
+      os << "robot " << j << " grasp force fell to " << robots[j].min_normal_force << " N < h_sg "
+         << safe_grasp_force << " N; ";
+    }
+  }
+  std::string s = os.str();
+  if (s.size() >= 2) s.resize(s.size() - 2);
+  return s;
+}
+
+Vec3 reaching_condition_gains(const Scenario& sc, int j, const ControllerConfig& cc, bool disturbance,
+                              double disturbance_scale) {
+  const model::ModuleParams mp = module_params(sc, CaseConfig{});
+  const double h_ref = sc.grasp_safety_factor * model::safe_grasp_force(sc.object.mass, sc.object.mu_s, sc.g0);
+  const model::GraspGeometry geom = grasp_geometry(sc, h_ref);
+  const model::ObjectPath path = object_path(sc);
+  model::Disturbance d;
+  bool disturbed = false;
+  for (int k : sc.disturbed_robots) disturbed = disturbed || k == j;
+  d.enabled = disturbance && disturbed;
+  d.scale = disturbance_scale;
+  const Vec3 sel_p = sc.robots[j].selection_p;
+  Vec3 worst = Vec3::Zero();
+  for (double t = 0.0; t <= sc.duration; t += 0.01) {
+    const model::ArmReference ref = model::arm_reference(j, path.sample(t), geom, h_ref);
+    Vec3 q;
+    if (!model::inverse_kinematics(mp.arms[j], ref.x, sc.robots[j].elbow, q)) continue;
+    const model::Mat3 R = model::contact_frame(ref.x(2));
+    const model::Mat3 Jc = R.transpose() * model::jacobian(mp.arms[j], q);
+    Vec3 xdd_c = R.transpose() * ref.xdd;
+    for (int i = 0; i < 3; ++i) {
+      const bool fed = sel_p(i) > 0.5 ? cc.feedforward_position : cc.feedforward_force;
+      if (fed) xdd_c(i) = 0.0;
+    }
+    // After reaching, e' is small: the m e' term of eq. (33)-(34) is covered by the margin.
+    worst = worst.cwiseMax(model::reaching_gain_bound(Jc, d.bound(), xdd_c, cc.law.m, Vec3::Zero(),
+                                                      cc.reaching_margin));
+  }
+  return worst;
+}
+
+CaseResult run_case(const Scenario& sc, const CaseConfig& cc, const RunOptions& opt,
+                    std::vector<SeriesRow>* series) {
+  const ControllerConfig* ctrl = sc.find_controller(cc.controller);
+  if (ctrl == nullptr) throw std::invalid_argument("unknown controller " + cc.controller);
+  CaseResult res;
+  res.name = cc.name;
+  res.controller = cc.controller;
+  res.paper_case = cc.paper_case;
+  res.disturbance = cc.disturbance;
+  res.require_grasp = cc.require_grasp;
+  res.safe_grasp_force = model::safe_grasp_force(sc.object.mass, sc.object.mu_s, sc.g0);  // eq. (16)
+  const double h_ref = sc.grasp_safety_factor * res.safe_grasp_force;
+  res.reference_force = h_ref;
+
+  const model::ModuleParams mp = module_params(sc, cc);
+  const model::GraspGeometry geom = grasp_geometry(sc, h_ref);
+  const model::ObjectPath path = object_path(sc);
+
+  // Initial state: both arms on their references at t = 0, at rest, pressing with h_ref (safe grasp).
+  model::ModuleState init;
+  const model::PoseSample p0 = path.sample(0.0);
+  for (int j = 0; j < 2; ++j) {
+    const model::ArmReference r0 = model::arm_reference(j, p0, geom, h_ref);
+    if (!model::inverse_kinematics(mp.arms[j], r0.x, sc.robots[j].elbow, init.q[j])) {
+      throw std::invalid_argument(sc.source + ": robot '" + sc.robots[j].name +
+                                  "' cannot reach its initial reference; move task.start or the bases");
+    }
+  }
+  init.c = p0.pose.head<2>();
+  init.psi = -p0.pose(2);
+  model::ModulePlant plant(mp);
+  plant.reset(init);
+
+  std::array<model::HybridController, 2> ctl{
+      model::HybridController(mp.arms[0], {}), model::HybridController(mp.arms[1], {})};
+  for (int j = 0; j < 2; ++j) {
+    model::HybridParams hp;
+    hp.selection_p = sc.robots[j].selection_p;
+    hp.contact_stiffness = sc.contact.k_normal;
+    hp.feedforward_position = ctrl->feedforward_position;
+    hp.feedforward_force = ctrl->feedforward_force;
+    hp.law = ctrl->law;
+    hp.comp = ctrl->comp;
+    hp.period = sc.period;
+    if (ctrl->reaching_gain_factor > 0.0) {
+      hp.law.K = ctrl->reaching_gain_factor *
+                 reaching_condition_gains(sc, j, *ctrl, cc.disturbance, cc.disturbance_scale);
+    }
+    res.robots[j].gains = hp.law.type == model::LawType::PD ? hp.law.kp : hp.law.K;
+    ctl[j] = model::HybridController(mp.arms[j], hp);
+  }
+
+  const long steps = std::lround(sc.duration / sc.period);
+  const double motion_end = path.motion_end();
+  if (series != nullptr && opt.record) {
+    series->clear();
+    series->reserve(static_cast<size_t>(steps));
+  }
+  std::array<Rms, 2> pos, ori, eh, sel, pos_ss, ori_ss, eh_ss;
+  Rms obj;
+  std::array<double, 2> min_n{1e300, 1e300}, max_n{0.0, 0.0}, max_ep{0.0, 0.0};
+  for (long k = 0; k < steps; ++k) {
+    const double t = static_cast<double>(k) * sc.period;
+    const model::PoseSample ps = path.sample(t);
+    const model::ContactReading contact = plant.contacts();
+    std::array<Vec3, 2> tau;
+    SeriesRow row{};
+    for (int j = 0; j < 2; ++j) {
+      const model::ArmReference ref = model::arm_reference(j, ps, geom, h_ref);  // supervisor, eq. (15)
+      model::ArmSensors in;
+      in.q = plant.state().q[j];
+      in.qd = plant.state().qd[j];
+      in.h = contact.h[j];
+      const model::ControlOutput out = ctl[j].step(in, ref);
+      tau[j] = out.tau;
+      const double e_pos = out.e_p.head<2>().norm();
+      const model::Vec3 e_sel_c = sc.robots[j].selection_p.cwiseProduct(model::contact_frame(ref.x(2)).transpose() * out.e_p);
+      pos[j].add(e_pos);
+      ori[j].add(out.e_p(2));
+      eh[j].add(out.e_h);
+      sel[j].add(std::hypot(e_sel_c(0), e_sel_c(1)));
+      max_ep[j] = std::max(max_ep[j], e_pos);
+      if (t >= motion_end) {
+        pos_ss[j].add(e_pos);
+        ori_ss[j].add(out.e_p(2));
+        eh_ss[j].add(out.e_h);
+      }
+      if (t >= sc.transient) {
+        min_n[j] = std::min(min_n[j], out.normal_force);
+        max_n[j] = std::max(max_n[j], out.normal_force);
+      }
+      if (!tau[j].allFinite()) res.finite = false;
+      row.x[j] = ref.x - out.e_p;
+      row.xd[j] = ref.x;
+      row.tau[j] = out.tau;
+      row.s[j] = out.s;
+      row.normal[j] = out.normal_force;
+      row.e_h[j] = out.e_h;
+    }
+    obj.add((plant.state().c - ps.pose.head<2>()).norm());
+    if (series != nullptr && opt.record) {
+      row.t = t;
+      row.obj_c = plant.state().c;
+      row.obj_ref = ps.pose.head<2>();
+      row.obj_psi = plant.state().psi;
+      series->push_back(row);
+    }
+    if (!res.finite) break;
+    plant.step(tau, t, sc.period, sc.substeps);  // world: torques held over the period
+    const auto& st = plant.state();
+    if (!st.c.allFinite() || !st.q[0].allFinite() || !st.q[1].allFinite()) {
+      res.finite = false;
+      break;
+    }
+  }
+  for (int j = 0; j < 2; ++j) {
+    RobotMetrics& m = res.robots[j];
+    m.ep_pos_rms = pos[j].value();
+    m.ep_ori_rms = ori[j].value();
+    m.eh_rms = eh[j].value();
+    m.ep_sel_rms = sel[j].value();
+    m.ep_pos_rms_steady = pos_ss[j].value();
+    m.ep_ori_rms_steady = ori_ss[j].value();
+    m.eh_rms_steady = eh_ss[j].value();
+    m.ep_pos_max = max_ep[j];
+    m.min_normal_force = min_n[j];
+    m.max_normal_force = max_n[j];
+  }
+  res.counters = plant.counters();
+  res.object_pos_rms = obj.value();
+  res.object_final_error = (plant.state().c - path.sample(sc.duration).pose.head<2>()).norm();
+  return res;
+}
+
+void write_csv(const std::string& path, const std::vector<SeriesRow>& rows, const Scenario& sc) {
+  std::ofstream out(path);
+  if (!out) throw std::runtime_error(path + ": cannot write the time series");
+  out << "t";
+  for (int j = 0; j < 2; ++j) {
+    const std::string n = sc.robots[j].name;
+    for (const char* f : {"x", "y", "phi"}) out << "," << n << "_" << f;
+    for (const char* f : {"x_d", "y_d", "phi_d"}) out << "," << n << "_" << f;
+    for (const char* f : {"tau1", "tau2", "tau3"}) out << "," << n << "_" << f;
+    for (const char* f : {"s_t", "s_a", "s_phi"}) out << "," << n << "_" << f;
+    out << "," << n << "_normal_force," << n << "_e_h";
+  }
+  out << ",object_x,object_y,object_psi,object_x_ref,object_y_ref\n";
+  char buf[64];
+  auto put = [&](double v) {
+    std::snprintf(buf, sizeof buf, ",%.9g", v);
+    out << buf;
+  };
+  for (const auto& r : rows) {
+    std::snprintf(buf, sizeof buf, "%.4f", r.t);
+    out << buf;
+    for (int j = 0; j < 2; ++j) {
+      for (const Vec3* v : {&r.x[j], &r.xd[j], &r.tau[j], &r.s[j]}) {
+        for (int i = 0; i < 3; ++i) put((*v)(i));
+      }
+      put(r.normal[j]);
+      put(r.e_h[j]);
+    }
+    put(r.obj_c(0));
+    put(r.obj_c(1));
+    put(r.obj_psi);
+    put(r.obj_ref(0));
+    put(r.obj_ref(1));
+    out << "\n";
+  }
+}
+
+const PaperRow* paper_table_iv(const std::string& name) {
+  static const PaperRow rows[] = {
+      {"PD", 5.9056e-4, 0.0049}, {"PD^u", 0.0025, 0.0202}, {"SM", 2.7119e-5, 5.6793e-4}, {"SM^u", 7.6518e-5, 5.0986e-4}};
+  for (const auto& r : rows) {
+    if (name == r.name) return &r;
+  }
+  return nullptr;
+}
+
+}  // namespace tandem::sim

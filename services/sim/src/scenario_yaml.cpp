@@ -1,0 +1,414 @@
+#include "tandem/sim/scenario_yaml.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <fstream>
+#include <functional>
+#include <limits>
+#include <set>
+#include <sstream>
+
+namespace tandem::sim {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+/// Walks one YAML mapping, remembering which keys were read so that the rest can be reported as unknown.
+class MapReader {
+ public:
+  MapReader(YAML::Node node, std::string path, const std::string& file)
+      : node_(std::move(node)), path_(std::move(path)), file_(file) {
+    if (!node_.IsMap()) fail(node_, path_, "expected a mapping (key: value pairs)");
+  }
+
+  [[noreturn]] void fail(const YAML::Node& n, const std::string& key, const std::string& what) const {
+    std::ostringstream os;
+    os << file_;
+    if (n.IsDefined() && n.Mark().line >= 0) os << ":" << n.Mark().line + 1;
+    os << ": '" << key << "': " << what;
+    throw ConfigError(os.str());
+  }
+
+  std::string key_path(const std::string& key) const { return path_.empty() ? key : path_ + "." + key; }
+
+  bool has(const std::string& key) const { return static_cast<bool>(node_[key]); }
+
+  YAML::Node take(const std::string& key, bool required) {
+    accepted_.insert(key);
+    YAML::Node n = node_[key];
+    if (!n && required) fail(node_, key_path(key), "missing required field");
+    return n;
+  }
+
+  double number(const YAML::Node& n, const std::string& key, double lo, double hi) const {
+    if (!n.IsScalar()) fail(n, key, "expected a number" + range(lo, hi));
+    double v = 0.0;
+    try {
+      v = n.as<double>();
+    } catch (const YAML::Exception&) {
+      fail(n, key, "expected a number" + range(lo, hi) + ", got '" + n.Scalar() + "'");
+    }
+    if (!std::isfinite(v) || v < lo || v > hi) {
+      fail(n, key, "value " + n.Scalar() + " is out of range: accepted" + range(lo, hi));
+    }
+    return v;
+  }
+
+  void num(const std::string& key, double& out, double lo, double hi, bool required = false) {
+    if (YAML::Node n = take(key, required)) out = number(n, key_path(key), lo, hi);
+  }
+
+  void integer(const std::string& key, int& out, int lo, int hi, bool required = false) {
+    if (YAML::Node n = take(key, required)) {
+      const double v = number(n, key_path(key), lo, hi);
+      if (v != std::floor(v)) fail(n, key_path(key), "expected an integer, got '" + n.Scalar() + "'");
+      out = static_cast<int>(v);
+    }
+  }
+
+  void boolean(const std::string& key, bool& out, bool required = false) {
+    if (YAML::Node n = take(key, required)) {
+      try {
+        if (!n.IsScalar()) throw YAML::Exception(n.Mark(), "");
+        out = n.as<bool>();
+      } catch (const YAML::Exception&) {
+        fail(n, key_path(key), "expected true or false");
+      }
+    }
+  }
+
+  void text(const std::string& key, std::string& out, bool required = false) {
+    if (YAML::Node n = take(key, required)) {
+      if (!n.IsScalar()) fail(n, key_path(key), "expected a string");
+      out = n.Scalar();
+    }
+  }
+
+  void choice(const std::string& key, std::string& out, const std::vector<std::string>& allowed,
+              bool required = false) {
+    if (YAML::Node n = take(key, required)) {
+      if (n.IsScalar()) {
+        for (const auto& a : allowed) {
+          if (a == n.Scalar()) {
+            out = a;
+            return;
+          }
+        }
+      }
+      std::string list;
+      for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
+      fail(n, key_path(key), "expected one of: " + list + (n.IsScalar() ? ", got '" + n.Scalar() + "'" : ""));
+    }
+  }
+
+  template <int N>
+  void vec(const std::string& key, Eigen::Matrix<double, N, 1>& out, double lo, double hi,
+           bool required = false) {
+    if (YAML::Node n = take(key, required)) out = vector_of<N>(n, key_path(key), lo, hi);
+  }
+
+  /// A number or a list of N numbers (a number is broadcast).
+  template <int N>
+  void vec_or_scalar(const std::string& key, Eigen::Matrix<double, N, 1>& out, double lo, double hi) {
+    if (YAML::Node n = take(key, false)) {
+      if (n.IsScalar()) {
+        out.setConstant(number(n, key_path(key), lo, hi));
+      } else {
+        out = vector_of<N>(n, key_path(key), lo, hi);
+      }
+    }
+  }
+
+  template <int N>
+  Eigen::Matrix<double, N, 1> vector_of(const YAML::Node& n, const std::string& key, double lo, double hi) const {
+    if (!n.IsSequence() || n.size() != N) {
+      fail(n, key, "expected a list of " + std::to_string(N) + " numbers" + range(lo, hi));
+    }
+    Eigen::Matrix<double, N, 1> v;
+    for (int i = 0; i < N; ++i) v(i) = number(n[i], key + "[" + std::to_string(i) + "]", lo, hi);
+    return v;
+  }
+
+  MapReader child(const std::string& key, bool required = false) {
+    YAML::Node n = take(key, required);
+    if (!n) n = YAML::Node(YAML::NodeType::Map);
+    return MapReader(n, key_path(key), file_);
+  }
+
+  YAML::Node sequence(const std::string& key, bool required) {
+    YAML::Node n = take(key, required);
+    if (n && !n.IsSequence()) fail(n, key_path(key), "expected a list");
+    return n;
+  }
+
+  const std::string& path() const { return path_; }
+  const std::string& file() const { return file_; }
+
+  /// Reports the first key that was never read, with the accepted keys.
+  void finish() const {
+    for (const auto& kv : node_) {
+      const std::string k = kv.first.Scalar();
+      if (accepted_.count(k) == 0) {
+        std::string list;
+        for (const auto& a : accepted_) list += (list.empty() ? "" : ", ") + a;
+        fail(kv.first, key_path(k), "unknown key; accepted keys here: " + list);
+      }
+    }
+  }
+
+ private:
+  static std::string range(double lo, double hi) {
+    std::ostringstream os;
+    if (lo > -kInf && hi < kInf) {
+      os << " in [" << lo << ", " << hi << "]";
+    } else if (lo > -kInf) {
+      os << " >= " << lo;
+    } else if (hi < kInf) {
+      os << " <= " << hi;
+    }
+    return os.str();
+  }
+
+  YAML::Node node_;
+  std::string path_;
+  const std::string& file_;
+  std::set<std::string> accepted_;
+};
+
+constexpr double kPos = 1e-12;  // "strictly positive" lower bound
+
+void read_arm(MapReader r, model::ArmParams& a) {
+  if (YAML::Node n = r.take("gamma", false)) {
+    const auto g = r.vector_of<6>(n, r.key_path("gamma"), kPos, kInf);
+    for (int i = 0; i < 6; ++i) a.gamma[static_cast<size_t>(i)] = g(i);
+  }
+  r.vec<3>("link_length", a.link_length, kPos, 10.0);
+  r.vec<3>("viscous", a.viscous, 0.0, kInf);
+  r.vec<3>("coulomb", a.coulomb, 0.0, kInf);
+  r.num("coulomb_band", a.coulomb_band, 0.0, 10.0);
+  r.vec<3>("q_min", a.q_min, -2 * model::kPi, 2 * model::kPi);
+  r.vec<3>("q_max", a.q_max, -2 * model::kPi, 2 * model::kPi);
+  r.vec<3>("tau_max", a.tau_max, kPos, kInf);
+  r.finish();
+  for (int i = 0; i < 3; ++i) {
+    if (a.q_min(i) >= a.q_max(i)) {
+      r.fail(YAML::Node(), r.key_path("q_min"), "q_min must be below q_max for every joint");
+    }
+  }
+}
+
+void read_controller(MapReader r, ControllerConfig& c) {
+  std::string law = "sliding_mode";
+  r.choice("law", law, {"sliding_mode", "boundary_layer", "super_twisting", "pd"}, true);
+  c.law.type = law == "pd"               ? model::LawType::PD
+               : law == "boundary_layer" ? model::LawType::BoundaryLayer
+               : law == "super_twisting" ? model::LawType::SuperTwisting
+                                         : model::LawType::SlidingMode;
+  // Position-axis gains (contact frame: tangent, approach, orientation) and the force-axis gain.
+  model::Vec3 K_p = c.law.K, kp_p = c.law.kp, kd_p = c.law.kd, m = c.law.m, phi = c.law.phi;
+  double K_h = c.law.K(1), kp_h = c.law.kp(1), kd_h = c.law.kd(1), m_h = c.law.m(1), phi_h = c.law.phi(1);
+  r.vec_or_scalar<3>("K_p", K_p, 0.0, kInf);
+  r.num("K_h", K_h, 0.0, kInf);
+  r.vec_or_scalar<3>("m_p", m, kPos, kInf);
+  r.num("m_h", m_h, kPos, kInf);
+  r.vec_or_scalar<3>("boundary_p", phi, kPos, kInf);
+  r.num("boundary_h", phi_h, kPos, kInf);
+  r.vec_or_scalar<3>("kp_p", kp_p, 0.0, kInf);
+  r.vec_or_scalar<3>("kd_p", kd_p, 0.0, kInf);
+  r.num("kp_h", kp_h, 0.0, kInf);
+  r.num("kd_h", kd_h, 0.0, kInf);
+  r.boolean("feedforward_position", c.feedforward_position);
+  r.boolean("feedforward_force", c.feedforward_force);
+  r.num("reaching_gain_factor", c.reaching_gain_factor, 0.0, 100.0);
+  r.num("reaching_margin", c.reaching_margin, 0.0, kInf);
+  {
+    MapReader comp = r.child("compensation");
+    comp.boolean("coriolis", c.comp.coriolis);
+    comp.boolean("gravity", c.comp.gravity);
+    comp.boolean("viscous", c.comp.viscous);
+    comp.boolean("coulomb", c.comp.coulomb);
+    comp.num("coulomb_band", c.comp.coulomb_band, 0.0, 10.0);
+    comp.boolean("contact_force", c.comp.contact_force);
+    comp.finish();
+  }
+  r.finish();
+  // Axis 1 (approach) carries the force-loop gains; axes 0 and 2 the position gains.
+  c.law.K = K_p;
+  c.law.K(1) = K_h;
+  c.law.kp = kp_p;
+  c.law.kp(1) = kp_h;
+  c.law.kd = kd_p;
+  c.law.kd(1) = kd_h;
+  c.law.m = m;
+  c.law.m(1) = m_h;
+  c.law.phi = phi;
+  c.law.phi(1) = phi_h;
+}
+
+Scenario read(const YAML::Node& root, const std::string& file) {
+  Scenario s;
+  s.source = file;
+  MapReader top(root, "", file);
+  top.text("name", s.name, true);
+  {
+    MapReader t = top.child("timing");
+    t.num("period", s.period, 1e-5, 0.1);
+    t.integer("substeps", s.substeps, 1, 1000);
+    t.num("duration", s.duration, kPos, 3600.0);
+    t.num("transient", s.transient, 0.0, 3600.0);
+    t.finish();
+  }
+  {
+    MapReader m = top.child("module", true);
+    m.num("base_distance", s.base_distance, kPos, 100.0);
+    m.num("base_height", s.base_height, -100.0, 100.0);
+    m.num("grasp_safety_factor", s.grasp_safety_factor, 1.0, 100.0);
+    m.num("gravity", s.g0, 0.0, 100.0);
+    YAML::Node robots = m.sequence("robots", true);
+    if (robots.size() != 2) m.fail(robots, m.key_path("robots"), "a basic module has exactly 2 robots");
+    for (size_t j = 0; j < 2; ++j) {
+      MapReader rr(robots[j], m.key_path("robots[" + std::to_string(j) + "]"), file);
+      RobotConfig& rc = s.robots[j];
+      rr.text("name", rc.name, true);
+      rr.num("elbow", rc.elbow, -1.0, 1.0);
+      rr.vec<3>("selection_p", rc.selection_p, 0.0, 1.0);
+      for (int i = 0; i < 3; ++i) {
+        if (rc.selection_p(i) != 0.0 && rc.selection_p(i) != 1.0) {
+          rr.fail(robots[j]["selection_p"], rr.key_path("selection_p"), "each entry must be 0 or 1");
+        }
+      }
+      std::string model_name = "smart3s2";
+      rr.choice("model", model_name, {"smart3s2"});
+      rc.arm = model::smart3s2();
+      read_arm(rr.child("arm"), rc.arm);
+      rr.finish();
+    }
+    if (s.robots[0].name == s.robots[1].name) {
+      m.fail(robots[1]["name"], m.key_path("robots[1].name"), "robot names must be unique");
+    }
+    {
+      MapReader o = m.child("object", true);
+      o.num("mass", s.object.mass, kPos, 1e4, true);
+      o.num("half_width", s.object.half_width, kPos, 10.0);
+      o.num("half_height", s.object.half_height, kPos, 10.0);
+      o.num("inertia", s.object.inertia, 0.0, 1e6);
+      o.num("mu_s", s.object.mu_s, kPos, 10.0, true);
+      o.num("mu_k", s.object.mu_k, 0.0, 10.0);
+      o.finish();
+      if (s.object.mu_k > s.object.mu_s) {
+        o.fail(YAML::Node(), o.key_path("mu_k"), "kinetic friction mu_k must not exceed mu_s");
+      }
+    }
+    {
+      MapReader c = m.child("contact");
+      c.num("k_normal", s.contact.k_normal, kPos, 1e9);
+      c.num("d_normal", s.contact.d_normal, 0.0, 1e7);
+      c.num("k_tangent", s.contact.k_tangent, kPos, 1e9);
+      c.num("d_tangent", s.contact.d_tangent, 0.0, 1e7);
+      c.finish();
+    }
+    m.finish();
+  }
+  {
+    MapReader t = top.child("task", true);
+    t.vec<3>("start", s.start, -100.0, 100.0, true);
+    t.num("hold", s.hold, 0.0, 3600.0);
+    YAML::Node segs = t.sequence("segments", true);
+    for (size_t i = 0; i < segs.size(); ++i) {
+      MapReader sr(segs[i], t.key_path("segments[" + std::to_string(i) + "]"), file);
+      model::ObjectPath::Segment seg;
+      sr.vec<3>("to", seg.to, -100.0, 100.0, true);
+      sr.num("duration", seg.duration, 1e-3, 3600.0, true);
+      sr.finish();
+      s.segments.push_back(seg);
+    }
+    t.finish();
+  }
+  {
+    MapReader c = top.child("controllers", true);
+    for (const auto& kv : root["controllers"]) {
+      ControllerConfig cc;
+      cc.name = kv.first.Scalar();
+      c.take(cc.name, true);
+      read_controller(MapReader(kv.second, c.key_path(cc.name), file), cc);
+      s.controllers.push_back(cc);
+    }
+    if (s.controllers.empty()) c.fail(root["controllers"], "controllers", "define at least one controller");
+  }
+  {
+    YAML::Node cases = top.sequence("cases", true);
+    for (size_t i = 0; i < cases.size(); ++i) {
+      MapReader cr(cases[i], "cases[" + std::to_string(i) + "]", file);
+      CaseConfig cc;
+      cr.text("name", cc.name, true);
+      cr.text("controller", cc.controller, true);
+      cr.boolean("disturbance", cc.disturbance);
+      cr.num("disturbance_scale", cc.disturbance_scale, 0.0, 100.0);
+      cr.boolean("require_grasp", cc.require_grasp);
+      cr.choice("paper_case", cc.paper_case, {"PD", "PD^u", "SM", "SM^u"});
+      if (s.find_controller(cc.controller) == nullptr) {
+        std::string list;
+        for (const auto& c : s.controllers) list += (list.empty() ? "" : ", ") + c.name;
+        cr.fail(cases[i]["controller"], cr.key_path("controller"),
+                "unknown controller '" + cc.controller + "'; defined: " + list);
+      }
+      cr.finish();
+      s.cases.push_back(cc);
+    }
+    if (s.cases.empty()) top.fail(cases, "cases", "define at least one case");
+  }
+  {
+    YAML::Node d = top.sequence("disturbed_robots", false);
+    if (d) {
+      s.disturbed_robots.clear();
+      for (size_t i = 0; i < d.size(); ++i) {
+        std::string n = d[i].IsScalar() ? d[i].Scalar() : "";
+        int idx = n == s.robots[0].name ? 0 : n == s.robots[1].name ? 1 : -1;
+        if (idx < 0) {
+          top.fail(d[i], "disturbed_robots[" + std::to_string(i) + "]",
+                   "unknown robot '" + n + "'; robots: " + s.robots[0].name + ", " + s.robots[1].name);
+        }
+        s.disturbed_robots.push_back(idx);
+      }
+    }
+  }
+  {
+    std::string rep = s.robots[1].name;
+    top.choice("report_robot", rep, {s.robots[0].name, s.robots[1].name});
+    s.report_robot = rep == s.robots[0].name ? 0 : 1;
+  }
+  top.finish();
+  if (s.transient >= s.duration) top.fail(root["timing"], "timing.transient", "must be shorter than timing.duration");
+  return s;
+}
+
+}  // namespace
+
+const ControllerConfig* Scenario::find_controller(const std::string& n) const {
+  for (const auto& c : controllers) {
+    if (c.name == n) return &c;
+  }
+  return nullptr;
+}
+
+Scenario parse_scenario(const std::string& yaml_text, const std::string& source) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml_text);
+  } catch (const YAML::Exception& e) {
+    throw ConfigError(source + ":" + std::to_string(e.mark.line + 1) + ": invalid YAML: " + e.msg);
+  }
+  if (!root || root.IsNull()) throw ConfigError(source + ": the file is empty; expected a scenario mapping");
+  return read(root, source);
+}
+
+Scenario load_scenario(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw ConfigError(path + ": cannot open the scenario file");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return parse_scenario(ss.str(), path);
+}
+
+}  // namespace tandem::sim

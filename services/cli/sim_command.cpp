@@ -120,8 +120,8 @@ int sim_command(const std::vector<std::string>& args) {
       std::printf("\n");
     }
   }
-  std::printf("\n%-22s %-6s %12s %12s %10s %12s %12s | %11s %9s | %s\n", "case", "robot", "e_p pos RMS",
-              "e_p phi RMS", "e_h RMS N", "e_p steady", "min h_n N", "Table IV ep", "eh", "grasp");
+  std::printf("\n%-22s %-6s %12s %12s %12s %10s %12s %10s | %11s %9s | %s\n", "case", "robot", "e_p Sp RMS",
+              "e_p pos RMS", "e_p phi RMS", "e_h RMS N", "e_p steady", "min h_n N", "Table IV ep", "eh", "grasp");
   bool ok = true;
   std::vector<sim::SeriesRow> series;
   for (const auto& c : sc.cases) {
@@ -142,9 +142,9 @@ int sim_command(const std::vector<std::string>& args) {
     const sim::PaperRow* paper = sim::paper_table_iv(c.paper_case);
     for (int j = 0; j < 2; ++j) {
       const auto& m = r.robots[j];
-      std::printf("%-22s %-6s %12.4e %12.4e %10.4f %12.4e %12.2f | ", j == 0 ? c.name.c_str() : "",
-                  sc.robots[j].name.c_str(), m.ep_pos_rms, m.ep_ori_rms, m.eh_rms, m.ep_pos_rms_steady,
-                  m.min_normal_force);
+      std::printf("%-22s %-6s %12.4e %12.4e %12.4e %10.4f %12.4e %10.2f | ", j == 0 ? c.name.c_str() : "",
+                  sc.robots[j].name.c_str(), m.ep_sel_rms, m.ep_pos_rms, m.ep_ori_rms, m.eh_rms,
+                  m.ep_pos_rms_steady, m.min_normal_force);
       if (j == rep && paper != nullptr) {
         std::printf("%11.4e %9.4g | ", paper->ep_rms, paper->eh_rms);
       } else {

@@ -62,27 +62,32 @@ ControlOutput HybridController::step(const ArmSensors& in, const ArmReference& r
   const Vec3 ed = sel_p.cwiseProduct(epd_c) + sel_h.cwiseProduct(ehd_c);
   out.e_c = e;
   const LawGains& g = p.law;
-  out.s = g.m.cwiseProduct(e) + ed;  // eq. (25)-(26)
+  const Vec3 m = LawGains::pick(sel_p, g.m_p, g.m_h);
+  const Vec3 K = LawGains::pick(sel_p, g.K_p, g.K_h);
+  out.s = m.cwiseProduct(e) + ed;  // eq. (25)-(26)
 
+  const Vec3 phi = LawGains::pick(sel_p, g.phi_p, g.phi_h);
+  const Vec3 kp = LawGains::pick(sel_p, g.kp_p, g.kp_h);
+  const Vec3 kd = LawGains::pick(sel_p, g.kd_p, g.kd_h);
   Vec3 u;
   for (int i = 0; i < 3; ++i) {
     const double s = out.s(i);
     switch (g.type) {
       case LawType::SlidingMode:
-        u(i) = g.K(i) * sgn(s);  // eq. (27)-(28)
+        u(i) = K(i) * sgn(s);  // eq. (27)-(28)
         break;
       case LawType::BoundaryLayer:
-        u(i) = g.K(i) * std::fmax(-1.0, std::fmin(1.0, s / g.phi(i)));
+        u(i) = K(i) * std::fmax(-1.0, std::fmin(1.0, s / phi(i)));
         break;
       case LawType::SuperTwisting: {
-        const double k1 = 1.5 * std::sqrt(g.K(i));
-        const double k2 = 1.1 * g.K(i);
+        const double k1 = 1.5 * std::sqrt(K(i));
+        const double k2 = 1.1 * K(i);
         u(i) = k1 * std::sqrt(std::abs(s)) * sgn(s) + twisting_v_(i);
         twisting_v_(i) += T * k2 * sgn(s);
         break;
       }
       case LawType::PD:
-        u(i) = g.kp(i) * e(i) + g.kd(i) * ed(i);  // eq. (35)-(36)
+        u(i) = kp(i) * e(i) + kd(i) * ed(i);  // eq. (35)-(36)
         break;
     }
   }

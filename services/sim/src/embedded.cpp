@@ -81,6 +81,8 @@ Vec3 reaching_condition_gains(const Scenario& sc, int j, const ControllerConfig&
   d.enabled = disturbance && disturbed;
   d.scale = disturbance_scale;
   const Vec3 sel_p = sc.robots[j].selection_p;
+  const bool twisting = cc.law.type == model::LawType::SuperTwisting;
+  const double dt = 1e-3;
   Vec3 worst = Vec3::Zero();
   for (double t = 0.0; t <= sc.duration; t += 0.01) {
     const model::ArmReference ref = model::arm_reference(j, path.sample(t), geom, h_ref);
@@ -88,14 +90,21 @@ Vec3 reaching_condition_gains(const Scenario& sc, int j, const ControllerConfig&
     if (!model::inverse_kinematics(mp.arms[j], ref.x, sc.robots[j].elbow, q)) continue;
     const model::Mat3 R = model::contact_frame(ref.x(2));
     const model::Mat3 Jc = R.transpose() * model::jacobian(mp.arms[j], q);
-    Vec3 xdd_c = R.transpose() * ref.xdd;
+    // Reference term that is not fed forward: x_d'' for the first-order law (eq. 33-34), and its rate
+    // (the jerk) for super-twisting, whose gain must exceed the bound on the perturbation's derivative.
+    Vec3 ref_term = R.transpose() * ref.xdd;
+    if (twisting) {
+      const model::ArmReference next = model::arm_reference(j, path.sample(t + dt), geom, h_ref);
+      ref_term = R.transpose() * (next.xdd - ref.xdd) / dt;
+    }
     for (int i = 0; i < 3; ++i) {
       const bool fed = sel_p(i) > 0.5 ? cc.feedforward_position : cc.feedforward_force;
-      if (fed) xdd_c(i) = 0.0;
+      if (fed) ref_term(i) = 0.0;
     }
+    const Vec3 eta = twisting ? d.rate_bound() : d.bound();
     // After reaching, e' is small: the m e' term of eq. (33)-(34) is covered by the margin.
-    worst = worst.cwiseMax(model::reaching_gain_bound(Jc, d.bound(), xdd_c, cc.law.m, Vec3::Zero(),
-                                                      cc.reaching_margin));
+    const Vec3 m = model::LawGains::pick(sel_p, cc.law.m_p, cc.law.m_h);
+    worst = worst.cwiseMax(model::reaching_gain_bound(Jc, eta, ref_term, m, Vec3::Zero(), cc.reaching_margin));
   }
   return worst;
 }
@@ -145,10 +154,17 @@ CaseResult run_case(const Scenario& sc, const CaseConfig& cc, const RunOptions& 
     hp.comp = ctrl->comp;
     hp.period = sc.period;
     if (ctrl->reaching_gain_factor > 0.0) {
-      hp.law.K = ctrl->reaching_gain_factor *
-                 reaching_condition_gains(sc, j, *ctrl, cc.disturbance, cc.disturbance_scale);
+      // eq. (33)-(34): position axes take their bound, the force axis the bound of the approach axis.
+      const Vec3 k = ctrl->reaching_gain_factor *
+                     reaching_condition_gains(sc, j, *ctrl, cc.disturbance, cc.disturbance_scale);
+      for (int i = 0; i < 3; ++i) {
+        if (hp.selection_p(i) > 0.5) hp.law.K_p(i) = k(i);
+      }
+      if (hp.selection_p(1) < 0.5) hp.law.K_h = k(1);
     }
-    res.robots[j].gains = hp.law.type == model::LawType::PD ? hp.law.kp : hp.law.K;
+    res.robots[j].gains = hp.law.type == model::LawType::PD
+                              ? model::LawGains::pick(hp.selection_p, hp.law.kp_p, hp.law.kp_h)
+                              : model::LawGains::pick(hp.selection_p, hp.law.K_p, hp.law.K_h);
     ctl[j] = model::HybridController(mp.arms[j], hp);
   }
 

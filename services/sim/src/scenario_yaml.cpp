@@ -205,19 +205,17 @@ void read_controller(MapReader r, ControllerConfig& c) {
                : law == "boundary_layer" ? model::LawType::BoundaryLayer
                : law == "super_twisting" ? model::LawType::SuperTwisting
                                          : model::LawType::SlidingMode;
-  // Position-axis gains (contact frame: tangent, approach, orientation) and the force-axis gain.
-  model::Vec3 K_p = c.law.K, kp_p = c.law.kp, kd_p = c.law.kd, m = c.law.m, phi = c.law.phi;
-  double K_h = c.law.K(1), kp_h = c.law.kp(1), kd_h = c.law.kd(1), m_h = c.law.m(1), phi_h = c.law.phi(1);
-  r.vec_or_scalar<3>("K_p", K_p, 0.0, kInf);
-  r.num("K_h", K_h, 0.0, kInf);
-  r.vec_or_scalar<3>("m_p", m, kPos, kInf);
-  r.num("m_h", m_h, kPos, kInf);
-  r.vec_or_scalar<3>("boundary_p", phi, kPos, kInf);
-  r.num("boundary_h", phi_h, kPos, kInf);
-  r.vec_or_scalar<3>("kp_p", kp_p, 0.0, kInf);
-  r.vec_or_scalar<3>("kd_p", kd_p, 0.0, kInf);
-  r.num("kp_h", kp_h, 0.0, kInf);
-  r.num("kd_h", kd_h, 0.0, kInf);
+  // Position gains per contact-frame axis (tangent, approach, orientation); force gains on the force axis.
+  r.vec_or_scalar<3>("K_p", c.law.K_p, 0.0, kInf);
+  r.num("K_h", c.law.K_h, 0.0, kInf);
+  r.vec_or_scalar<3>("m_p", c.law.m_p, kPos, kInf);
+  r.num("m_h", c.law.m_h, kPos, kInf);
+  r.vec_or_scalar<3>("boundary_p", c.law.phi_p, kPos, kInf);
+  r.num("boundary_h", c.law.phi_h, kPos, kInf);
+  r.vec_or_scalar<3>("kp_p", c.law.kp_p, 0.0, kInf);
+  r.vec_or_scalar<3>("kd_p", c.law.kd_p, 0.0, kInf);
+  r.num("kp_h", c.law.kp_h, 0.0, kInf);
+  r.num("kd_h", c.law.kd_h, 0.0, kInf);
   r.boolean("feedforward_position", c.feedforward_position);
   r.boolean("feedforward_force", c.feedforward_force);
   r.num("reaching_gain_factor", c.reaching_gain_factor, 0.0, 100.0);
@@ -233,17 +231,6 @@ void read_controller(MapReader r, ControllerConfig& c) {
     comp.finish();
   }
   r.finish();
-  // Axis 1 (approach) carries the force-loop gains; axes 0 and 2 the position gains.
-  c.law.K = K_p;
-  c.law.K(1) = K_h;
-  c.law.kp = kp_p;
-  c.law.kp(1) = kp_h;
-  c.law.kd = kd_p;
-  c.law.kd(1) = kd_h;
-  c.law.m = m;
-  c.law.m(1) = m_h;
-  c.law.phi = phi;
-  c.law.phi(1) = phi_h;
 }
 
 Scenario read(const YAML::Node& root, const std::string& file) {

@@ -18,15 +18,28 @@ enum class LawType {
   PD,             ///< eq. (35)-(36)
 };
 
-/// Per-axis gains in the contact frame, axes (tangent, approach, orientation). Under the paper's
-/// selection (eq. 17) axes 0 and 2 are position-controlled, axis 1 is force-controlled.
+/// Gains of the LLC laws. Position gains are per contact-frame axis (tangent, approach, orientation) and
+/// act on the axes selected by Sigma_p; the force gains act on the axis selected by Sigma_h (eq. 17: the
+/// approach axis). Table II / III values are the defaults.
 struct LawGains {
   LawType type = LawType::SlidingMode;
-  Vec3 K{10.0, 1.0, 10.0};      ///< SM / boundary-layer gain; super-twisting uses it as the bound L
-  Vec3 m{5.0, 5.0, 5.0};        ///< sliding-surface slope m of eq. (25)-(26) [1/s]
-  Vec3 phi{0.05, 0.05, 0.05};   ///< boundary-layer width [m/s]
-  Vec3 kp{400.0, 40.0, 350.0};  ///< PD K_P
-  Vec3 kd{35.0, 4.0, 35.0};     ///< PD K_D
+  Vec3 K_p{10.0, 10.0, 10.0};      ///< SM / boundary-layer gain K_p of eq. (27); super-twisting bound L
+  double K_h = 1.0;                ///< K_h of eq. (28)
+  Vec3 m_p{5.0, 5.0, 5.0};         ///< sliding-surface slope m_p of eq. (25) [1/s]
+  double m_h = 5.0;                ///< m_h of eq. (26) [1/s]
+  Vec3 phi_p{0.05, 0.05, 0.05};    ///< boundary-layer width on s_p [m/s]
+  double phi_h = 0.05;             ///< boundary-layer width on s_h [m/s]
+  Vec3 kp_p{400.0, 450.0, 350.0};  ///< K_P,p of eq. (35)
+  Vec3 kd_p{35.0, 35.0, 35.0};     ///< K_D,p of eq. (35)
+  double kp_h = 40.0;              ///< K_P,h of eq. (36) (Table II, second row: the approach axis)
+  double kd_h = 4.0;               ///< K_D,h of eq. (36)
+
+  /// Per-axis values for a selection: position gain where selected, force gain elsewhere.
+  static Vec3 pick(const Vec3& selection_p, const Vec3& pos, double force) noexcept {
+    Vec3 v;
+    for (int i = 0; i < 3; ++i) v(i) = selection_p(i) > 0.5 ? pos(i) : force;
+    return v;
+  }
 };
 
 /// Which parts of the model the VLLC (eq. 22) compensates in n^ (eq. 24: n~ = n^ - n is the uncertainty).

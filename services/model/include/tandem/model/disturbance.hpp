@@ -22,6 +22,12 @@ struct Disturbance {
 
   /// Component-wise bound sup_t |xi_i(t)| <= sum of the amplitudes (used by eq. 33-34).
   Vec3 bound() const noexcept { return enabled ? Vec3(Vec3(3.6, 14.5, 18.0) * scale) : Vec3(Vec3::Zero()); }
+
+  /// Component-wise bound on |d xi_i / dt| (amplitude times frequency, summed) [rad/s^3]; the
+  /// super-twisting law needs its gain above the bound on the perturbation's derivative.
+  Vec3 rate_bound() const noexcept {
+    return enabled ? Vec3(Vec3(58.0, 235.0, 290.0) * scale) : Vec3(Vec3::Zero());
+  }
 };
 
 }  // namespace tandem::model

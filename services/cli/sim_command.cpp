@@ -140,7 +140,11 @@ int sim_command(const std::vector<std::string>& args) {
     const bool held = r.grasp_held();
     if (!held && c.require_grasp) ok = false;
     const sim::PaperRow* paper = sim::paper_table_iv(c.paper_case);
-    for (int j = 0; j < 2; ++j) {
+    for (int j = 0; j < 2 && !r.finite; ++j) {
+      std::printf("%-22s %-6s %s\n", j == 0 ? c.name.c_str() : "", sc.robots[j].name.c_str(),
+                  j == 0 ? (c.require_grasp ? "DIVERGED" : "DIVERGED (allowed)") : "");
+    }
+    for (int j = 0; j < 2 && r.finite; ++j) {
       const auto& m = r.robots[j];
       std::printf("%-22s %-6s %12.4e %12.4e %12.4e %10.4f %12.4e %10.2f | ", j == 0 ? c.name.c_str() : "",
                   sc.robots[j].name.c_str(), m.ep_sel_rms, m.ep_pos_rms, m.ep_ori_rms, m.eh_rms,
@@ -158,8 +162,10 @@ int sim_command(const std::vector<std::string>& args) {
       std::printf("\n");
     }
     if (!held) std::printf("%-22s   -> %s\n", "", r.failure().c_str());
-    std::printf("%-22s   object RMS %.3e m, final %.3e m; %.2f s wall\n", "", r.object_pos_rms,
-                r.object_final_error, secs);
+    if (r.finite) {
+      std::printf("%-22s   object RMS %.3e m, final %.3e m; %.2f s wall\n", "", r.object_pos_rms,
+                  r.object_final_error, secs);
+    }
     if (csv) {
       std::string name;
       for (char ch : c.name) name += (std::isalnum(static_cast<unsigned char>(ch)) || ch == '-') ? ch : '_';

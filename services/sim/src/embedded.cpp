@@ -52,7 +52,7 @@ struct Rms {
 
 std::string CaseResult::failure() const {
   std::ostringstream os;
-  if (!finite) os << "the simulation diverged (NaN/inf); ";
+  if (!finite) os << "the simulation diverged (NaN/inf at t = " << diverged_at << " s); ";
   if (counters.slip_events > 0) {
     os << "the object slipped (" << counters.slip_events << " slip substeps, " << counters.slip_distance
        << " m); ";
@@ -223,11 +223,15 @@ CaseResult run_case(const Scenario& sc, const CaseConfig& cc, const RunOptions& 
       row.obj_psi = plant.state().psi;
       series->push_back(row);
     }
-    if (!res.finite) break;
+    if (!res.finite) {
+      res.diverged_at = t;
+      break;
+    }
     plant.step(tau, t, sc.period, sc.substeps);  // world: torques held over the period
     const auto& st = plant.state();
     if (!st.c.allFinite() || !st.q[0].allFinite() || !st.q[1].allFinite()) {
       res.finite = false;
+      res.diverged_at = t + sc.period;
       break;
     }
   }

@@ -13,6 +13,7 @@ namespace tandem::sim {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kPositive = 1e-12;  // lower bound standing for "strictly positive"
 
 /// Walks one YAML mapping, remembering which keys were read so that the rest can be reported as unknown.
 class MapReader {
@@ -160,7 +161,10 @@ class MapReader {
  private:
   static std::string range(double lo, double hi) {
     std::ostringstream os;
-    if (lo > -kInf && hi < kInf) {
+    if (lo == kPositive) {
+      os << " > 0";
+      if (hi < kInf) os << " and <= " << hi;
+    } else if (lo > -kInf && hi < kInf) {
       os << " in [" << lo << ", " << hi << "]";
     } else if (lo > -kInf) {
       os << " >= " << lo;
@@ -176,7 +180,7 @@ class MapReader {
   std::set<std::string> accepted_;
 };
 
-constexpr double kPos = 1e-12;  // "strictly positive" lower bound
+constexpr double kPos = kPositive;
 
 void read_arm(MapReader r, model::ArmParams& a) {
   if (YAML::Node n = r.take("gamma", false)) {

@@ -120,7 +120,10 @@ int sim_command(const std::vector<std::string>& args) {
       std::printf("\n");
     }
   }
-  std::printf("\n%-22s %-6s %12s %12s %12s %10s %12s %10s | %11s %9s | %s\n", "case", "robot", "e_p Sp RMS",
+  std::printf("\n");
+  std::printf("RMS over every control period of the run. e_p Sp: position axes selected by Sigma_p (contact\n"
+              "frame); e_p pos: ||(x_d - x)_xy|| (the paper's e_p); e_h = h_ref - h_n [N]; steady: final hold.\n");
+  std::printf("%-22s %-6s %12s %12s %12s %10s %12s %10s | %11s %9s | %s\n", "case", "robot", "e_p Sp RMS",
               "e_p pos RMS", "e_p phi RMS", "e_h RMS N", "e_p steady", "min h_n N", "Table IV ep", "eh", "grasp");
   bool ok = true;
   std::vector<sim::SeriesRow> series;

@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "tandem/model/grasp.hpp"
+#include "tandem/sim/module_setup.hpp"
 
 namespace tandem::sim {
 namespace {
@@ -111,41 +112,126 @@ Vec3 reaching_condition_gains(const Scenario& sc, int j, const ControllerConfig&
 
 CaseResult run_case(const Scenario& sc, const CaseConfig& cc, const RunOptions& opt,
                     std::vector<SeriesRow>* series) {
-  const ControllerConfig* ctrl = sc.find_controller(cc.controller);
-  if (ctrl == nullptr) throw std::invalid_argument("unknown controller " + cc.controller);
+  const ModuleSetup m = make_module(sc, cc);
   CaseResult res;
   res.name = cc.name;
   res.controller = cc.controller;
   res.paper_case = cc.paper_case;
   res.disturbance = cc.disturbance;
   res.require_grasp = cc.require_grasp;
-  res.safe_grasp_force = model::safe_grasp_force(sc.object.mass, sc.object.mu_s, sc.g0);  // eq. (16)
-  const double h_ref = sc.grasp_safety_factor * res.safe_grasp_force;
-  res.reference_force = h_ref;
+  res.safe_grasp_force = m.safe_grasp_force;
+  res.reference_force = m.reference_force;
 
-  const model::ModuleParams mp = module_params(sc, cc);
-  const model::GraspGeometry geom = grasp_geometry(sc, h_ref);
-  const model::ObjectPath path = object_path(sc);
+  // World, supervisor and the two robots, wired in one process.
+  model::ModulePlant plant(m.plant);
+  plant.reset(m.initial);
+  std::array<model::HybridController, 2> ctl{model::HybridController(m.plant.arms[0], m.control[0]),
+                                              model::HybridController(m.plant.arms[1], m.control[1])};
+  const double motion_end = m.path.motion_end();
+  std::array<RobotMeter, 2> meter{RobotMeter(m.control[0].selection_p, sc.transient, motion_end),
+                                  RobotMeter(m.control[1].selection_p, sc.transient, motion_end)};
+  for (int j = 0; j < 2; ++j) {
+    const model::HybridParams& hp = m.control[j];
+    res.robots[j].gains = hp.law.type == model::LawType::PD
+                              ? model::LawGains::pick(hp.selection_p, hp.law.kp_p, hp.law.kp_h)
+                              : model::LawGains::pick(hp.selection_p, hp.law.K_p, hp.law.K_h);
+  }
+  if (series != nullptr && opt.record) {
+    series->clear();
+    series->reserve(static_cast<size_t>(m.steps));
+  }
+  Rms obj;
+  for (long k = 0; k < m.steps; ++k) {
+    const double t = static_cast<double>(k) * m.period;
+    const model::ContactReading contact = plant.contacts();  // world: sensor sample of tick k
+    std::array<Vec3, 2> tau;
+    SeriesRow row{};
+    for (int j = 0; j < 2; ++j) {
+      const model::ArmReference ref = supervisor_reference(m, j, k);  // supervisor, eq. (15)
+      model::ArmSensors in;
+      in.q = plant.state().q[j];
+      in.qd = plant.state().qd[j];
+      in.h = contact.h[j];
+      const model::ControlOutput out = ctl[j].step(in, ref);  // robot j
+      tau[j] = out.tau;
+      meter[j].add(t, ref, out);
+      if (!tau[j].allFinite()) res.finite = false;
+      row.x[j] = ref.x - out.e_p;
+      row.xd[j] = ref.x;
+      row.tau[j] = out.tau;
+      row.s[j] = out.s;
+      row.normal[j] = out.normal_force;
+      row.e_h[j] = out.e_h;
+    }
+    const model::PoseSample ps = m.path.sample(t);
+    obj.add((plant.state().c - ps.pose.head<2>()).norm());
+    if (series != nullptr && opt.record) {
+      row.t = t;
+      row.obj_c = plant.state().c;
+      row.obj_ref = ps.pose.head<2>();
+      row.obj_psi = plant.state().psi;
+      series->push_back(row);
+    }
+    if (!res.finite) {
+      res.diverged_at = t;
+      break;
+    }
+    plant.step(tau, t, m.period, m.substeps);  // world: torques held over the period
+    const auto& st = plant.state();
+    if (!st.c.allFinite() || !st.q[0].allFinite() || !st.q[1].allFinite()) {
+      res.finite = false;
+      res.diverged_at = t + m.period;
+      break;
+    }
+  }
+  for (int j = 0; j < 2; ++j) {
+    const RobotMeter::Summary s = meter[j].summary();
+    RobotMetrics& r = res.robots[j];
+    r.ep_pos_rms = s.ep_pos_rms;
+    r.ep_ori_rms = s.ep_ori_rms;
+    r.ep_sel_rms = s.ep_sel_rms;
+    r.eh_rms = s.eh_rms;
+    r.ep_pos_rms_steady = s.ep_pos_rms_steady;
+    r.ep_ori_rms_steady = s.ep_ori_rms_steady;
+    r.eh_rms_steady = s.eh_rms_steady;
+    r.ep_pos_max = s.ep_pos_max;
+    r.min_normal_force = s.min_normal_force;
+    r.max_normal_force = s.max_normal_force;
+  }
+  res.counters = plant.counters();
+  res.object_pos_rms = obj.value();
+  res.object_final_error = (plant.state().c - m.path.sample(sc.duration).pose.head<2>()).norm();
+  res.final_state = plant.state();
+  return res;
+}
+
+ModuleSetup make_module(const Scenario& sc, const CaseConfig& cc) {
+  const ControllerConfig* ctrl = sc.find_controller(cc.controller);
+  if (ctrl == nullptr) throw std::invalid_argument(sc.source + ": unknown controller '" + cc.controller + "'");
+  ModuleSetup m;
+  m.safe_grasp_force = model::safe_grasp_force(sc.object.mass, sc.object.mu_s, sc.g0);  // eq. (16)
+  m.reference_force = sc.grasp_safety_factor * m.safe_grasp_force;
+  m.plant = module_params(sc, cc);
+  m.geometry = grasp_geometry(sc, m.reference_force);
+  m.path = object_path(sc);
+  m.period = sc.period;
+  m.substeps = sc.substeps;
+  m.steps = std::lround(sc.duration / sc.period);
 
   // Initial state: both arms on their references at t = 0, at rest, pressing with h_ref (safe grasp).
-  model::ModuleState init;
-  const model::PoseSample p0 = path.sample(0.0);
+  const model::PoseSample p0 = m.path.sample(0.0);
   for (int j = 0; j < 2; ++j) {
-    const model::ArmReference r0 = model::arm_reference(j, p0, geom, h_ref);
-    if (!model::inverse_kinematics(mp.arms[j], r0.x, sc.robots[j].elbow, init.q[j])) {
+    const model::ArmReference r0 = model::arm_reference(j, p0, m.geometry, m.reference_force);
+    if (!model::inverse_kinematics(m.plant.arms[j], r0.x, sc.robots[j].elbow, m.initial.q[j])) {
       throw std::invalid_argument(sc.source + ": robot '" + sc.robots[j].name +
                                   "' cannot reach its initial reference; move task.start or the bases");
     }
   }
-  init.c = p0.pose.head<2>();
-  init.psi = -p0.pose(2);
-  model::ModulePlant plant(mp);
-  plant.reset(init);
+  m.initial.c = p0.pose.head<2>();
+  m.initial.psi = -p0.pose(2);
 
-  std::array<model::HybridController, 2> ctl{
-      model::HybridController(mp.arms[0], {}), model::HybridController(mp.arms[1], {})};
   for (int j = 0; j < 2; ++j) {
-    model::HybridParams hp;
+    model::HybridParams& hp = m.control[j];
     hp.selection_p = sc.robots[j].selection_p;
     hp.contact_stiffness = sc.contact.k_normal;
     hp.feedforward_position = ctrl->feedforward_position;
@@ -162,96 +248,34 @@ CaseResult run_case(const Scenario& sc, const CaseConfig& cc, const RunOptions& 
       }
       if (hp.selection_p(1) < 0.5) hp.law.K_h = k(1);
     }
-    res.robots[j].gains = hp.law.type == model::LawType::PD
-                              ? model::LawGains::pick(hp.selection_p, hp.law.kp_p, hp.law.kp_h)
-                              : model::LawGains::pick(hp.selection_p, hp.law.K_p, hp.law.K_h);
-    ctl[j] = model::HybridController(mp.arms[j], hp);
   }
+  return m;
+}
 
-  const long steps = std::lround(sc.duration / sc.period);
-  const double motion_end = path.motion_end();
-  if (series != nullptr && opt.record) {
-    series->clear();
-    series->reserve(static_cast<size_t>(steps));
+void RobotMeter::add(double t, const model::ArmReference& ref, const model::ControlOutput& out) noexcept {
+  const double e_pos = out.e_p.head<2>().norm();
+  const Vec3 e_sel = sel_.cwiseProduct(model::contact_frame(ref.x(2)).transpose() * out.e_p);
+  pos_.add(e_pos);
+  ori_.add(out.e_p(2));
+  eh_.add(out.e_h);
+  sel_rms_.add(std::hypot(e_sel(0), e_sel(1)));
+  max_ep_ = std::max(max_ep_, e_pos);
+  if (t >= motion_end_) {
+    pos_ss_.add(e_pos);
+    ori_ss_.add(out.e_p(2));
+    eh_ss_.add(out.e_h);
   }
-  std::array<Rms, 2> pos, ori, eh, sel, pos_ss, ori_ss, eh_ss;
-  Rms obj;
-  std::array<double, 2> min_n{1e300, 1e300}, max_n{0.0, 0.0}, max_ep{0.0, 0.0};
-  for (long k = 0; k < steps; ++k) {
-    const double t = static_cast<double>(k) * sc.period;
-    const model::PoseSample ps = path.sample(t);
-    const model::ContactReading contact = plant.contacts();
-    std::array<Vec3, 2> tau;
-    SeriesRow row{};
-    for (int j = 0; j < 2; ++j) {
-      const model::ArmReference ref = model::arm_reference(j, ps, geom, h_ref);  // supervisor, eq. (15)
-      model::ArmSensors in;
-      in.q = plant.state().q[j];
-      in.qd = plant.state().qd[j];
-      in.h = contact.h[j];
-      const model::ControlOutput out = ctl[j].step(in, ref);
-      tau[j] = out.tau;
-      const double e_pos = out.e_p.head<2>().norm();
-      const model::Vec3 e_sel_c = sc.robots[j].selection_p.cwiseProduct(model::contact_frame(ref.x(2)).transpose() * out.e_p);
-      pos[j].add(e_pos);
-      ori[j].add(out.e_p(2));
-      eh[j].add(out.e_h);
-      sel[j].add(std::hypot(e_sel_c(0), e_sel_c(1)));
-      max_ep[j] = std::max(max_ep[j], e_pos);
-      if (t >= motion_end) {
-        pos_ss[j].add(e_pos);
-        ori_ss[j].add(out.e_p(2));
-        eh_ss[j].add(out.e_h);
-      }
-      if (t >= sc.transient) {
-        min_n[j] = std::min(min_n[j], out.normal_force);
-        max_n[j] = std::max(max_n[j], out.normal_force);
-      }
-      if (!tau[j].allFinite()) res.finite = false;
-      row.x[j] = ref.x - out.e_p;
-      row.xd[j] = ref.x;
-      row.tau[j] = out.tau;
-      row.s[j] = out.s;
-      row.normal[j] = out.normal_force;
-      row.e_h[j] = out.e_h;
-    }
-    obj.add((plant.state().c - ps.pose.head<2>()).norm());
-    if (series != nullptr && opt.record) {
-      row.t = t;
-      row.obj_c = plant.state().c;
-      row.obj_ref = ps.pose.head<2>();
-      row.obj_psi = plant.state().psi;
-      series->push_back(row);
-    }
-    if (!res.finite) {
-      res.diverged_at = t;
-      break;
-    }
-    plant.step(tau, t, sc.period, sc.substeps);  // world: torques held over the period
-    const auto& st = plant.state();
-    if (!st.c.allFinite() || !st.q[0].allFinite() || !st.q[1].allFinite()) {
-      res.finite = false;
-      res.diverged_at = t + sc.period;
-      break;
-    }
+  if (t >= transient_) {
+    min_n_ = std::min(min_n_, out.normal_force);
+    max_n_ = std::max(max_n_, out.normal_force);
   }
-  for (int j = 0; j < 2; ++j) {
-    RobotMetrics& m = res.robots[j];
-    m.ep_pos_rms = pos[j].value();
-    m.ep_ori_rms = ori[j].value();
-    m.eh_rms = eh[j].value();
-    m.ep_sel_rms = sel[j].value();
-    m.ep_pos_rms_steady = pos_ss[j].value();
-    m.ep_ori_rms_steady = ori_ss[j].value();
-    m.eh_rms_steady = eh_ss[j].value();
-    m.ep_pos_max = max_ep[j];
-    m.min_normal_force = min_n[j];
-    m.max_normal_force = max_n[j];
-  }
-  res.counters = plant.counters();
-  res.object_pos_rms = obj.value();
-  res.object_final_error = (plant.state().c - path.sample(sc.duration).pose.head<2>()).norm();
-  return res;
+}
+
+double RobotMeter::Rms::value() const noexcept { return n > 0 ? std::sqrt(sum / static_cast<double>(n)) : 0.0; }
+
+RobotMeter::Summary RobotMeter::summary() const noexcept {
+  return {pos_.value(),    ori_.value(),    sel_rms_.value(), eh_.value(), pos_ss_.value(),
+          ori_ss_.value(), eh_ss_.value(), max_ep_,          min_n_,      max_n_};
 }
 
 void write_csv(const std::string& path, const std::vector<SeriesRow>& rows, const Scenario& sc) {

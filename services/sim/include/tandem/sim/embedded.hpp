@@ -40,6 +40,7 @@ struct CaseResult {
   double object_final_error = 0.0; ///< at the end of the run [m]
   bool finite = true;              ///< no NaN or inf appeared
   double diverged_at = -1.0;       ///< time of the first NaN/inf [s], -1 if none
+  model::ModuleState final_state{}; ///< plant state at the end of the run
   bool grasp_held() const {
     return finite && counters.slip_events == 0 && counters.contact_lost == 0 &&
            robots[0].min_normal_force >= safe_grasp_force && robots[1].min_normal_force >= safe_grasp_force;

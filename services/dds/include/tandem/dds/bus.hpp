@@ -1,0 +1,105 @@
+// Thin DDS layer: one participant per process, typed writers and readers, QoS from one place (qos.cpp).
+// Adapters between IDL types and Eigen live in adapters.hpp; transport set-up here; no control logic.
+#pragma once
+
+#include <fastdds/dds/core/status/PublicationMatchedStatus.hpp>
+#include <fastdds/dds/core/status/SubscriptionMatchedStatus.hpp>
+#include <fastdds/dds/domain/DomainParticipant.hpp>
+#include <fastdds/dds/publisher/DataWriter.hpp>
+#include <fastdds/dds/publisher/Publisher.hpp>
+#include <fastdds/dds/subscriber/DataReader.hpp>
+#include <fastdds/dds/subscriber/SampleInfo.hpp>
+#include <fastdds/dds/subscriber/Subscriber.hpp>
+#include <fastdds/dds/topic/Topic.hpp>
+#include <fastdds/dds/topic/TypeSupport.hpp>
+#include <stdexcept>
+#include <string>
+
+#include "tandem/dds/qos.hpp"
+
+namespace tandem::dds {
+
+namespace fdds = eprosima::fastdds::dds;
+
+enum class Transport { SharedMemory, Udp };
+
+/// One DDS participant (one per process). Creates topics on demand and deletes everything it created.
+class Participant {
+ public:
+  Participant(int domain_id, const std::string& name, Transport transport);
+  ~Participant();
+  Participant(const Participant&) = delete;
+  Participant& operator=(const Participant&) = delete;
+
+  /// Registers the type (once) and returns the topic (created once per name).
+  fdds::Topic* topic(const std::string& name, fdds::TopicDataType* type);
+  fdds::Publisher* publisher() { return publisher_; }
+  fdds::Subscriber* subscriber() { return subscriber_; }
+  fdds::DomainParticipant* get() { return participant_; }
+
+ private:
+  fdds::DomainParticipant* participant_ = nullptr;
+  fdds::Publisher* publisher_ = nullptr;
+  fdds::Subscriber* subscriber_ = nullptr;
+};
+
+template <class T, class PubSubType>
+class Writer {
+ public:
+  Writer(Participant& p, const std::string& topic_name, TopicKind kind) : p_(p) {
+    fdds::Topic* t = p.topic(topic_name, new PubSubType());
+    writer_ = p.publisher()->create_datawriter(t, writer_qos(kind));
+    if (writer_ == nullptr) throw std::runtime_error("cannot create a DDS writer on " + topic_name);
+  }
+  ~Writer() { p_.publisher()->delete_datawriter(writer_); }
+  Writer(const Writer&) = delete;
+  Writer& operator=(const Writer&) = delete;
+  bool write(T& sample) { return writer_->write(&sample); }
+  int matched() const {
+    fdds::PublicationMatchedStatus st;
+    writer_->get_publication_matched_status(st);
+    return st.current_count;
+  }
+
+ private:
+  Participant& p_;
+  fdds::DataWriter* writer_ = nullptr;
+};
+
+template <class T, class PubSubType>
+class Reader {
+ public:
+  Reader(Participant& p, const std::string& topic_name, TopicKind kind) : p_(p) {
+    fdds::Topic* t = p.topic(topic_name, new PubSubType());
+    reader_ = p.subscriber()->create_datareader(t, reader_qos(kind));
+    if (reader_ == nullptr) throw std::runtime_error("cannot create a DDS reader on " + topic_name);
+  }
+  ~Reader() { p_.subscriber()->delete_datareader(reader_); }
+  Reader(const Reader&) = delete;
+  Reader& operator=(const Reader&) = delete;
+  /// Takes the next valid sample, if any.
+  bool take(T& out) {
+    fdds::SampleInfo info;
+    while (reader_->take_next_sample(&out, &info) == ReturnCode_t::RETCODE_OK) {
+      if (info.valid_data) return true;
+    }
+    return false;
+  }
+  /// Waits up to timeout_s for an unread sample.
+  bool wait(double timeout_s) {
+    const auto sec = static_cast<int32_t>(timeout_s);
+    const auto nsec = static_cast<uint32_t>((timeout_s - sec) * 1e9);
+    return reader_->wait_for_unread_message(eprosima::fastrtps::Duration_t(sec, nsec));
+  }
+  int matched() const {
+    fdds::SubscriptionMatchedStatus st;
+    reader_->get_subscription_matched_status(st);
+    return st.current_count;
+  }
+
+ private:
+  Participant& p_;
+  fdds::DataReader* reader_ = nullptr;
+};
+
+}  // namespace tandem::dds

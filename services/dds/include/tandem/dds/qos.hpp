@@ -1,0 +1,26 @@
+// QoS of every topic, in one place. docs/architecture.md has the table with the reasons.
+#pragma once
+
+#include <fastdds/dds/publisher/qos/DataWriterQos.hpp>
+#include <fastdds/dds/subscriber/qos/DataReaderQos.hpp>
+
+namespace tandem::dds {
+
+enum class TopicKind {
+  Sensors,     ///< world -> robots, supervisor: every tick
+  References,  ///< supervisor -> robots: every tick
+  Torques,     ///< robots -> world: every tick
+  Summary,     ///< end-of-run results for the launcher
+};
+
+eprosima::fastdds::dds::DataWriterQos writer_qos(TopicKind kind);
+eprosima::fastdds::dds::DataReaderQos reader_qos(TopicKind kind);
+
+/// Topic names.
+inline constexpr const char* kSensorsTopic = "tandem/arm_sensors";
+inline constexpr const char* kReferencesTopic = "tandem/arm_references";
+inline constexpr const char* kTorquesTopic = "tandem/torque_commands";
+inline constexpr const char* kRobotSummaryTopic = "tandem/robot_summary";
+inline constexpr const char* kWorldSummaryTopic = "tandem/world_summary";
+
+}  // namespace tandem::dds

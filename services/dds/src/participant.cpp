@@ -1,0 +1,46 @@
+#include <fastdds/dds/domain/DomainParticipantFactory.hpp>
+#include <fastdds/dds/domain/qos/DomainParticipantQos.hpp>
+#include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
+#include <fastdds/rtps/transport/shared_mem/SharedMemTransportDescriptor.h>
+
+#include <memory>
+
+#include "tandem/dds/bus.hpp"
+
+namespace tandem::dds {
+
+Participant::Participant(int domain_id, const std::string& name, Transport transport) {
+  fdds::DomainParticipantQos qos = fdds::PARTICIPANT_QOS_DEFAULT;
+  qos.name(name);
+  qos.transport().use_builtin_transports = false;
+  if (transport == Transport::SharedMemory) {
+    // Data over shared memory; discovery still needs a UDP locator, so keep UDPv4 beside it.
+    qos.transport().user_transports.push_back(
+        std::make_shared<eprosima::fastdds::rtps::SharedMemTransportDescriptor>());
+  }
+  qos.transport().user_transports.push_back(std::make_shared<eprosima::fastdds::rtps::UDPv4TransportDescriptor>());
+  participant_ = fdds::DomainParticipantFactory::get_instance()->create_participant(domain_id, qos);
+  if (participant_ == nullptr) {
+    throw std::runtime_error("cannot create a DDS participant on domain " + std::to_string(domain_id));
+  }
+  publisher_ = participant_->create_publisher(fdds::PUBLISHER_QOS_DEFAULT);
+  subscriber_ = participant_->create_subscriber(fdds::SUBSCRIBER_QOS_DEFAULT);
+}
+
+Participant::~Participant() {
+  if (participant_ != nullptr) {
+    participant_->delete_contained_entities();
+    fdds::DomainParticipantFactory::get_instance()->delete_participant(participant_);
+  }
+}
+
+fdds::Topic* Participant::topic(const std::string& name, fdds::TopicDataType* type) {
+  fdds::TypeSupport ts(type);
+  if (participant_->find_type(ts.get_type_name()).empty()) ts.register_type(participant_);
+  if (fdds::TopicDescription* d = participant_->lookup_topicdescription(name)) {
+    return static_cast<fdds::Topic*>(d);
+  }
+  return participant_->create_topic(name, ts.get_type_name(), fdds::TOPIC_QOS_DEFAULT);
+}
+
+}  // namespace tandem::dds

@@ -1,0 +1,37 @@
+#include "tandem/dds/qos.hpp"
+
+namespace tandem::dds {
+namespace fdds = eprosima::fastdds::dds;
+
+namespace {
+// Per-tick topics: reliable (lockstep must not lose a tick), keep-last 32 (a reader that is one or two
+// ticks behind still gets everything; nothing older matters), volatile (a late joiner starts from the next
+// tick). Summaries: reliable, transient-local, keep-last 1 per key, so a launcher that looks late still sees
+// the result.
+template <class Q>
+void apply(Q& q, TopicKind kind) {
+  q.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
+  q.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
+  if (kind == TopicKind::Summary) {
+    q.history().depth = 1;
+    q.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
+  } else {
+    q.history().depth = 32;
+    q.durability().kind = fdds::VOLATILE_DURABILITY_QOS;
+  }
+}
+}  // namespace
+
+fdds::DataWriterQos writer_qos(TopicKind kind) {
+  fdds::DataWriterQos q = fdds::DATAWRITER_QOS_DEFAULT;
+  apply(q, kind);
+  return q;
+}
+
+fdds::DataReaderQos reader_qos(TopicKind kind) {
+  fdds::DataReaderQos q = fdds::DATAREADER_QOS_DEFAULT;
+  apply(q, kind);
+  return q;
+}
+
+}  // namespace tandem::dds

@@ -1,0 +1,134 @@
+// tandem-robot: the controller of one arm (VLLC + LLC, docs/controller.md). For every tick it waits for its
+// arm's sensor sample and the supervisor's reference of the same tick, and answers with a torque command.
+// References with NaN/inf are rejected and counted; the previous valid reference is kept.
+#include <tandemPubSubTypes.h>
+
+#include <chrono>
+#include <cstdio>
+#include <thread>
+#include <unistd.h>
+
+#include "tandem/runtime/role.hpp"
+
+using namespace tandem;
+namespace bus = tandem::dds;
+
+int main(int argc, char** argv) {
+  runtime::RoleOptions opt;
+  int code = 0;
+  if (!runtime::parse_role_options("robot", argc, argv, true, opt, code)) return code;
+  runtime::install_stop_handlers();
+  runtime::RoleContext ctx;
+  try {
+    ctx = runtime::load_context(opt);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "tandem-robot: %s\n", e.what());
+    return 2;
+  }
+  int j = -1;
+  for (int i = 0; i < 2; ++i) {
+    if (ctx.scenario.robots[i].name == opt.arm) j = i;
+  }
+  if (j < 0) {
+    std::fprintf(stderr, "tandem-robot: unknown arm '%s'; robots of %s: %s, %s\n", opt.arm.c_str(),
+                 opt.scenario.c_str(), ctx.scenario.robots[0].name.c_str(), ctx.scenario.robots[1].name.c_str());
+    return 2;
+  }
+  const sim::ModuleSetup& m = ctx.module;
+  const std::string my_arm = ctx.arm_id(j);
+  const std::string robot_id = my_arm + "#" + std::to_string(::getpid());
+  model::HybridController ctl(m.plant.arms[j], m.control[j]);
+  sim::RobotMeter meter(m.control[j].selection_p, ctx.scenario.transient, m.path.motion_end());
+
+  bus::Participant part(opt.domain, "robot/" + my_arm, opt.transport);
+  bus::Reader<msg::ArmSensors, msg::ArmSensorsPubSubType> sensors(part, bus::kSensorsTopic, bus::TopicKind::Sensors);
+  bus::Reader<msg::ArmReference, msg::ArmReferencePubSubType> refs(part, bus::kReferencesTopic,
+                                                                   bus::TopicKind::References);
+  bus::Writer<msg::TorqueCommand, msg::TorqueCommandPubSubType> torques(part, bus::kTorquesTopic,
+                                                                         bus::TopicKind::Torques);
+  bus::Writer<msg::RobotSummary, msg::RobotSummaryPubSubType> summary(part, bus::kRobotSummaryTopic,
+                                                                       bus::TopicKind::Summary);
+
+  msg::ArmSensors s;
+  msg::ArmReference r;
+  msg::TorqueCommand cmd;
+  cmd.arm_id(my_arm);
+  cmd.robot_id(robot_id);
+  long have_sensor = -1, have_ref = -1, done = -1;
+  model::ArmSensors in;
+  model::ArmReference ref;
+  unsigned long long rejected = 0;
+  auto last_input = std::chrono::steady_clock::now();
+  while (!runtime::g_stop && done + 1 < m.steps) {
+    bool got = false;
+    while (sensors.take(s)) {
+      got = true;
+      if (s.arm_id() != my_arm) continue;  // another arm's sample
+      if (!runtime::all_finite(s.q()) || !runtime::all_finite(s.qd()) || !runtime::all_finite(s.h())) {
+        ++rejected;
+        continue;
+      }
+      for (int i = 0; i < 3; ++i) {
+        in.q(i) = s.q()[static_cast<size_t>(i)];
+        in.qd(i) = s.qd()[static_cast<size_t>(i)];
+      }
+      in.h = model::Vec2(s.h()[0], s.h()[1]);
+      have_sensor = static_cast<long>(s.tick());
+    }
+    while (refs.take(r)) {
+      got = true;
+      if (r.arm_id() != my_arm) continue;
+      if (!runtime::all_finite(r.x()) || !runtime::all_finite(r.xd()) || !runtime::all_finite(r.xdd()) ||
+          !(r.force() >= 0.0 && r.force() < 1e6)) {
+        ++rejected;
+        continue;
+      }
+      for (int i = 0; i < 3; ++i) {
+        ref.x(i) = r.x()[static_cast<size_t>(i)];
+        ref.xd(i) = r.xd()[static_cast<size_t>(i)];
+        ref.xdd(i) = r.xdd()[static_cast<size_t>(i)];
+      }
+      ref.force = r.force();
+      have_ref = static_cast<long>(r.tick());
+    }
+    if (have_sensor > done && have_ref == have_sensor) {
+      const long k = have_sensor;
+      const model::ControlOutput out = ctl.step(in, ref);
+      meter.add(static_cast<double>(k) * m.period, ref, out);
+      cmd.tick(static_cast<uint64_t>(k));
+      for (int i = 0; i < 3; ++i) cmd.tau()[static_cast<size_t>(i)] = out.tau(i);
+      torques.write(cmd);
+      done = k;
+      last_input = std::chrono::steady_clock::now();
+      continue;
+    }
+    if (got) last_input = std::chrono::steady_clock::now();
+    if (std::chrono::duration<double>(std::chrono::steady_clock::now() - last_input).count() > opt.timeout) {
+      std::fprintf(stderr, "tandem-robot %s: no input for %.1f s after tick %ld; stopping\n", my_arm.c_str(),
+                   opt.timeout, done);
+      break;
+    }
+    // The reference of a tick follows its sensor sample (the supervisor answers the sample): wait on the
+    // reader whose sample is due next.
+    if (have_sensor > have_ref) {
+      refs.wait(0.01);
+    } else {
+      sensors.wait(0.01);
+    }
+  }
+  const sim::RobotMeter::Summary sm = meter.summary();
+  msg::RobotSummary rs;
+  rs.arm_id(my_arm);
+  rs.robot_id(robot_id);
+  rs.ticks(static_cast<uint64_t>(done + 1));
+  rs.ep_pos_rms(sm.ep_pos_rms);
+  rs.ep_ori_rms(sm.ep_ori_rms);
+  rs.ep_sel_rms(sm.ep_sel_rms);
+  rs.eh_rms(sm.eh_rms);
+  rs.min_normal_force(sm.min_normal_force);
+  rs.max_normal_force(sm.max_normal_force);
+  rs.rejected(rejected);
+  summary.write(rs);
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  return done + 1 == m.steps ? 0 : 4;
+}

@@ -1,0 +1,55 @@
+// What every role process (world, robot, supervisor) shares: its command line, the module it belongs to
+// (built from the same ModuleSetup as the embedded simulation), arm naming, validation of wire samples,
+// and signal handling for a clean stop.
+#pragma once
+
+#include <atomic>
+#include <string>
+#include <vector>
+
+#include "tandem/dds/bus.hpp"
+#include "tandem/sim/module_setup.hpp"
+#include "tandem/sim/scenario.hpp"
+
+namespace tandem::runtime {
+
+struct RoleOptions {
+  std::string scenario;       ///< scenario file (module physics, task, controllers)
+  std::string case_name;      ///< case of the scenario (controller, disturbance)
+  std::string module = "m1";  ///< module name, prefix of the arm ids
+  std::string arm;            ///< robot name (robot role only)
+  int domain = 0;
+  dds::Transport transport = dds::Transport::SharedMemory;
+  double timeout = 10.0;      ///< seconds to wait for peers / a tick before giving up
+};
+
+/// Parses the common options; on error prints to stderr the problem and the usage and returns false.
+/// `exit_code` is 0 for --help, 2 for bad arguments.
+bool parse_role_options(const char* role, int argc, char** argv, bool needs_arm, RoleOptions& out,
+                        int& exit_code);
+
+/// The loaded scenario, case and module. Throws with a message naming the file on error.
+struct RoleContext {
+  sim::Scenario scenario;
+  sim::CaseConfig case_config;
+  sim::ModuleSetup module;
+  std::string arm_id(int j) const { return module_name + "/" + scenario.robots[j].name; }
+  int arm_index(const std::string& arm_id) const;  ///< -1 if not an arm of this module
+  std::string module_name;
+};
+RoleContext load_context(const RoleOptions& o);
+
+/// Set by SIGINT/SIGTERM.
+extern std::atomic<bool> g_stop;
+void install_stop_handlers();
+
+/// True if every value is finite.
+template <class Array>
+bool all_finite(const Array& a) {
+  for (double v : a) {
+    if (!(v == v) || v > 1e300 || v < -1e300) return false;
+  }
+  return true;
+}
+
+}  // namespace tandem::runtime

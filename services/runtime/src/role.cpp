@@ -1,0 +1,116 @@
+#include "tandem/runtime/role.hpp"
+
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <stdexcept>
+
+#include "tandem/sim/scenario_yaml.hpp"
+
+namespace tandem::runtime {
+
+std::atomic<bool> g_stop{false};
+
+namespace {
+void on_signal(int /*sig*/) { g_stop = true; }
+
+void usage(const char* role, bool needs_arm, std::FILE* f) {
+  std::fprintf(f,
+               "usage: tandem-%s --scenario FILE --case NAME [--module NAME]%s [--domain ID]\n"
+               "       [--transport shm|udp] [--timeout SECONDS]\n"
+               "Started by 'tandem up'; one Fast DDS participant. Exit: 0 done, 2 bad arguments or\n"
+               "configuration, 3 peers not found in time, 4 a tick timed out.\n",
+               role, needs_arm ? " --arm ROBOT" : "");
+}
+}  // namespace
+
+void install_stop_handlers() {
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+}
+
+bool parse_role_options(const char* role, int argc, char** argv, bool needs_arm, RoleOptions& o,
+                        int& exit_code) {
+  exit_code = 2;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--help" || a == "-h") {
+      usage(role, needs_arm, stdout);
+      exit_code = 0;
+      return false;
+    }
+    if (i + 1 >= argc) {
+      std::fprintf(stderr, "tandem-%s: '%s' needs a value (or is unknown)\n", role, a.c_str());
+      usage(role, needs_arm, stderr);
+      return false;
+    }
+    const std::string v = argv[++i];
+    if (a == "--scenario") {
+      o.scenario = v;
+    } else if (a == "--case") {
+      o.case_name = v;
+    } else if (a == "--module") {
+      o.module = v;
+    } else if (a == "--arm" && needs_arm) {
+      o.arm = v;
+    } else if (a == "--domain") {
+      char* end = nullptr;
+      const long d = std::strtol(v.c_str(), &end, 10);
+      if (*end != '\0' || d < 0 || d > 232) {
+        std::fprintf(stderr, "tandem-%s: --domain must be an integer in [0, 232], got '%s'\n", role, v.c_str());
+        return false;
+      }
+      o.domain = static_cast<int>(d);
+    } else if (a == "--transport") {
+      if (v != "shm" && v != "udp") {
+        std::fprintf(stderr, "tandem-%s: --transport must be shm or udp, got '%s'\n", role, v.c_str());
+        return false;
+      }
+      o.transport = v == "shm" ? dds::Transport::SharedMemory : dds::Transport::Udp;
+    } else if (a == "--timeout") {
+      o.timeout = std::atof(v.c_str());
+      if (!(o.timeout > 0.0)) {
+        std::fprintf(stderr, "tandem-%s: --timeout must be > 0 seconds, got '%s'\n", role, v.c_str());
+        return false;
+      }
+    } else {
+      std::fprintf(stderr, "tandem-%s: unknown option '%s'\n", role, a.c_str());
+      usage(role, needs_arm, stderr);
+      return false;
+    }
+  }
+  if (o.scenario.empty() || o.case_name.empty() || (needs_arm && o.arm.empty())) {
+    std::fprintf(stderr, "tandem-%s: --scenario, --case%s are required\n", role, needs_arm ? " and --arm" : "");
+    usage(role, needs_arm, stderr);
+    return false;
+  }
+  exit_code = 0;
+  return true;
+}
+
+RoleContext load_context(const RoleOptions& o) {
+  RoleContext c;
+  c.scenario = sim::load_scenario(o.scenario);
+  bool found = false;
+  std::string list;
+  for (const auto& k : c.scenario.cases) {
+    list += (list.empty() ? "" : ", ") + k.name;
+    if (k.name == o.case_name) {
+      c.case_config = k;
+      found = true;
+    }
+  }
+  if (!found) throw sim::ConfigError(o.scenario + ": no case '" + o.case_name + "'; cases: " + list);
+  c.module = sim::make_module(c.scenario, c.case_config);
+  c.module_name = o.module;
+  return c;
+}
+
+int RoleContext::arm_index(const std::string& id) const {
+  for (int j = 0; j < 2; ++j) {
+    if (id == arm_id(j)) return j;
+  }
+  return -1;
+}
+
+}  // namespace tandem::runtime

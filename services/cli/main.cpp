@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "sim_command.hpp"
+#include "up_command.hpp"
 
 namespace {
 
@@ -15,9 +16,10 @@ void usage(std::FILE* f) {
       "commands:\n"
       "  sim <scenario.yaml>   run a basic module in one process (deterministic embedded simulation)\n"
       "                        and print the RMS table beside the paper's Table IV\n"
+      "  up <deploy.yaml>      start a deployment as separate processes over Fast DDS (lockstep)\n"
       "  help [command]        show this help, or the help of one command\n"
       "\n"
-      "Run 'tandem help sim' for the options of sim. Exit codes: 0 success, 1 a run failed its grasp\n"
+      "Run 'tandem help sim' or 'tandem help up' for their options. Exit codes: 0 success, 1 a run failed its grasp\n"
       "checks, 2 bad command line or configuration.\n",
       f);
 }
@@ -35,12 +37,15 @@ int main(int argc, char** argv) {
   if (cmd == "help" || cmd == "--help" || cmd == "-h") {
     if (!args.empty() && args[0] == "sim") {
       tandem::cli::sim_usage(stdout);
+    } else if (!args.empty() && args[0] == "up") {
+      tandem::cli::up_usage(stdout);
     } else {
       usage(stdout);
     }
     return 0;
   }
   if (cmd == "sim") return tandem::cli::sim_command(args);
+  if (cmd == "up") return tandem::cli::up_command(args);
   std::fprintf(stderr, "tandem: unknown command '%s'\n\n", cmd.c_str());
   usage(stderr);
   return 2;

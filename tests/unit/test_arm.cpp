@@ -358,6 +358,9 @@ TEST_CASE("inverse kinematics round-trips forward kinematics on both elbow branc
   Vec3 qo;
   const double reach = p.link_length.sum();
   CHECK_FALSE(tm::inverse_kinematics(p, Vec3(-1.0 + reach + 0.05, 0.0, kPi / 2), 1.0, qo));
+  CHECK_FALSE(tm::inverse_kinematics(p, Vec3(-1.0 + reach + 1e-6, 0.0, kPi / 2), 1.0, qo));  // just out
+  CHECK(tm::inverse_kinematics(p, Vec3(-1.0 + reach - 1e-6, 0.0, kPi / 2), 1.0, qo));        // just in
+  CHECK(max_abs(tm::forward_kinematics(p, qo) - Vec3(-1.0 + reach - 1e-6, 0.0, kPi / 2)) <= 1e-9);
   CHECK_FALSE(tm::inverse_kinematics(p, Vec3(-1.0, 2.0, 0.0), -1.0, qo));
   CHECK_FALSE(tm::inverse_kinematics(p, Vec3(-1.0 + p.link_length(2), 0.0, kPi / 2), 1.0, qo));
 }

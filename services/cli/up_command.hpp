@@ -1,0 +1,10 @@
+#pragma once
+
+#include <cstdio>
+#include <string>
+#include <vector>
+
+namespace tandem::cli {
+void up_usage(std::FILE* f);
+int up_command(const std::vector<std::string>& args);
+}  // namespace tandem::cli

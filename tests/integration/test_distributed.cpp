@@ -1,0 +1,128 @@
+// Real processes over Fast DDS: `tandem up` starts world, supervisor and two robots on a domain id of its
+// own; in lockstep the distributed run must give the embedded simulation's numbers.
+#include <catch2/catch.hpp>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+
+#include "tandem/sim/embedded.hpp"
+#include "tandem/sim/scenario_yaml.hpp"
+
+namespace {
+
+const std::string kSrc = TANDEM_SOURCE_DIR;
+const std::string kBin = TANDEM_BIN_DIR;
+
+// A domain id per test process, so that two runs on one machine never see each other.
+int test_domain(int offset) { return 100 + (static_cast<int>(::getpid()) * 7 + offset) % 120; }
+
+std::string work_dir() {
+  const std::string d = "/tmp/tandem-test-" + std::to_string(::getpid());
+  std::system(("mkdir -p " + d).c_str());
+  return d;
+}
+
+std::string write_deployment(const std::string& name, int domain, const std::string& case_name) {
+  const std::string path = work_dir() + "/" + name + ".yaml";
+  std::ofstream(path) << "name: " << name << "\ndomain_id: " << domain
+                      << "\ntransport: shm\ntiming: lockstep\ntimeout: 10\nmodules:\n  - name: m1\n    scenario: "
+                      << kSrc << "/config/scenarios/paper.yaml\n    case: " << case_name << "\n";
+  return path;
+}
+
+struct Run {
+  int exit_code;
+  std::string output;
+};
+
+Run run(const std::string& cmd) {
+  Run r{-1, ""};
+  FILE* p = ::popen((cmd + " 2>&1").c_str(), "r");
+  REQUIRE(p != nullptr);
+  char buf[512];
+  while (std::fgets(buf, sizeof buf, p) != nullptr) r.output += buf;
+  const int st = ::pclose(p);
+  r.exit_code = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+  return r;
+}
+
+std::map<std::string, double> read_summary(const std::string& path) {
+  std::map<std::string, double> kv;
+  std::ifstream in(path);
+  std::string line;
+  while (std::getline(in, line)) {
+    const auto eq = line.find('=');
+    if (eq != std::string::npos) kv[line.substr(0, eq)] = std::stod(line.substr(eq + 1));
+  }
+  return kv;
+}
+
+bool processes_left(int domain) {
+  // The bracket keeps pgrep (and its shell) from matching their own command lines.
+  return run("pgrep -f 'tandem-[wrs][a-z]* .*--domain " + std::to_string(domain) + " '").exit_code == 0;
+}
+
+}  // namespace
+
+TEST_CASE("lockstep over DDS gives the embedded simulation's numbers", "[distributed]") {
+  const int domain = test_domain(0);
+  const std::string deploy = write_deployment("lockstep", domain, "SOSM");
+  const std::string summary = work_dir() + "/lockstep.summary";
+  const Run r = run(kBin + "/tandem up " + deploy + " --summary " + summary);
+  INFO(r.output);
+  REQUIRE(r.exit_code == 0);
+  CHECK_FALSE(processes_left(domain));
+
+  const auto sc = tandem::sim::load_scenario(kSrc + "/config/scenarios/paper.yaml");
+  const tandem::sim::CaseConfig* cc = nullptr;
+  for (const auto& c : sc.cases) {
+    if (c.name == "SOSM") cc = &c;
+  }
+  REQUIRE(cc != nullptr);
+  const tandem::sim::CaseResult e = tandem::sim::run_case(sc, *cc);
+  const auto kv = read_summary(summary);
+  REQUIRE(kv.count("m1.ticks") == 1);
+  CHECK(kv.at("m1.ticks") == 5000);
+  const char* arms[2] = {"m1/left", "m1/right"};
+  for (int j = 0; j < 2; ++j) {
+    const std::string a = arms[j];
+    INFO(a);
+    // Same inputs, same code, same order of operations: equal to 1e-12 relative (in practice bit-equal).
+    CHECK(kv.at(a + ".ep_pos_rms") == Approx(e.robots[j].ep_pos_rms).epsilon(1e-12));
+    CHECK(kv.at(a + ".ep_ori_rms") == Approx(e.robots[j].ep_ori_rms).epsilon(1e-12));
+    CHECK(kv.at(a + ".eh_rms") == Approx(e.robots[j].eh_rms).epsilon(1e-12));
+    CHECK(kv.at(a + ".min_normal_force") == Approx(e.robots[j].min_normal_force).epsilon(1e-12));
+    for (int i = 0; i < 3; ++i) {
+      CHECK(kv.at("m1.q_final" + std::to_string(3 * j + i)) == Approx(e.final_state.q[j](i)).margin(1e-12));
+    }
+  }
+  CHECK(kv.at("m1.object_final0") == Approx(e.final_state.c(0)).margin(1e-12));
+  CHECK(kv.at("m1.object_final1") == Approx(e.final_state.c(1)).margin(1e-12));
+  CHECK(kv.at("m1.slip_events") == 0);
+}
+
+TEST_CASE("a deployment with a bad configuration fails before anything starts", "[distributed]") {
+  const int domain = test_domain(1);
+  const std::string deploy = write_deployment("badcase", domain, "NoSuchCase");
+  const Run r = run(kBin + "/tandem up " + deploy);
+  INFO(r.output);
+  CHECK(r.exit_code == 2);
+  CHECK(r.output.find("badcase.yaml") != std::string::npos);
+  CHECK(r.output.find("no case 'NoSuchCase'") != std::string::npos);
+  CHECK(r.output.find("SOSM") != std::string::npos);  // lists the accepted cases
+  CHECK(r.output.find("started") == std::string::npos);
+  CHECK_FALSE(processes_left(domain));
+}
+
+TEST_CASE("a role process with a bad configuration exits with code 2 and a clear message", "[distributed]") {
+  const Run r = run(kBin + "/tandem-robot --scenario " + kSrc + "/config/scenarios/paper.yaml --case SOSM --arm middle");
+  CHECK(r.exit_code == 2);
+  CHECK(r.output.find("unknown arm 'middle'") != std::string::npos);
+  CHECK(r.output.find("left, right") != std::string::npos);
+}

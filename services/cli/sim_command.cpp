@@ -11,6 +11,7 @@
 
 #include "tandem/model/grasp.hpp"
 #include "tandem/sim/embedded.hpp"
+#include "tandem/sim/module_setup.hpp"
 #include "tandem/sim/scenario_yaml.hpp"
 
 namespace tandem::cli {
@@ -98,6 +99,15 @@ int sim_command(const std::vector<std::string>& args) {
       return 2;
     }
   }
+  // Build every selected case's module first: a configuration that cannot run fails before any output.
+  for (const auto& c : sc.cases) {
+    try {
+      (void)sim::make_module(sc, c);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "tandem sim: %s\n", e.what());
+      return 2;
+    }
+  }
   if (out_dir.empty()) out_dir = "runs/" + sc.name;
   if (csv && !make_dirs(out_dir)) {
     std::fprintf(stderr, "tandem sim: cannot create output directory '%s'\n", out_dir.c_str());
@@ -166,13 +176,16 @@ int sim_command(const std::vector<std::string>& args) {
     }
     if (!held) std::printf("%-22s   -> %s\n", "", r.failure().c_str());
     if (r.finite) {
-      std::printf("%-22s   object RMS %.3e m, final %.3e m; %.2f s wall\n", "", r.object_pos_rms,
-                  r.object_final_error, secs);
+      std::printf("%-22s   object RMS %.3e m, final %.3e m; torque limit hit in %ld periods; %.2f s wall\n", "",
+                  r.object_pos_rms, r.object_final_error, r.counters.torque_saturated, secs);
     }
     if (csv) {
-      std::string name;
-      for (char ch : c.name) name += (std::isalnum(static_cast<unsigned char>(ch)) || ch == '-') ? ch : '_';
-      sim::write_csv(out_dir + "/" + name + ".csv", series, sc);
+      try {
+        sim::write_csv(out_dir + "/" + sim::file_name(c.name) + ".csv", series, sc);
+      } catch (const std::exception& e) {
+        std::fprintf(stderr, "tandem sim: %s\n", e.what());
+        return 2;
+      }
     }
   }
   std::printf("\nh_sg (eq. 16) = %.3f N; reference force h_ref = %.2f x h_sg. Table IV: robot on the right.\n",

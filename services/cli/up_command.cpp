@@ -235,7 +235,8 @@ int up_command(const std::vector<std::string>& args) {
         out.precision(17);
         out << id << ".ep_pos_rms=" << r.ep_pos_rms() << "\n" << id << ".ep_ori_rms=" << r.ep_ori_rms() << "\n"
             << id << ".ep_sel_rms=" << r.ep_sel_rms() << "\n" << id << ".eh_rms=" << r.eh_rms() << "\n"
-            << id << ".min_normal_force=" << r.min_normal_force() << "\n" << id << ".ticks=" << r.ticks() << "\n";
+            << id << ".min_normal_force=" << r.min_normal_force() << "\n" << id << ".ticks=" << r.ticks() << "\n"
+            << id << ".rejected=" << r.rejected() << "\n";
       }
     }
     const auto w = worlds.find(m.name);
@@ -254,7 +255,9 @@ int up_command(const std::vector<std::string>& args) {
                 static_cast<unsigned long long>(ws.late_commands()));
     if (ws.slip_events() > 0 || ws.contact_lost() > 0) grasp_ok = false;
     if (out) {
-      out << m.name << ".ticks=" << ws.ticks() << "\n" << m.name << ".slip_events=" << ws.slip_events() << "\n";
+      out << m.name << ".ticks=" << ws.ticks() << "\n" << m.name << ".slip_events=" << ws.slip_events() << "\n"
+          << m.name << ".contact_lost=" << ws.contact_lost() << "\n" << m.name
+          << ".rejected_commands=" << ws.rejected_commands() << "\n";
       for (size_t i = 0; i < 6; ++i) out << m.name << ".q_final" << i << "=" << ws.q_final()[i] << "\n";
       for (size_t i = 0; i < 3; ++i) out << m.name << ".object_final" << i << "=" << ws.object_final()[i] << "\n";
     }

@@ -107,6 +107,39 @@ TEST_CASE("lockstep over DDS gives the embedded simulation's numbers", "[distrib
   CHECK(kv.at("m1.slip_events") == 0);
 }
 
+TEST_CASE("invalid samples on the wire are rejected and counted; the run is unaffected", "[distributed]") {
+  const int domain = test_domain(2);
+  const std::string deploy = write_deployment("inject", domain, "SOSM");
+  const std::string summary = work_dir() + "/inject.summary";
+  // The deployment in the background, the injector beside it for 2 s of the run.
+  const std::string up_log = work_dir() + "/inject.log";
+  const std::string cmd = kBin + "/tandem up " + deploy + " --summary " + summary + " > " + up_log + " 2>&1 & " +
+                          kBin + "/tandem_inject --domain " + std::to_string(domain) + " --seconds 2; wait %1";
+  const Run r = run("bash -c '" + cmd + "'");
+  std::ifstream log(up_log);
+  std::stringstream ss;
+  ss << log.rdbuf();
+  INFO(r.output << ss.str());
+  REQUIRE(r.output.find("injected") != std::string::npos);
+  const auto kv = read_summary(summary);
+  REQUIRE(kv.count("m1.rejected_commands") == 1);
+  CHECK(kv.at("m1.rejected_commands") > 0);     // NaN, over the limit, unknown arm
+  CHECK(kv.at("m1/left.rejected") > 0);         // reference with inf
+  CHECK(kv.at("m1/right.rejected") > 0);        // reference with a negative force
+  CHECK(kv.at("m1.ticks") == 5000);
+  CHECK(kv.at("m1.slip_events") == 0);
+  CHECK(kv.at("m1.contact_lost") == 0);
+  // Nothing invalid was applied: the arms computed exactly what the embedded simulation computes.
+  const auto sc = tandem::sim::load_scenario(kSrc + "/config/scenarios/paper.yaml");
+  for (const auto& c : sc.cases) {
+    if (c.name != "SOSM") continue;
+    const tandem::sim::CaseResult e = tandem::sim::run_case(sc, c);
+    CHECK(kv.at("m1/left.ep_pos_rms") == Approx(e.robots[0].ep_pos_rms).epsilon(1e-12));
+    CHECK(kv.at("m1/right.eh_rms") == Approx(e.robots[1].eh_rms).epsilon(1e-12));
+  }
+  CHECK_FALSE(processes_left(domain));
+}
+
 TEST_CASE("a deployment with a bad configuration fails before anything starts", "[distributed]") {
   const int domain = test_domain(1);
   const std::string deploy = write_deployment("badcase", domain, "NoSuchCase");

@@ -111,9 +111,25 @@ TEST_CASE("bad scenarios name the file, the key and what is accepted", "[config]
     require_error(replace(minimal(), "controller: pd}", "controller: lqr}"),
                   {"cases[0].controller", "unknown controller 'lqr'", "defined: pd"});
   }
-  SECTION("selection entries must be 0 or 1") {
+  SECTION("selection must be the hybrid or the position-only one") {
     require_error(replace(minimal(), "selection_p: [1, 1, 1]", "selection_p: [1, 0.5, 1]"),
-                  {"selection_p", "0 or 1"});
+                  {"selection_p", "[1, 0, 1]", "[1, 1, 1]"});
+    require_error(replace(minimal(), "selection_p: [1, 1, 1]", "selection_p: [0, 1, 0]"),
+                  {"selection_p", "[1, 0, 1]"});
+  }
+  SECTION("elbow is -1 or 1") {
+    require_error(replace(minimal(), "{name: b}", "{name: b, elbow: 0.3}"), {"robots[1].elbow", "-1 or 1"});
+  }
+  SECTION("a key given twice") {
+    require_error(replace(minimal(), "  start: [-0.2, 0.8, 0.0]\n", "  start: [-0.2, 0.8, 0.0]\n  start: [0, 0.8, 0]\n"),
+                  {"task.start", "given twice"});
+  }
+  SECTION("case names that map to the same file") {
+    require_error(minimal() + "  - {name: x y, controller: pd}\n  - {name: x_y, controller: pd}\n",
+                  {"cases[2].name", "clashes with 'x y'"});
+  }
+  SECTION("a name that would leave the output directory") {
+    require_error(replace(minimal(), "name: t", "name: ../../x"), {"'name'", "output directory"});
   }
   SECTION("a module has two robots") {
     require_error(replace(minimal(), "    - {name: b}\n", ""), {"module.robots", "exactly 2 robots"});

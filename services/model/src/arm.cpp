@@ -3,6 +3,9 @@
 #include <cmath>
 
 namespace tandem::model {
+namespace {
+constexpr double kIdentifiedG0 = 9.81;  // gamma_4 of the identified model includes this g0
+}  // namespace
 
 ArmParams smart3s2() { return ArmParams{}; }
 
@@ -102,13 +105,13 @@ Vec3 gravity(const ArmParams& p, const Vec3& q) noexcept {
   // Published formula (model-parameters.md Sec. 1) with the sign flipped for y up.
   const double t3 = p.g0 * g[5] * s123;
   const double t2 = p.g0 * g[4] * s12 + t3;
-  const double t1 = g[3] * s1 + t2;
+  const double t1 = g[3] * (p.g0 / kIdentifiedG0) * s1 + t2;  // gamma_4 was identified with g0 = 9.81
   return {-t1, -t2, -t3};
 }
 
 double potential_energy(const ArmParams& p, const Vec3& q) noexcept {
   const auto& g = p.gamma;
-  return g[3] * std::cos(q(0)) + p.g0 * g[4] * std::cos(q(0) + q(1)) +
+  return g[3] * (p.g0 / kIdentifiedG0) * std::cos(q(0)) + p.g0 * g[4] * std::cos(q(0) + q(1)) +
          p.g0 * g[5] * std::cos(q(0) + q(1) + q(2));
 }
 

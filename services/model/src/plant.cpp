@@ -55,6 +55,8 @@ ContactReading ModulePlant::contact_forces(const ModuleState& s) const noexcept 
     const double N = std::max(0.0, cp.k_normal * delta + cp.d_normal * delta_dot);
     if (N <= 0.0) continue;
     const double sigma = kFaceTangent.dot(rho);
+    // The tip must be on the face: within its height and not through the object.
+    if (std::abs(sigma) > op.half_height || delta >= 2.0 * op.half_width) continue;
     const double sigma_dot = kFaceTangent.dot(vrel);
     double Ft = cp.k_tangent * (sigma - anchor_[j]) + cp.d_tangent * sigma_dot;
     const double limit = op.mu_s * N;
@@ -116,17 +118,25 @@ void ModulePlant::update_anchors() noexcept {
   const Mat2 R = rotation(state_.psi);
   const ContactReading c = contact_forces(state_);
   for (int j = 0; j < 2; ++j) {
-    const Vec2 rho = R.transpose() * (end_effector(j).head<2>() - state_.c);
+    const ArmParams& arm = params_.arms[j];
+    const Vec2 r = end_effector(j).head<2>() - state_.c;
+    const Vec2 rho = R.transpose() * r;
     const double sigma = kFaceTangent.dot(rho);
     if (!c.in_contact[j]) {
       ++counters_.contact_lost;
       anchor_[j] = sigma;  // nothing holds: the contact re-sticks where it touches again
       continue;
     }
-    const double spring = cp.k_tangent * (sigma - anchor_[j]);
-    if (std::abs(spring) > op.mu_s * c.normal[j]) {
-      // Slip: the contact slides until the spring carries the kinetic friction force.
-      const double new_anchor = sigma - std::copysign(op.mu_k * c.normal[j], spring) / cp.k_tangent;
+    // The friction demand is the whole tangential force (spring and damper), the same force that the
+    // contact model clamps to the static cone.
+    const Vec2 v = (jacobian(arm, state_.q[j]) * state_.qd[j]).head<2>();
+    const Vec2 vrel = R.transpose() * (v - (state_.cd + state_.psid * Vec2(-r(1), r(0))));
+    const double sigma_dot = kFaceTangent.dot(vrel);
+    const double demand = cp.k_tangent * (sigma - anchor_[j]) + cp.d_tangent * sigma_dot;
+    if (std::abs(demand) >= op.mu_s * c.normal[j]) {
+      // Slip: the contact slides until spring and damper carry the kinetic friction force.
+      const double new_anchor =
+          sigma - (std::copysign(op.mu_k * c.normal[j], demand) - cp.d_tangent * sigma_dot) / cp.k_tangent;
       counters_.slip_distance += std::abs(new_anchor - anchor_[j]);
       anchor_[j] = new_anchor;
       ++counters_.slip_events;
@@ -155,6 +165,13 @@ void ModulePlant::step(const std::array<Vec3, 2>& tau_cmd, double t, double dt, 
     x += (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
     state_ = unpack(x);
     update_anchors();
+  }
+  for (int j = 0; j < 2; ++j) {
+    const ArmParams& arm = params_.arms[j];
+    if ((state_.q[j].array() < arm.q_min.array()).any() || (state_.q[j].array() > arm.q_max.array()).any()) {
+      ++counters_.joint_limit;
+      break;
+    }
   }
 }
 

@@ -59,6 +59,8 @@ std::string CaseResult::failure() const {
        << " m); ";
   }
   if (counters.contact_lost > 0) os << "a contact opened (" << counters.contact_lost << " substeps); ";
+  if (counters.torque_saturated > 0) os << "torque limit hit in " << counters.torque_saturated << " periods; ";
+  if (counters.joint_limit > 0) os << "joint limit exceeded in " << counters.joint_limit << " periods; ";
   for (int j = 0; j < 2; ++j) {
     if (robots[j].min_normal_force < safe_grasp_force) {
       os << "robot " << j << " grasp force fell to " << robots[j].min_normal_force << " N < h_sg "
@@ -229,6 +231,19 @@ ModuleSetup make_module(const Scenario& sc, const CaseConfig& cc) {
   }
   m.initial.c = p0.pose.head<2>();
   m.initial.psi = -p0.pose(2);
+  // Every pose of the task must be reachable by both arms (checked every 10 ms of the path).
+  for (double t = 0.0; t <= sc.duration + 1e-9; t += 0.01) {
+    for (int j = 0; j < 2; ++j) {
+      const model::ArmReference r = model::arm_reference(j, m.path.sample(t), m.geometry, m.reference_force);
+      model::Vec3 q;
+      if (!model::inverse_kinematics(m.plant.arms[j], r.x, sc.robots[j].elbow, q)) {
+        std::ostringstream os;
+        os << sc.source << ": 'task': robot '" << sc.robots[j].name << "' cannot reach the planned object pose at t = "
+           << t << " s (end-effector at " << r.x(0) << ", " << r.x(1) << "); shorten task.segments or move the bases";
+        throw std::invalid_argument(os.str());
+      }
+    }
+  }
 
   for (int j = 0; j < 2; ++j) {
     model::HybridParams& hp = m.control[j];

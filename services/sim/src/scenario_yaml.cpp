@@ -4,6 +4,7 @@
 
 #include "tandem/sim/yaml_reader.hpp"
 
+#include <cctype>
 #include <cmath>
 #include <fstream>
 #include <functional>
@@ -80,6 +81,11 @@ Scenario read(const YAML::Node& root, const std::string& file) {
   s.source = file;
   MapReader top(root, "", file);
   top.text("name", s.name, true);
+  for (char ch : s.name) {
+    if (!(std::isalnum(static_cast<unsigned char>(ch)) || ch == '-' || ch == '_' || ch == '.') || s.name[0] == '.') {
+      top.fail(root["name"], "name", "expected letters, digits, '-', '_' or '.' (not first); it names the output directory");
+    }
+  }
   {
     MapReader t = top.child("timing");
     t.num("period", s.period, 1e-5, 0.1);
@@ -101,11 +107,12 @@ Scenario read(const YAML::Node& root, const std::string& file) {
       RobotConfig& rc = s.robots[j];
       rr.text("name", rc.name, true);
       rr.num("elbow", rc.elbow, -1.0, 1.0);
+      if (rc.elbow != -1.0 && rc.elbow != 1.0) rr.fail(robots[j]["elbow"], rr.key_path("elbow"), "expected -1 or 1");
       rr.vec<3>("selection_p", rc.selection_p, 0.0, 1.0);
-      for (int i = 0; i < 3; ++i) {
-        if (rc.selection_p(i) != 0.0 && rc.selection_p(i) != 1.0) {
-          rr.fail(robots[j]["selection_p"], rr.key_path("selection_p"), "each entry must be 0 or 1");
-        }
+      // Only the approach axis has a force loop (eq. 17): the tangent and orientation are position-controlled.
+      if (rc.selection_p != model::Vec3(1, 1, 1) && rc.selection_p != model::Vec3(1, 0, 1)) {
+        rr.fail(robots[j]["selection_p"], rr.key_path("selection_p"),
+                "expected [1, 0, 1] (hybrid: force on the approach axis, eq. 17) or [1, 1, 1] (position only)");
       }
       std::string model_name = "smart3s2";
       rr.choice("model", model_name, {"smart3s2"});
@@ -183,6 +190,12 @@ Scenario read(const YAML::Node& root, const std::string& file) {
                 "unknown controller '" + cc.controller + "'; defined: " + list);
       }
       cr.finish();
+      for (const auto& other : s.cases) {
+        if (file_name(other.name) == file_name(cc.name)) {
+          cr.fail(cases[i]["name"], cr.key_path("name"),
+                  "case name clashes with '" + other.name + "' (names must differ after mapping to file names)");
+        }
+      }
       s.cases.push_back(cc);
     }
     if (s.cases.empty()) top.fail(cases, "cases", "define at least one case");
@@ -213,6 +226,12 @@ Scenario read(const YAML::Node& root, const std::string& file) {
 }
 
 }  // namespace
+
+std::string file_name(const std::string& case_name) {
+  std::string out;
+  for (char ch : case_name) out += (std::isalnum(static_cast<unsigned char>(ch)) || ch == '-') ? ch : '_';
+  return out;
+}
 
 const ControllerConfig* Scenario::find_controller(const std::string& n) const {
   for (const auto& c : controllers) {

@@ -68,6 +68,7 @@ struct PlantCounters {
   double slip_distance = 0.0;    ///< accumulated sliding along the faces [m]
   long contact_lost = 0;         ///< substeps with a contact carrying no normal force
   long torque_saturated = 0;     ///< control periods in which a commanded torque hit tau_max
+  long joint_limit = 0;          ///< control periods that ended with a joint outside [q_min, q_max]
 };
 
 class ModulePlant {
@@ -75,7 +76,8 @@ class ModulePlant {
   explicit ModulePlant(const ModuleParams& params);
 
   /// Sets the state and pre-loads the sticking contacts so that each face carries half the weight:
-  /// the object starts in static equilibrium when both arms press with the same normal force.
+  /// the object starts in static equilibrium when it is level (psi = 0) and both arms press with the
+  /// same normal force. (A tilted start is not in equilibrium: the pre-load is along the faces.)
   void reset(const ModuleState& state);
 
   /// Advances by dt with `substeps` RK4 steps, the torques held constant (zero-order hold); t is the time

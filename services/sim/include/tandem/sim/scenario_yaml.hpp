@@ -14,6 +14,9 @@ class ConfigError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// The CSV file stem of a case: letters, digits and '-' kept, anything else mapped to '_'.
+std::string file_name(const std::string& case_name);
+
 /// Reads and validates a scenario file. Throws ConfigError.
 Scenario load_scenario(const std::string& path);
 /// Same, from YAML text; `source` names it in messages.

@@ -151,8 +151,12 @@ class MapReader {
   const std::string& path() const { return path_; }
   const std::string& file() const { return file_; }
 
-  /// Reports the first key that was never read, with the accepted keys.
+  /// Reports a key given twice, or the first key that was never read (with the accepted keys).
   void finish() const {
+    std::set<std::string> seen;
+    for (const auto& kv : node_) {
+      if (!seen.insert(kv.first.Scalar()).second) fail(kv.first, key_path(kv.first.Scalar()), "key given twice");
+    }
     for (const auto& kv : node_) {
       const std::string k = kv.first.Scalar();
       if (accepted_.count(k) == 0) {

@@ -1,0 +1,79 @@
+// Test participant: joins a running deployment's domain and publishes invalid samples for a while:
+// torque commands with NaN, over the torque limit, and for an unknown arm; references with inf and a
+// negative force. It follows the world's tick so that the bad samples compete with the good ones.
+// usage: tandem_inject --domain ID --module NAME --seconds S
+#include <tandemPubSubTypes.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <limits>
+#include <string>
+
+#include "tandem/dds/bus.hpp"
+
+namespace bus = tandem::dds;
+using namespace tandem;
+
+int main(int argc, char** argv) {
+  int domain = -1;
+  std::string module = "m1";
+  double seconds = 2.0;
+  for (int i = 1; i + 1 < argc; i += 2) {
+    const std::string a = argv[i];
+    if (a == "--domain") domain = std::atoi(argv[i + 1]);
+    if (a == "--module") module = argv[i + 1];
+    if (a == "--seconds") seconds = std::atof(argv[i + 1]);
+  }
+  if (domain < 0) {
+    std::fprintf(stderr, "usage: tandem_inject --domain ID [--module NAME] [--seconds S]\n");
+    return 2;
+  }
+  bus::Participant part(domain, "test-injector", bus::Transport::SharedMemory);
+  bus::Reader<msg::ArmSensors, msg::ArmSensorsPubSubType> sensors(part, bus::kSensorsTopic, bus::TopicKind::Sensors);
+  bus::Writer<msg::TorqueCommand, msg::TorqueCommandPubSubType> torques(part, bus::kTorquesTopic,
+                                                                         bus::TopicKind::Torques);
+  bus::Writer<msg::ArmReference, msg::ArmReferencePubSubType> refs(part, bus::kReferencesTopic,
+                                                                   bus::TopicKind::References);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  msg::ArmSensors s;
+  unsigned long long sent = 0;
+  const auto t0 = std::chrono::steady_clock::now();
+  while (std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() < seconds) {
+    if (!sensors.wait(0.05)) continue;
+    uint64_t tick = 0;
+    bool got = false;
+    while (sensors.take(s)) {
+      tick = s.tick();
+      got = true;
+    }
+    if (!got) continue;
+    msg::TorqueCommand c;
+    c.tick(tick);
+    c.robot_id("injector");
+    c.arm_id(module + "/left");
+    c.tau({nan, 0.0, 0.0});
+    torques.write(c);
+    c.arm_id(module + "/right");
+    c.tau({1e7, 0.0, 0.0});
+    torques.write(c);
+    c.arm_id(module + "/ghost");
+    c.tau({1.0, 1.0, 1.0});
+    torques.write(c);
+    msg::ArmReference r;
+    r.tick(tick);
+    r.arm_id(module + "/left");
+    r.x({inf, 0.8, 1.5});
+    r.force(29.0);
+    refs.write(r);
+    r.arm_id(module + "/right");
+    r.x({0.5, 0.8, -1.5});
+    r.force(-5.0);
+    refs.write(r);
+    sent += 5;
+  }
+  std::printf("injected %llu invalid samples\n", sent);
+  return sent > 0 ? 0 : 1;
+}

@@ -30,7 +30,7 @@ Deployment load_deployment(const std::string& path) {
   top.integer("domain_id", domain, 0, 232, true);
   d.domain_id = domain;
   top.choice("transport", d.transport, {"shm", "udp"});
-  top.choice("timing", d.timing, {"lockstep"});
+  top.choice("timing", d.timing, {"lockstep", "realtime"});
   top.num("timeout", d.timeout, 0.1, 3600.0);
   YAML::Node mods = top.sequence("modules", true);
   std::set<std::string> names;

@@ -94,10 +94,11 @@ void up_usage(std::FILE* f) {
       "usage: tandem up <deploy.yaml> [--summary FILE]\n"
       "\n"
       "Starts every module of the deployment as separate processes over Fast DDS: tandem-world,\n"
-      "tandem-supervisor and one tandem-robot per arm, in lockstep timing. Prints progress while it\n"
-      "runs and a summary at the end (RMS per robot, slips, contact losses, rejected samples).\n"
+      "tandem-supervisor and one tandem-robot per arm, in lockstep or real-time timing. Prints progress\n"
+      "while it runs and a summary at the end (RMS per robot, slips, contact losses, rejected samples,\n"
+      "and in real time the sample->command latency and late ticks).\n"
       "--summary FILE also writes the summary as key=value lines (full precision).\n"
-      "Ctrl-C or SIGTERM stops every process cleanly. Schema: docs/deployment-schema.md.\n"
+      "Ctrl-C or SIGTERM stops every process cleanly. Schema: docs/architecture.md.\n"
       "\n"
       "Exit: 0 every process finished and every module kept the safe grasp; 1 a process failed or a\n"
       "grasp was lost; 2 bad arguments or configuration (nothing is started).\n",
@@ -161,7 +162,8 @@ int up_command(const std::vector<std::string>& args) {
   for (const auto& m : d.modules) {
     const std::vector<std::string> common{"--scenario", m.scenario, "--case",      m.case_name,
                                           "--module",   m.name,     "--domain",    std::to_string(d.domain_id),
-                                          "--transport", d.transport, "--timeout", std::to_string(d.timeout)};
+                                          "--transport", d.transport, "--timeout", std::to_string(d.timeout),
+                                          "--timing",   d.timing};
     const sim::Scenario sc = sim::load_scenario(m.scenario);
     children.push_back({m.name + "/world", spawn(dir + "/tandem-world", common)});
     children.push_back({m.name + "/supervisor", spawn(dir + "/tandem-supervisor", common)});
@@ -247,12 +249,20 @@ int up_command(const std::vector<std::string>& args) {
     }
     const msg::WorldSummary& ws = w->second;
     std::printf("%s: %llu ticks, object at (%.6f, %.6f), slips %llu, contact lost %llu, rejected commands %llu, "
-                "timeouts %llu\n",
+                "%s %llu\n",
                 m.name.c_str(), static_cast<unsigned long long>(ws.ticks()), ws.object_final()[0],
                 ws.object_final()[1], static_cast<unsigned long long>(ws.slip_events()),
                 static_cast<unsigned long long>(ws.contact_lost()),
                 static_cast<unsigned long long>(ws.rejected_commands()),
-                static_cast<unsigned long long>(ws.late_commands()));
+                ws.realtime() ? "late arm-ticks" : "timeouts", static_cast<unsigned long long>(ws.late_commands()));
+    if (ws.realtime()) {
+      std::printf("%s: real time: sample->command latency p50 %.0f us, p99 %.0f us, max %.0f us; late arm-ticks %llu "
+                  "of %llu (%.2f%%); world tick start late p99 %.0f us\n",
+                  m.name.c_str(), ws.latency_p50_us(), ws.latency_p99_us(), ws.latency_max_us(),
+                  static_cast<unsigned long long>(ws.late_commands()), 2ULL * ws.ticks(),
+                  ws.ticks() > 0 ? 50.0 * static_cast<double>(ws.late_commands()) / static_cast<double>(ws.ticks()) : 0.0,
+                  ws.wake_late_p99_us());
+    }
     if (ws.slip_events() > 0 || ws.contact_lost() > 0) grasp_ok = false;
     if (out) {
       out << m.name << ".ticks=" << ws.ticks() << "\n" << m.name << ".slip_events=" << ws.slip_events() << "\n"

@@ -3,6 +3,8 @@
 // References with NaN/inf are rejected and counted; the previous valid reference is kept.
 #include <tandemPubSubTypes.h>
 
+#include <algorithm>
+#include <array>
 #include <chrono>
 #include <cstdio>
 #include <thread>
@@ -57,6 +59,11 @@ int main(int argc, char** argv) {
   long have_sensor = -1, have_ref = -1, done = -1;
   model::ArmSensors in;
   model::ArmReference ref;
+  struct Slot {
+    long tick = -1;
+    model::ArmReference ref;
+  };
+  std::array<Slot, 4> ring{};
   unsigned long long rejected = 0;
   auto last_input = std::chrono::steady_clock::now();
   while (!runtime::g_stop && done + 1 < m.steps) {
@@ -83,14 +90,19 @@ int main(int argc, char** argv) {
         ++rejected;
         continue;
       }
+      // References arrive up to a tick ahead: keep a small ring indexed by tick.
+      Slot& slot = ring[r.tick() % ring.size()];
       for (int i = 0; i < 3; ++i) {
-        ref.x(i) = r.x()[static_cast<size_t>(i)];
-        ref.xd(i) = r.xd()[static_cast<size_t>(i)];
-        ref.xdd(i) = r.xdd()[static_cast<size_t>(i)];
+        slot.ref.x(i) = r.x()[static_cast<size_t>(i)];
+        slot.ref.xd(i) = r.xd()[static_cast<size_t>(i)];
+        slot.ref.xdd(i) = r.xdd()[static_cast<size_t>(i)];
       }
-      ref.force = r.force();
-      have_ref = static_cast<long>(r.tick());
+      slot.ref.force = r.force();
+      slot.tick = static_cast<long>(r.tick());
     }
+    const Slot& due = ring[static_cast<size_t>(std::max(have_sensor, 0L)) % ring.size()];
+    have_ref = due.tick == have_sensor ? have_sensor : -1;
+    ref = due.ref;
     if (have_sensor > done && have_ref == have_sensor) {
       const long k = have_sensor;
       const model::ControlOutput out = ctl.step(in, ref);
@@ -110,7 +122,7 @@ int main(int argc, char** argv) {
     }
     // The reference of a tick follows its sensor sample (the supervisor answers the sample): wait on the
     // reader whose sample is due next.
-    if (have_sensor > have_ref) {
+    if (have_sensor > done && have_ref != have_sensor) {
       refs.wait(0.01);
     } else {
       sensors.wait(0.01);

@@ -1,7 +1,8 @@
 // tandem-supervisor: the supervisor of one basic module. For every sensor sample of tick k it publishes that
-// arm's reference for tick k (eq. 15 on the planned object path) with the grasp force h_ref (eq. 16).
+// arm's references for ticks k and k+1 (eq. 15 on the planned object path) with the grasp force h_ref (eq. 16).
 #include <tandemPubSubTypes.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 
@@ -37,19 +38,22 @@ int main(int argc, char** argv) {
       got = true;
       const int j = ctx.arm_index(s.arm_id());
       if (j < 0) continue;  // another module's arm
+      // The reference depends only on the planned path, so publish tick k and the next one: the robot then
+      // holds the reference of tick k+1 before its sensor sample arrives (one DDS hop less per tick).
       const long k = static_cast<long>(s.tick());
-      if (k <= last[static_cast<size_t>(j)]) continue;
-      const model::ArmReference ref = sim::supervisor_reference(m, j, k);  // eq. (15)
-      r.arm_id(s.arm_id());
-      r.tick(s.tick());
-      for (int i = 0; i < 3; ++i) {
-        r.x()[static_cast<size_t>(i)] = ref.x(i);
-        r.xd()[static_cast<size_t>(i)] = ref.xd(i);
-        r.xdd()[static_cast<size_t>(i)] = ref.xdd(i);
+      for (long kk = std::max(k, last[static_cast<size_t>(j)] + 1); kk <= std::min(k + 1, m.steps - 1); ++kk) {
+        const model::ArmReference ref = sim::supervisor_reference(m, j, kk);  // eq. (15)
+        r.arm_id(s.arm_id());
+        r.tick(static_cast<uint64_t>(kk));
+        for (int i = 0; i < 3; ++i) {
+          r.x()[static_cast<size_t>(i)] = ref.x(i);
+          r.xd()[static_cast<size_t>(i)] = ref.xd(i);
+          r.xdd()[static_cast<size_t>(i)] = ref.xdd(i);
+        }
+        r.force(ref.force);
+        refs.write(r);
+        last[static_cast<size_t>(j)] = kk;
       }
-      r.force(ref.force);
-      refs.write(r);
-      last[static_cast<size_t>(j)] = k;
     }
     const auto now = std::chrono::steady_clock::now();
     if (got) last_input = now;

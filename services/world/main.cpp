@@ -1,10 +1,16 @@
-// tandem-world: the simulated hardware of one basic module (both arms, object, contacts), stepping in
-// lockstep: it publishes the sensor sample of tick k and advances only when both arms' torque commands
-// for tick k have arrived. Invalid commands (NaN/inf, over the torque limit, unknown arm, stale tick) are
+// tandem-world: the simulated hardware of one basic module (both arms, object, contacts). Lockstep: it
+// publishes the sensor sample of tick k and advances only when both arms' torque commands for tick k have
+// arrived. Real time: it steps on absolute 1 kHz deadlines (clock_nanosleep), applies the commands of tick k
+// that arrived before the deadline, and an arm without one keeps its previous torque (a late arm-tick). Invalid commands (NaN/inf, over the torque limit, unknown arm, stale tick) are
 // rejected, counted and never applied.
 #include <tandemPubSubTypes.h>
 
+#include <time.h>
+
+#include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <vector>
 #include <cstdio>
 #include <thread>
 
@@ -48,13 +54,26 @@ int main(int argc, char** argv) {
   }
   std::this_thread::sleep_for(std::chrono::milliseconds(200));  // let the reverse matches settle
 
-  unsigned long long rejected = 0, timeouts = 0;
+  unsigned long long rejected = 0, timeouts = 0, late = 0;
+  std::vector<double> latency_us, wake_late_us;  // real time: reserved up front, no allocation per tick
+  if (opt.realtime) {
+    latency_us.reserve(static_cast<size_t>(2 * m.steps));
+    wake_late_us.reserve(static_cast<size_t>(m.steps));
+  }
   msg::ArmSensors s;
   msg::TorqueCommand cmd;
+  std::array<model::Vec3, 2> tau{model::Vec3::Zero(), model::Vec3::Zero()};
+  timespec tick_start{};
+  ::clock_gettime(CLOCK_MONOTONIC, &tick_start);
+  const long period_ns = std::lround(m.period * 1e9);
+  auto to_ns = [](const timespec& ts) { return static_cast<long long>(ts.tv_sec) * 1000000000LL + ts.tv_nsec; };
   long k = 0;
   for (; k < m.steps && !runtime::g_stop; ++k) {
     const double t = static_cast<double>(k) * m.period;
     const model::ContactReading contact = plant.contacts();
+    timespec sent{};
+    ::clock_gettime(CLOCK_MONOTONIC, &sent);
+    if (opt.realtime) wake_late_us.push_back(static_cast<double>(to_ns(sent) - to_ns(tick_start)) * 1e-3);
     for (int j = 0; j < 2; ++j) {
       s.arm_id(ctx.arm_id(j));
       s.tick(static_cast<uint64_t>(k));
@@ -68,18 +87,36 @@ int main(int argc, char** argv) {
       s.braked(false);
       sensors.write(s);
     }
-    std::array<model::Vec3, 2> tau{model::Vec3::Zero(), model::Vec3::Zero()};
+    // Real time: the tick ends at an absolute deadline; lockstep: when both commands are in (or timeout).
+    timespec deadline = tick_start;
+    deadline.tv_nsec += period_ns;
+    while (deadline.tv_nsec >= 1000000000L) {
+      deadline.tv_nsec -= 1000000000L;
+      ++deadline.tv_sec;
+    }
     std::array<bool, 2> have{false, false};
     const auto wait_start = std::chrono::steady_clock::now();
     while (!(have[0] && have[1]) && !runtime::g_stop) {
       if (!torques.take(cmd)) {
-        if (std::chrono::duration<double>(std::chrono::steady_clock::now() - wait_start).count() > opt.timeout) break;
-        torques.wait(0.05);
+        if (opt.realtime) {
+          timespec now{};
+          ::clock_gettime(CLOCK_MONOTONIC, &now);
+          const long long left = to_ns(deadline) - to_ns(now);
+          if (left <= 0) break;
+          torques.wait(static_cast<double>(left) * 1e-9);
+        } else {
+          if (std::chrono::duration<double>(std::chrono::steady_clock::now() - wait_start).count() > opt.timeout) break;
+          torques.wait(0.05);
+        }
         continue;
       }
       const int j = ctx.arm_index(cmd.arm_id());
-      if (j < 0 || cmd.tick() != static_cast<uint64_t>(k) || !runtime::all_finite(cmd.tau())) {
+      if (j < 0 || !runtime::all_finite(cmd.tau())) {
         ++rejected;
+        continue;
+      }
+      if (cmd.tick() != static_cast<uint64_t>(k)) {
+        if (!opt.realtime || cmd.tick() > static_cast<uint64_t>(k)) ++rejected;  // real time: a late answer
         continue;
       }
       const model::Vec3 v(cmd.tau()[0], cmd.tau()[1], cmd.tau()[2]);
@@ -89,16 +126,33 @@ int main(int argc, char** argv) {
       }
       tau[j] = v;
       have[j] = true;
+      if (opt.realtime) {
+        timespec now{};
+        ::clock_gettime(CLOCK_MONOTONIC, &now);
+        latency_us.push_back(static_cast<double>(to_ns(now) - to_ns(sent)) * 1e-3);
+      }
     }
     if (!(have[0] && have[1])) {
       if (runtime::g_stop) break;
-      ++timeouts;
-      std::fprintf(stderr, "tandem-world: tick %ld: no valid torque from %s within %.1f s; stopping\n", k,
-                   have[0] ? ctx.arm_id(1).c_str() : ctx.arm_id(0).c_str(), opt.timeout);
-      break;
+      if (opt.realtime) {
+        // A late or missing command: the arm keeps its previous torque for this tick (counted).
+        late += (have[0] ? 0 : 1) + (have[1] ? 0 : 1);
+      } else {
+        ++timeouts;
+        std::fprintf(stderr, "tandem-world: tick %ld: no valid torque from %s within %.1f s; stopping\n", k,
+                     have[0] ? ctx.arm_id(1).c_str() : ctx.arm_id(0).c_str(), opt.timeout);
+        break;
+      }
     }
+    if (opt.realtime) ::clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &deadline, nullptr);
     plant.step(tau, t, m.period, m.substeps);
+    if (opt.realtime) tick_start = deadline;
   }
+  auto pct = [](std::vector<double> v, double p) {
+    if (v.empty()) return 0.0;
+    std::sort(v.begin(), v.end());
+    return v[std::min(v.size() - 1, static_cast<size_t>(p * static_cast<double>(v.size())))];
+  };
 
   msg::WorldSummary ws;
   ws.module_id(opt.module);
@@ -111,11 +165,17 @@ int main(int argc, char** argv) {
   ws.object_final()[2] = plant.state().psi;
   ws.slip_events(static_cast<uint64_t>(plant.counters().slip_events));
   ws.contact_lost(static_cast<uint64_t>(plant.counters().contact_lost));
-  ws.late_commands(timeouts);
+  ws.late_commands(opt.realtime ? late : timeouts);
   ws.rejected_commands(rejected);
+  ws.realtime(opt.realtime);
+  ws.latency_p50_us(pct(latency_us, 0.5));
+  ws.latency_p99_us(pct(latency_us, 0.99));
+  ws.latency_max_us(pct(latency_us, 1.0));
+  ws.wake_late_p99_us(pct(wake_late_us, 0.99));
   summary.write(ws);
-  std::printf("tandem-world %s: %ld ticks, slip %ld, contact lost %ld, rejected %llu, timeouts %llu\n",
-              opt.module.c_str(), k, plant.counters().slip_events, plant.counters().contact_lost, rejected, timeouts);
+  std::printf("tandem-world %s: %ld ticks, slip %ld, contact lost %ld, rejected %llu, %s %llu\n", opt.module.c_str(),
+              k, plant.counters().slip_events, plant.counters().contact_lost, rejected,
+              opt.realtime ? "late arm-ticks" : "timeouts", opt.realtime ? late : timeouts);
   std::this_thread::sleep_for(std::chrono::milliseconds(300));  // let the summary reach the launcher
   return timeouts > 0 ? 4 : 0;
 }

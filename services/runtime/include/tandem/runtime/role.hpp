@@ -21,6 +21,7 @@ struct RoleOptions {
   int domain = 0;
   dds::Transport transport = dds::Transport::SharedMemory;
   double timeout = 10.0;      ///< seconds to wait for peers / a tick before giving up
+  bool realtime = false;      ///< world: step on the wall clock (else lockstep)
 };
 
 /// Parses the common options; on error prints to stderr the problem and the usage and returns false.

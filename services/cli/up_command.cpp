@@ -267,7 +267,9 @@ int up_command(const std::vector<std::string>& args) {
     if (out) {
       out << m.name << ".ticks=" << ws.ticks() << "\n" << m.name << ".slip_events=" << ws.slip_events() << "\n"
           << m.name << ".contact_lost=" << ws.contact_lost() << "\n" << m.name
-          << ".rejected_commands=" << ws.rejected_commands() << "\n";
+          << ".rejected_commands=" << ws.rejected_commands() << "\n" << m.name
+          << ".late_commands=" << ws.late_commands() << "\n" << m.name << ".latency_p50_us=" << ws.latency_p50_us()
+          << "\n" << m.name << ".latency_p99_us=" << ws.latency_p99_us() << "\n";
       for (size_t i = 0; i < 6; ++i) out << m.name << ".q_final" << i << "=" << ws.q_final()[i] << "\n";
       for (size_t i = 0; i < 3; ++i) out << m.name << ".object_final" << i << "=" << ws.object_final()[i] << "\n";
     }

@@ -123,8 +123,11 @@ TEST_CASE("one module completes its task in real time with the grasp held", "[di
   // The task is done: the object ends within 1 mm of the goal (0.2, 0.8).
   CHECK(std::abs(kv.at("m1.object_final0") - 0.2) < 1e-3);
   CHECK(std::abs(kv.at("m1.object_final1") - 0.8) < 1e-3);
-  // Late ticks are counted, not hidden: on a shared 2-core machine some exist; the grasp must survive them.
-  CHECK(kv.at("m1.late_commands") >= 0);
+  // Late ticks are counted, not hidden (some happen on a shared 2-core machine); the grasp survives them.
+  REQUIRE(kv.count("m1.late_commands") == 1);
+  CHECK(kv.at("m1.late_commands") <= 2 * 5000);
+  CHECK(kv.at("m1.latency_p50_us") > 0.0);  // measured: commands did arrive within ticks
+  CHECK(kv.at("m1.latency_p99_us") >= kv.at("m1.latency_p50_us"));
   CHECK(kv.at("m1/right.min_normal_force") >= 19.62);
   CHECK(kv.at("m1/left.min_normal_force") >= 19.62);
   CHECK(r.output.find("latency p50") != std::string::npos);

@@ -6,6 +6,7 @@
 #include <time.h>
 
 #include <algorithm>
+#include <csignal>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -20,6 +21,8 @@ using tandem::msg::TorqueCommand;
 using tandem::msg::TorqueCommandPubSubType;
 
 namespace {
+volatile std::sig_atomic_t g_stop = 0;
+void on_signal(int) { g_stop = 1; }
 long long now_ns() {
   timespec ts{};
   ::clock_gettime(CLOCK_MONOTONIC, &ts);
@@ -33,6 +36,8 @@ int main(int argc, char** argv) {
     return 2;
   }
   const bool ping = std::string(argv[1]) == "ping";
+  std::signal(SIGINT, on_signal);  // stop cleanly, so the participant removes its shared-memory files
+  std::signal(SIGTERM, on_signal);
   int domain = 0, count = 5000;
   double seconds = 30.0;
   bus::Transport transport = bus::Transport::SharedMemory;
@@ -51,7 +56,7 @@ int main(int argc, char** argv) {
   const auto t0 = std::chrono::steady_clock::now();
   auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
   if (!ping) {
-    while (elapsed() < seconds) {
+    while (elapsed() < seconds && g_stop == 0) {
       if (!in.wait(0.1)) continue;
       while (in.take(msg)) out.write(msg);  // echo
     }

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "sim_command.hpp"
+#include "remote_command.hpp"
 #include "up_command.hpp"
 
 namespace {
@@ -17,6 +18,8 @@ void usage(std::FILE* f) {
       "  sim <scenario.yaml>   run a basic module in one process (deterministic embedded simulation)\n"
       "                        and print the RMS table beside the paper's Table IV\n"
       "  up <deploy.yaml>      start a deployment as separate processes over Fast DDS (lockstep)\n"
+      "  status <deploy.yaml>  lifecycle state and live figures of a running deployment (over DDS)\n"
+      "  down <deploy.yaml>    stop a running deployment cleanly (over DDS)\n"
       "  help [command]        show this help, or the help of one command\n"
       "\n"
       "Run 'tandem help sim' or 'tandem help up' for their options. Exit codes: 0 success, 1 a run failed its grasp\n"
@@ -39,6 +42,8 @@ int main(int argc, char** argv) {
       tandem::cli::sim_usage(stdout);
     } else if (!args.empty() && args[0] == "up") {
       tandem::cli::up_usage(stdout);
+    } else if (!args.empty() && (args[0] == "status" || args[0] == "down")) {
+      tandem::cli::remote_usage(stdout);
     } else {
       usage(stdout);
     }
@@ -46,6 +51,8 @@ int main(int argc, char** argv) {
   }
   if (cmd == "sim") return tandem::cli::sim_command(args);
   if (cmd == "up") return tandem::cli::up_command(args);
+  if (cmd == "status") return tandem::cli::status_command(args);
+  if (cmd == "down") return tandem::cli::down_command(args);
   std::fprintf(stderr, "tandem: unknown command '%s'\n\n", cmd.c_str());
   usage(stderr);
   return 2;

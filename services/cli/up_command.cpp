@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "deployment.hpp"
+#include "live_view.hpp"
 #include "tandem/dds/bus.hpp"
 #include "tandem/sim/module_setup.hpp"
 #include "tandem/sim/scenario_yaml.hpp"
@@ -155,6 +156,11 @@ int up_command(const std::vector<std::string>& args) {
   bus::Reader<msg::WorldSummary, msg::WorldSummaryPubSubType> world_sum(part, bus::kWorldSummaryTopic,
                                                                        bus::TopicKind::Summary);
 
+  bus::Reader<msg::ProcessStatus, msg::ProcessStatusPubSubType> status(part, bus::kStatusTopic,
+                                                                       bus::TopicKind::Status);
+  bus::Reader<msg::ControlRequest, msg::ControlRequestPubSubType> control(part, bus::kControlTopic,
+                                                                         bus::TopicKind::Control);
+  LiveView view(d.name);
   const std::string dir = self_dir();
   std::vector<Child> children;
   std::printf("tandem up %s: %zu module(s), domain %d, %s, %s timing\n", d.name.c_str(), d.modules.size(),
@@ -163,7 +169,7 @@ int up_command(const std::vector<std::string>& args) {
     const std::vector<std::string> common{"--scenario", m.scenario, "--case",      m.case_name,
                                           "--module",   m.name,     "--domain",    std::to_string(d.domain_id),
                                           "--transport", d.transport, "--timeout", std::to_string(d.timeout),
-                                          "--timing",   d.timing};
+                                          "--timing",   d.timing,   "--deployment", d.name};
     const sim::Scenario sc = sim::load_scenario(m.scenario);
     children.push_back({m.name + "/world", spawn(dir + "/tandem-world", common)});
     children.push_back({m.name + "/supervisor", spawn(dir + "/tandem-supervisor", common)});
@@ -198,6 +204,15 @@ int up_command(const std::vector<std::string>& args) {
         stop_all(children, SIGTERM);
       }
     }
+    msg::ProcessStatus ps;
+    while (status.take(ps)) view.update(ps);
+    msg::ControlRequest req;
+    while (control.take(req)) {
+      if (req.deployment() == d.name && req.command() == "down" && !stopping) {
+        std::printf("tandem up: 'down' requested over DDS; stopping %d process(es)\n", running_count(children));
+        g_stop = true;
+      }
+    }
     if (g_stop && !stopping) {
       std::printf("tandem up: stop requested; stopping %d process(es)\n", running_count(children));
       stopping = true;
@@ -205,8 +220,9 @@ int up_command(const std::vector<std::string>& args) {
     }
     const auto now = std::chrono::steady_clock::now();
     if (now - last_print > std::chrono::seconds(1)) {
-      std::printf("  [%5.1f s] processes running %d/%zu\n", std::chrono::duration<double>(now - t0).count(),
+      std::printf("[%5.1f s] processes running %d/%zu\n", std::chrono::duration<double>(now - t0).count(),
                   running_count(children), children.size());
+      view.print(stdout);
       std::fflush(stdout);
       last_print = now;
     }
@@ -276,6 +292,12 @@ int up_command(const std::vector<std::string>& args) {
   }
   for (const auto& c : children) {
     if (c.status != 0) std::printf("process %s exited with code %d\n", c.label.c_str(), c.status);
+  }
+  {
+    msg::ProcessStatus ps;
+    while (status.take(ps)) view.update(ps);
+    std::printf("final states:\n");
+    view.print(stdout);
   }
   const bool ok = !failed && !g_stop && grasp_ok;
   std::printf("result: %s\n", ok ? "PASS (all processes finished, safe grasp kept)"

@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include "tandem/runtime/role.hpp"
+#include "tandem/runtime/status.hpp"
 
 using namespace tandem;
 namespace bus = tandem::dds;
@@ -51,6 +52,9 @@ int main(int argc, char** argv) {
   bus::Writer<msg::RobotSummary, msg::RobotSummaryPubSubType> summary(part, bus::kRobotSummaryTopic,
                                                                        bus::TopicKind::Summary);
 
+  runtime::StatusPublisher status(part, my_arm, "robot", opt.module);
+  status.msg().deployment(opt.deployment);
+  status.set(runtime::Lifecycle::Inactive, "waiting for the first tick");
   msg::ArmSensors s;
   msg::ArmReference r;
   msg::TorqueCommand cmd;
@@ -110,6 +114,13 @@ int main(int argc, char** argv) {
       cmd.tick(static_cast<uint64_t>(k));
       for (int i = 0; i < 3; ++i) cmd.tau()[static_cast<size_t>(i)] = out.tau(i);
       torques.write(cmd);
+      if (done < 0) status.set(runtime::Lifecycle::Active, "controlling");
+      if (k % 100 == 0) {
+        status.msg().tick(static_cast<uint64_t>(k));
+        status.msg().tracking_error(out.e_p.head<2>().norm());
+        status.msg().late(rejected);
+        status.publish();
+      }
       done = k;
       last_input = std::chrono::steady_clock::now();
       continue;
@@ -141,6 +152,13 @@ int main(int argc, char** argv) {
   rs.max_normal_force(sm.max_normal_force);
   rs.rejected(rejected);
   summary.write(rs);
+  status.msg().tick(static_cast<uint64_t>(std::max(done, 0L)));
+  if (done + 1 == m.steps) {
+    status.set(runtime::Lifecycle::Finalized, "task done");
+  } else {
+    status.set(runtime::g_stop ? runtime::Lifecycle::Finalized : runtime::Lifecycle::Error,
+               runtime::g_stop ? "stopped" : "no input");
+  }
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
-  return done + 1 == m.steps ? 0 : 4;
+  return (done + 1 == m.steps || runtime::g_stop) ? 0 : 4;
 }

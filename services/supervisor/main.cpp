@@ -4,9 +4,11 @@
 
 #include <algorithm>
 #include <chrono>
+#include <thread>
 #include <cstdio>
 
 #include "tandem/runtime/role.hpp"
+#include "tandem/runtime/status.hpp"
 
 using namespace tandem;
 namespace bus = tandem::dds;
@@ -28,6 +30,9 @@ int main(int argc, char** argv) {
   bus::Reader<msg::ArmSensors, msg::ArmSensorsPubSubType> sensors(part, bus::kSensorsTopic, bus::TopicKind::Sensors);
   bus::Writer<msg::ArmReference, msg::ArmReferencePubSubType> refs(part, bus::kReferencesTopic,
                                                                    bus::TopicKind::References);
+  runtime::StatusPublisher status(part, opt.module + "/supervisor", "supervisor", opt.module);
+  status.msg().deployment(opt.deployment);
+  status.set(runtime::Lifecycle::Active, "publishing references");
   msg::ArmSensors s;
   msg::ArmReference r;
   std::array<long, 2> last{-1, -1};
@@ -60,9 +65,12 @@ int main(int argc, char** argv) {
     if (std::chrono::duration<double>(now - last_input).count() > opt.timeout) {
       std::fprintf(stderr, "tandem-supervisor %s: no sensor sample for %.1f s; stopping\n", opt.module.c_str(),
                    opt.timeout);
+      status.set(runtime::Lifecycle::Error, "no sensor samples");
       return 4;
     }
     sensors.wait(0.01);
   }
+  status.set(runtime::Lifecycle::Finalized, runtime::g_stop ? "stopped" : "task done");
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
   return 0;
 }

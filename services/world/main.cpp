@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "tandem/runtime/role.hpp"
+#include "tandem/runtime/status.hpp"
 
 using namespace tandem;
 namespace bus = tandem::dds;
@@ -42,12 +43,16 @@ int main(int argc, char** argv) {
   bus::Writer<msg::WorldSummary, msg::WorldSummaryPubSubType> summary(part, bus::kWorldSummaryTopic,
                                                                        bus::TopicKind::Summary);
 
+  runtime::StatusPublisher status(part, opt.module + "/world", "world", opt.module);
+  status.msg().deployment(opt.deployment);
+  status.set(runtime::Lifecycle::Inactive, "waiting for the supervisor and two robots");
   // Peers: two robots and the supervisor read the sensors; two robots write torques.
   const auto t0 = std::chrono::steady_clock::now();
   while (!runtime::g_stop && (sensors.matched() < 3 || torques.matched() < 2)) {
     if (std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() > opt.timeout) {
       std::fprintf(stderr, "tandem-world: peers not found within %.1f s (sensor readers %d/3, torque writers %d/2)\n",
                    opt.timeout, sensors.matched(), torques.matched());
+      status.set(runtime::Lifecycle::Error, "peers not found");
       return 3;
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
@@ -67,10 +72,27 @@ int main(int argc, char** argv) {
   ::clock_gettime(CLOCK_MONOTONIC, &tick_start);
   const long period_ns = std::lround(m.period * 1e9);
   auto to_ns = [](const timespec& ts) { return static_cast<long long>(ts.tv_sec) * 1000000000LL + ts.tv_nsec; };
+  status.set(runtime::Lifecycle::Active, opt.realtime ? "real time" : "lockstep");
+  double min_normal = 1e300;
+  size_t latency_mark = 0;
   long k = 0;
   for (; k < m.steps && !runtime::g_stop; ++k) {
     const double t = static_cast<double>(k) * m.period;
     const model::ContactReading contact = plant.contacts();
+    min_normal = std::min({min_normal, contact.normal[0], contact.normal[1]});
+    if (k % 100 == 0) {  // live status, every 100 ticks
+      auto& st = status.msg();
+      st.tick(static_cast<uint64_t>(k));
+      st.progress(static_cast<double>(k) / static_cast<double>(m.steps));
+      st.grasp_margin(min_normal - m.safe_grasp_force);
+      st.late(opt.realtime ? late : timeouts);
+      double worst = 0.0;
+      for (size_t i = latency_mark; i < latency_us.size(); ++i) worst = std::max(worst, latency_us[i]);
+      st.latency_p99_us(worst);  // the worst of the interval (at most 200 samples)
+      latency_mark = latency_us.size();
+      status.publish();
+      min_normal = 1e300;
+    }
     timespec sent{};
     ::clock_gettime(CLOCK_MONOTONIC, &sent);
     if (opt.realtime) wake_late_us.push_back(static_cast<double>(to_ns(sent) - to_ns(tick_start)) * 1e-3);
@@ -173,6 +195,13 @@ int main(int argc, char** argv) {
   ws.latency_max_us(pct(latency_us, 1.0));
   ws.wake_late_p99_us(pct(wake_late_us, 0.99));
   summary.write(ws);
+  status.msg().tick(static_cast<uint64_t>(k));
+  status.msg().progress(static_cast<double>(k) / static_cast<double>(m.steps));
+  if (timeouts > 0) {
+    status.set(runtime::Lifecycle::Error, "a robot did not answer a tick");
+  } else {
+    status.set(runtime::Lifecycle::Finalized, runtime::g_stop ? "stopped" : "task done");
+  }
   std::printf("tandem-world %s: %ld ticks, slip %ld, contact lost %ld, rejected %llu, %s %llu\n", opt.module.c_str(),
               k, plant.counters().slip_events, plant.counters().contact_lost, rejected,
               opt.realtime ? "late arm-ticks" : "timeouts", opt.realtime ? late : timeouts);

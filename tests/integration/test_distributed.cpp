@@ -140,8 +140,8 @@ TEST_CASE("invalid samples on the wire are rejected and counted; the run is unaf
   const std::string summary = work_dir() + "/inject.summary";
   // The deployment in the background, the injector beside it for 2 s of the run.
   const std::string up_log = work_dir() + "/inject.log";
-  const std::string cmd = kBin + "/tandem up " + deploy + " --summary " + summary + " > " + up_log + " 2>&1 & " +
-                          kBin + "/tandem_inject --domain " + std::to_string(domain) + " --seconds 2; wait %1";
+  const std::string cmd = kBin + "/tandem up " + deploy + " --summary " + summary + " > " + up_log + " 2>&1 & up=$!; " +
+                          kBin + "/tandem_inject --domain " + std::to_string(domain) + " --seconds 2; wait $up";
   const Run r = run("bash -c '" + cmd + "'");
   std::ifstream log(up_log);
   std::stringstream ss;
@@ -164,6 +164,31 @@ TEST_CASE("invalid samples on the wire are rejected and counted; the run is unaf
     CHECK(kv.at("m1/left.ep_pos_rms") == Approx(e.robots[0].ep_pos_rms).epsilon(1e-12));
     CHECK(kv.at("m1/right.eh_rms") == Approx(e.robots[1].eh_rms).epsilon(1e-12));
   }
+  CHECK_FALSE(processes_left(domain));
+}
+
+TEST_CASE("tandem status and tandem down work from another process over DDS", "[distributed]") {
+  const int domain = test_domain(4);
+  const std::string deploy = write_deployment("remote", domain, "SOSM", "realtime");
+  const std::string up_log = work_dir() + "/remote.log";
+  // Start the deployment in the background; ask for its status, then stop it with `tandem down`.
+  const std::string cmd = kBin + "/tandem up " + deploy + " > " + up_log + " 2>&1 & up=$!; sleep 1; " + kBin +
+                          "/tandem status " + deploy + "; " + kBin + "/tandem down " + deploy + "; wait $up; echo up_rc=$?";
+  const Run r = run("bash -c '" + cmd + "'");
+  std::ifstream log(up_log);
+  std::stringstream ss;
+  ss << log.rdbuf();
+  INFO(r.output << "\n--- tandem up ---\n" << ss.str());
+  for (const char* p : {"m1/world", "m1/supervisor", "m1/left", "m1/right"}) {
+    CHECK(r.output.find(std::string("  ") + p) != std::string::npos);
+  }
+  CHECK(r.output.find("active") != std::string::npos);
+  CHECK(r.output.find("asked remote on domain") != std::string::npos);
+  CHECK(r.output.find("up_rc=1") != std::string::npos);  // stopped before the task was done
+  CHECK(ss.str().find("'down' requested over DDS") != std::string::npos);
+  CHECK(ss.str().find("result: STOPPED") != std::string::npos);
+  CHECK(ss.str().find("finalized") != std::string::npos);
+  CHECK(ss.str().find("exited with code") == std::string::npos);  // every process stopped cleanly
   CHECK_FALSE(processes_left(domain));
 }
 

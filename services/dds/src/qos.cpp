@@ -6,13 +6,14 @@ namespace fdds = eprosima::fastdds::dds;
 namespace {
 // Per-tick topics: reliable (lockstep must not lose a tick), keep-last 32 (a reader that is one or two
 // ticks behind still gets everything; nothing older matters), volatile (a late joiner starts from the next
-// tick). Summaries: reliable, transient-local, keep-last 1 per key, so a launcher that looks late still sees
-// the result.
+// tick). Summaries and status: reliable, transient-local, keep-last 1 per key, so a launcher or a
+// `tandem status` that looks late still sees the latest value. Control requests: reliable, keep-last 32,
+// volatile (a request is for the launchers running now).
 template <class Q>
 void apply(Q& q, TopicKind kind) {
   q.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
   q.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
-  if (kind == TopicKind::Summary) {
+  if (kind == TopicKind::Summary || kind == TopicKind::Status) {
     q.history().depth = 1;
     q.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
   } else {

@@ -18,6 +18,7 @@ void usage(const char* role, bool needs_arm, std::FILE* f) {
   std::fprintf(f,
                "usage: tandem-%s --scenario FILE --case NAME [--module NAME]%s [--domain ID]\n"
                "       [--transport shm|udp] [--timeout SECONDS] [--timing lockstep|realtime]\n"
+               "       [--deployment NAME]\n"
                "Started by 'tandem up'; one Fast DDS participant. Exit: 0 done, 2 bad arguments or\n"
                "configuration, 3 peers not found in time, 4 a tick timed out.\n",
                role, needs_arm ? " --arm ROBOT" : "");
@@ -67,6 +68,8 @@ bool parse_role_options(const char* role, int argc, char** argv, bool needs_arm,
         return false;
       }
       o.transport = v == "shm" ? dds::Transport::SharedMemory : dds::Transport::Udp;
+    } else if (a == "--deployment") {
+      o.deployment = v;
     } else if (a == "--timing") {
       if (v != "lockstep" && v != "realtime") {
         std::fprintf(stderr, "tandem-%s: --timing must be lockstep or realtime, got '%s'\n", role, v.c_str());

@@ -11,6 +11,8 @@ enum class TopicKind {
   References,  ///< supervisor -> robots: every tick
   Torques,     ///< robots -> world: every tick
   Summary,     ///< end-of-run results for the launcher
+  Status,      ///< lifecycle and live figures of every process
+  Control,     ///< requests to a launcher (tandem down)
 };
 
 eprosima::fastdds::dds::DataWriterQos writer_qos(TopicKind kind);
@@ -22,5 +24,7 @@ inline constexpr const char* kReferencesTopic = "tandem/arm_references";
 inline constexpr const char* kTorquesTopic = "tandem/torque_commands";
 inline constexpr const char* kRobotSummaryTopic = "tandem/robot_summary";
 inline constexpr const char* kWorldSummaryTopic = "tandem/world_summary";
+inline constexpr const char* kStatusTopic = "tandem/process_status";
+inline constexpr const char* kControlTopic = "tandem/control";
 
 }  // namespace tandem::dds

@@ -22,6 +22,7 @@ struct RoleOptions {
   dds::Transport transport = dds::Transport::SharedMemory;
   double timeout = 10.0;      ///< seconds to wait for peers / a tick before giving up
   bool realtime = false;      ///< world: step on the wall clock (else lockstep)
+  std::string deployment;     ///< name of the deployment (in status messages)
 };
 
 /// Parses the common options; on error prints to stderr the problem and the usage and returns false.

@@ -1,0 +1,103 @@
+// `tandem status` and `tandem down`: talk to a running deployment over DDS, from any terminal.
+#include "remote_command.hpp"
+
+#include <tandemPubSubTypes.h>
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <thread>
+
+#include "deployment.hpp"
+#include "live_view.hpp"
+#include "tandem/dds/bus.hpp"
+
+namespace tandem::cli {
+namespace {
+namespace bus = tandem::dds;
+
+// Target: a deployment file (its name, domain and transport), or --domain ID [--name NAME].
+bool parse_target(const char* cmd, const std::vector<std::string>& args, Deployment& d) {
+  bool have = false;
+  for (size_t i = 0; i < args.size(); ++i) {
+    if (args[i] == "--domain" && i + 1 < args.size()) {
+      d.domain_id = std::atoi(args[++i].c_str());
+      have = true;
+    } else if (args[i] == "--name" && i + 1 < args.size()) {
+      d.name = args[++i];
+    } else if (!args[i].empty() && args[i][0] != '-') {
+      try {
+        d = load_deployment(args[i]);
+      } catch (const std::exception& e) {
+        std::fprintf(stderr, "tandem %s: %s\n", cmd, e.what());
+        return false;
+      }
+      have = true;
+    } else {
+      std::fprintf(stderr, "tandem %s: unknown option '%s'\n", cmd, args[i].c_str());
+      return false;
+    }
+  }
+  if (!have) std::fprintf(stderr, "tandem %s: give a deployment file, or --domain ID [--name NAME]\n", cmd);
+  return have;
+}
+}  // namespace
+
+void remote_usage(std::FILE* f) {
+  std::fputs(
+      "usage: tandem status <deploy.yaml> | --domain ID [--name NAME]\n"
+      "       tandem down   <deploy.yaml> | --domain ID --name NAME\n"
+      "status: prints the lifecycle state and live figures of every process of the deployment(s) on the domain.\n"
+      "down:   asks the deployment's launcher to stop it cleanly (as Ctrl-C would); exit 1 if no launcher heard.\n",
+      f);
+}
+
+int status_command(const std::vector<std::string>& args) {
+  Deployment d;
+  if (!parse_target("status", args, d)) return 2;
+  bus::Participant part(d.domain_id, "tandem-status", d.transport == "udp" ? bus::Transport::Udp : bus::Transport::SharedMemory);
+  bus::Reader<msg::ProcessStatus, msg::ProcessStatusPubSubType> status(part, bus::kStatusTopic, bus::TopicKind::Status);
+  LiveView view(d.name);
+  const auto t0 = std::chrono::steady_clock::now();
+  while (std::chrono::steady_clock::now() - t0 < std::chrono::milliseconds(1500)) {
+    status.wait(0.1);
+    msg::ProcessStatus s;
+    while (status.take(s)) view.update(s);
+  }
+  if (view.size() == 0) {
+    std::printf("no process of %s on domain %d\n", d.name.empty() ? "any deployment" : d.name.c_str(), d.domain_id);
+    return 1;
+  }
+  std::printf("%s on domain %d:\n", d.name.empty() ? "deployments" : d.name.c_str(), d.domain_id);
+  view.print(stdout);
+  return 0;
+}
+
+int down_command(const std::vector<std::string>& args) {
+  Deployment d;
+  if (!parse_target("down", args, d)) return 2;
+  if (d.name.empty()) {
+    std::fprintf(stderr, "tandem down: name the deployment (--name NAME or a deployment file)\n");
+    return 2;
+  }
+  bus::Participant part(d.domain_id, "tandem-down", d.transport == "udp" ? bus::Transport::Udp : bus::Transport::SharedMemory);
+  bus::Writer<msg::ControlRequest, msg::ControlRequestPubSubType> control(part, bus::kControlTopic, bus::TopicKind::Control);
+  const auto t0 = std::chrono::steady_clock::now();
+  while (control.matched() < 1 && std::chrono::steady_clock::now() - t0 < std::chrono::seconds(3)) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  if (control.matched() < 1) {
+    std::fprintf(stderr, "tandem down: no launcher on domain %d answered\n", d.domain_id);
+    return 1;
+  }
+  msg::ControlRequest req;
+  req.deployment(d.name);
+  req.command("down");
+  req.seq(1);
+  control.write(req);
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // let it be delivered
+  std::printf("asked %s on domain %d to stop\n", d.name.c_str(), d.domain_id);
+  return 0;
+}
+
+}  // namespace tandem::cli

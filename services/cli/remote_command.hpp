@@ -1,0 +1,11 @@
+#pragma once
+
+#include <cstdio>
+#include <string>
+#include <vector>
+
+namespace tandem::cli {
+void remote_usage(std::FILE* f);
+int status_command(const std::vector<std::string>& args);
+int down_command(const std::vector<std::string>& args);
+}  // namespace tandem::cli

@@ -1,0 +1,41 @@
+// Lifecycle and live status of a role process, published on tandem/process_status (transient-local,
+// keep-last 1 per process) so that the launcher and `tandem status` from another terminal see every
+// process's current state.
+#pragma once
+
+#include <tandemPubSubTypes.h>
+#include <unistd.h>
+
+#include <string>
+
+#include "tandem/dds/bus.hpp"
+
+namespace tandem::runtime {
+
+enum class Lifecycle : uint8_t { Unconfigured = 0, Inactive = 1, Active = 2, Finalized = 3, Error = 4 };
+const char* lifecycle_name(uint8_t state);
+
+class StatusPublisher {
+ public:
+  StatusPublisher(dds::Participant& p, const std::string& process_id, const std::string& role,
+                  const std::string& module_id)
+      : writer_(p, dds::kStatusTopic, dds::TopicKind::Status) {
+    msg_.process_id(process_id);
+    msg_.role(role);
+    msg_.module_id(module_id);
+    msg_.pid(static_cast<int64_t>(::getpid()));
+  }
+  msg::ProcessStatus& msg() { return msg_; }
+  void set(Lifecycle s, const std::string& detail = "") {
+    msg_.state(static_cast<uint8_t>(s));
+    msg_.detail(detail);
+    publish();
+  }
+  void publish() { writer_.write(msg_); }
+
+ private:
+  dds::Writer<msg::ProcessStatus, msg::ProcessStatusPubSubType> writer_;
+  msg::ProcessStatus msg_;
+};
+
+}  // namespace tandem::runtime

@@ -8,12 +8,14 @@ void LiveView::print(std::FILE* f) const {
   for (const auto& [id, s] : processes_) {
     const char* state = runtime::lifecycle_name(s.state());
     if (s.role() == "world") {
-      std::fprintf(f, "  %-18s %-11s tick %6llu  task %5.1f%%  grasp margin %7.2f N  late %llu%s%s\n", id.c_str(),
-                   state, static_cast<unsigned long long>(s.tick()), 100.0 * s.progress(), s.grasp_margin(),
+      char progress[32] = "tasks from coordinator";
+      if (s.progress() >= 0.0) std::snprintf(progress, sizeof progress, "task %5.1f%%", 100.0 * s.progress());
+      std::fprintf(f, "  %-18s %-11s tick %6llu  %s  grasp margin %7.2f N  late %llu%s%s\n", id.c_str(), state,
+                   static_cast<unsigned long long>(s.tick()), progress, s.grasp_margin(),
                    static_cast<unsigned long long>(s.late()), s.detail().empty() ? "" : "  ", s.detail().c_str());
     } else if (s.role() == "robot") {
-      std::fprintf(f, "  %-18s %-11s tick %6llu  |e_p| %9.3e m  rejected %llu  pid %lld%s%s\n", id.c_str(), state,
-                   static_cast<unsigned long long>(s.tick()), s.tracking_error(),
+      std::fprintf(f, "  %-18s %-11s tick %6llu  |e_p| %9.3e m  wear %7.3f rad  rejected %llu  pid %lld%s%s\n",
+                   id.c_str(), state, static_cast<unsigned long long>(s.tick()), s.tracking_error(), s.wear(),
                    static_cast<unsigned long long>(s.late()), static_cast<long long>(s.pid()),
                    s.detail().empty() ? "" : "  ", s.detail().c_str());
     } else {

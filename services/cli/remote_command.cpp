@@ -8,11 +8,13 @@
 #include <cstdlib>
 #include <thread>
 
-#include "deployment.hpp"
+#include "tandem/runtime/deployment.hpp"
 #include "live_view.hpp"
 #include "tandem/dds/bus.hpp"
 
 namespace tandem::cli {
+using runtime::Deployment;
+using runtime::load_deployment;
 namespace {
 namespace bus = tandem::dds;
 

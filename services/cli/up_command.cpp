@@ -12,6 +12,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstdio>
+#include <algorithm>
 #include <cstring>
 #include <fstream>
 #include <map>
@@ -19,13 +20,15 @@
 #include <thread>
 #include <vector>
 
-#include "deployment.hpp"
+#include "tandem/runtime/deployment.hpp"
 #include "live_view.hpp"
 #include "tandem/dds/bus.hpp"
 #include "tandem/sim/module_setup.hpp"
 #include "tandem/sim/scenario_yaml.hpp"
 
 namespace tandem::cli {
+using runtime::Deployment;
+using runtime::load_deployment;
 namespace {
 
 namespace bus = tandem::dds;
@@ -166,10 +169,11 @@ int up_command(const std::vector<std::string>& args) {
   std::printf("tandem up %s: %zu module(s), domain %d, %s, %s timing\n", d.name.c_str(), d.modules.size(),
               d.domain_id, d.transport.c_str(), d.timing.c_str());
   for (const auto& m : d.modules) {
-    const std::vector<std::string> common{"--scenario", m.scenario, "--case",      m.case_name,
+    std::vector<std::string> common{"--scenario", m.scenario, "--case",      m.case_name,
                                           "--module",   m.name,     "--domain",    std::to_string(d.domain_id),
                                           "--transport", d.transport, "--timeout", std::to_string(d.timeout),
                                           "--timing",   d.timing,   "--deployment", d.name};
+    if (d.coordinator) common.push_back("--continuous");
     const sim::Scenario sc = sim::load_scenario(m.scenario);
     children.push_back({m.name + "/world", spawn(dir + "/tandem-world", common)});
     children.push_back({m.name + "/supervisor", spawn(dir + "/tandem-supervisor", common)});
@@ -180,13 +184,18 @@ int up_command(const std::vector<std::string>& args) {
       children.push_back({m.name + "/" + r.name, spawn(dir + "/tandem-robot", a)});
     }
   }
+  if (d.coordinator) {
+    children.push_back({"coordinator", spawn(dir + "/tandem-coordinator",
+                                             {"--deployment-file", file, "--domain", std::to_string(d.domain_id),
+                                              "--timeout", std::to_string(std::max(30.0, 3 * d.timeout))})});
+  }
   for (const auto& c : children) std::printf("  started %-16s pid %d\n", c.label.c_str(), c.pid);
 
   std::map<std::string, msg::RobotSummary> robots;
   std::map<std::string, msg::WorldSummary> worlds;
   const auto t0 = std::chrono::steady_clock::now();
   auto last_print = t0;
-  bool failed = false, stopping = false;
+  bool failed = false, stopping = false, coordinator_done = false;
   auto collect = [&] {
     msg::RobotSummary rs;
     while (robot_sum.take(rs)) robots[rs.arm_id()] = rs;
@@ -197,6 +206,12 @@ int up_command(const std::vector<std::string>& args) {
     reap(children, false);
     collect();
     for (const auto& c : children) {
+      if (!c.running && c.status == 0 && c.label == "coordinator" && !stopping) {
+        std::printf("tandem up: the coordinator reports every task done; stopping the deployment\n");
+        coordinator_done = true;
+        stopping = true;
+        stop_all(children, SIGTERM);
+      }
       if (!c.running && c.status != 0 && !stopping) {
         std::fprintf(stderr, "tandem up: %s exited with code %d; stopping the deployment\n", c.label.c_str(), c.status);
         failed = true;
@@ -299,7 +314,9 @@ int up_command(const std::vector<std::string>& args) {
     std::printf("final states:\n");
     view.print(stdout);
   }
+  if (d.coordinator && !coordinator_done) failed = true;
   const bool ok = !failed && !g_stop && grasp_ok;
+  if (out && d.coordinator) out << "coordinator.done=" << (coordinator_done ? 1 : 0) << "\n";
   std::printf("result: %s\n", ok ? "PASS (all processes finished, safe grasp kept)"
                                  : (g_stop ? "STOPPED" : "FAIL (see above)"));
   return ok ? 0 : 1;

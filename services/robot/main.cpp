@@ -44,10 +44,10 @@ int main(int argc, char** argv) {
   sim::RobotMeter meter(m.control[j].selection_p, ctx.scenario.transient, m.path.motion_end());
 
   bus::Participant part(opt.domain, "robot/" + my_arm, opt.transport);
-  bus::Reader<msg::ArmSensors, msg::ArmSensorsPubSubType> sensors(part, bus::kSensorsTopic, bus::TopicKind::Sensors);
-  bus::Reader<msg::ArmReference, msg::ArmReferencePubSubType> refs(part, bus::kReferencesTopic,
+  bus::Reader<msg::ArmSensors, msg::ArmSensorsPubSubType> sensors(part, bus::module_topic(bus::kSensorsTopic, opt.module), bus::TopicKind::Sensors);
+  bus::Reader<msg::ArmReference, msg::ArmReferencePubSubType> refs(part, bus::module_topic(bus::kReferencesTopic, opt.module),
                                                                    bus::TopicKind::References);
-  bus::Writer<msg::TorqueCommand, msg::TorqueCommandPubSubType> torques(part, bus::kTorquesTopic,
+  bus::Writer<msg::TorqueCommand, msg::TorqueCommandPubSubType> torques(part, bus::module_topic(bus::kTorquesTopic, opt.module),
                                                                          bus::TopicKind::Torques);
   bus::Writer<msg::RobotSummary, msg::RobotSummaryPubSubType> summary(part, bus::kRobotSummaryTopic,
                                                                        bus::TopicKind::Summary);
@@ -68,6 +68,8 @@ int main(int argc, char** argv) {
     model::ArmReference ref;
   };
   std::array<Slot, 4> ring{};
+  model::Vec3 prev_q = model::Vec3::Zero();
+  double wear = 0.0, workload = 0.0;
   unsigned long long rejected = 0;
   auto last_input = std::chrono::steady_clock::now();
   while (!runtime::g_stop && done + 1 < m.steps) {
@@ -114,11 +116,20 @@ int main(int argc, char** argv) {
       cmd.tick(static_cast<uint64_t>(k));
       for (int i = 0; i < 3; ++i) cmd.tau()[static_cast<size_t>(i)] = out.tau(i);
       torques.write(cmd);
+      // Wear and workload, for the coordinator's balancing: joint travel and mechanical work so far.
+      if (done >= 0) {
+        const model::Vec3 dq = (in.q - prev_q).cwiseAbs();
+        wear += dq.sum();
+        workload += out.tau.cwiseAbs().dot(dq);
+      }
+      prev_q = in.q;
       if (done < 0) status.set(runtime::Lifecycle::Active, "controlling");
       if (k % 100 == 0) {
         status.msg().tick(static_cast<uint64_t>(k));
         status.msg().tracking_error(out.e_p.head<2>().norm());
         status.msg().late(rejected);
+        status.msg().wear(wear);
+        status.msg().workload(workload);
         status.publish();
       }
       done = k;
@@ -153,6 +164,8 @@ int main(int argc, char** argv) {
   rs.rejected(rejected);
   summary.write(rs);
   status.msg().tick(static_cast<uint64_t>(std::max(done, 0L)));
+  status.msg().wear(wear);
+  status.msg().workload(workload);
   if (done + 1 == m.steps) {
     status.set(runtime::Lifecycle::Finalized, "task done");
   } else {

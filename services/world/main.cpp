@@ -14,6 +14,7 @@
 #include <cstdio>
 #include <thread>
 
+#include "tandem/runtime/histogram.hpp"
 #include "tandem/runtime/role.hpp"
 #include "tandem/runtime/status.hpp"
 
@@ -37,8 +38,8 @@ int main(int argc, char** argv) {
   plant.reset(m.initial);
 
   bus::Participant part(opt.domain, "world/" + opt.module, opt.transport);
-  bus::Writer<msg::ArmSensors, msg::ArmSensorsPubSubType> sensors(part, bus::kSensorsTopic, bus::TopicKind::Sensors);
-  bus::Reader<msg::TorqueCommand, msg::TorqueCommandPubSubType> torques(part, bus::kTorquesTopic,
+  bus::Writer<msg::ArmSensors, msg::ArmSensorsPubSubType> sensors(part, bus::module_topic(bus::kSensorsTopic, opt.module), bus::TopicKind::Sensors);
+  bus::Reader<msg::TorqueCommand, msg::TorqueCommandPubSubType> torques(part, bus::module_topic(bus::kTorquesTopic, opt.module),
                                                                          bus::TopicKind::Torques);
   bus::Writer<msg::WorldSummary, msg::WorldSummaryPubSubType> summary(part, bus::kWorldSummaryTopic,
                                                                        bus::TopicKind::Summary);
@@ -60,11 +61,8 @@ int main(int argc, char** argv) {
   std::this_thread::sleep_for(std::chrono::milliseconds(200));  // let the reverse matches settle
 
   unsigned long long rejected = 0, timeouts = 0, late = 0;
-  std::vector<double> latency_us, wake_late_us;  // real time: reserved up front, no allocation per tick
-  if (opt.realtime) {
-    latency_us.reserve(static_cast<size_t>(2 * m.steps));
-    wake_late_us.reserve(static_cast<size_t>(m.steps));
-  }
+  runtime::Histogram latency_us, wake_late_us;  // fixed bins: no allocation per tick, any run length
+  double interval_worst_us = 0.0;
   msg::ArmSensors s;
   msg::TorqueCommand cmd;
   std::array<model::Vec3, 2> tau{model::Vec3::Zero(), model::Vec3::Zero()};
@@ -74,7 +72,6 @@ int main(int argc, char** argv) {
   auto to_ns = [](const timespec& ts) { return static_cast<long long>(ts.tv_sec) * 1000000000LL + ts.tv_nsec; };
   status.set(runtime::Lifecycle::Active, opt.realtime ? "real time" : "lockstep");
   double min_normal = 1e300;
-  size_t latency_mark = 0;
   long k = 0;
   for (; k < m.steps && !runtime::g_stop; ++k) {
     const double t = static_cast<double>(k) * m.period;
@@ -83,19 +80,17 @@ int main(int argc, char** argv) {
     if (k % 100 == 0) {  // live status, every 100 ticks
       auto& st = status.msg();
       st.tick(static_cast<uint64_t>(k));
-      st.progress(static_cast<double>(k) / static_cast<double>(m.steps));
+      st.progress(opt.continuous ? -1.0 : static_cast<double>(k) / static_cast<double>(m.steps));
       st.grasp_margin(min_normal - m.safe_grasp_force);
       st.late(opt.realtime ? late : timeouts);
-      double worst = 0.0;
-      for (size_t i = latency_mark; i < latency_us.size(); ++i) worst = std::max(worst, latency_us[i]);
-      st.latency_p99_us(worst);  // the worst of the interval (at most 200 samples)
-      latency_mark = latency_us.size();
+      st.latency_p99_us(interval_worst_us);  // the worst of the interval (at most 200 arm-ticks)
+      interval_worst_us = 0.0;
       status.publish();
       min_normal = 1e300;
     }
     timespec sent{};
     ::clock_gettime(CLOCK_MONOTONIC, &sent);
-    if (opt.realtime) wake_late_us.push_back(static_cast<double>(to_ns(sent) - to_ns(tick_start)) * 1e-3);
+    if (opt.realtime) wake_late_us.add(static_cast<double>(to_ns(sent) - to_ns(tick_start)) * 1e-3);
     for (int j = 0; j < 2; ++j) {
       s.arm_id(ctx.arm_id(j));
       s.tick(static_cast<uint64_t>(k));
@@ -151,7 +146,9 @@ int main(int argc, char** argv) {
       if (opt.realtime) {
         timespec now{};
         ::clock_gettime(CLOCK_MONOTONIC, &now);
-        latency_us.push_back(static_cast<double>(to_ns(now) - to_ns(sent)) * 1e-3);
+        const double us = static_cast<double>(to_ns(now) - to_ns(sent)) * 1e-3;
+        latency_us.add(us);
+        interval_worst_us = std::max(interval_worst_us, us);
       }
     }
     if (!(have[0] && have[1])) {
@@ -170,11 +167,7 @@ int main(int argc, char** argv) {
     plant.step(tau, t, m.period, m.substeps);
     if (opt.realtime) tick_start = deadline;
   }
-  auto pct = [](std::vector<double> v, double p) {
-    if (v.empty()) return 0.0;
-    std::sort(v.begin(), v.end());
-    return v[std::min(v.size() - 1, static_cast<size_t>(p * static_cast<double>(v.size())))];
-  };
+  auto pct = [](const runtime::Histogram& h, double p) { return h.percentile(p); };
 
   msg::WorldSummary ws;
   ws.module_id(opt.module);
@@ -196,7 +189,7 @@ int main(int argc, char** argv) {
   ws.wake_late_p99_us(pct(wake_late_us, 0.99));
   summary.write(ws);
   status.msg().tick(static_cast<uint64_t>(k));
-  status.msg().progress(static_cast<double>(k) / static_cast<double>(m.steps));
+  status.msg().progress(opt.continuous ? -1.0 : static_cast<double>(k) / static_cast<double>(m.steps));
   if (timeouts > 0) {
     status.set(runtime::Lifecycle::Error, "a robot did not answer a tick");
   } else {

@@ -192,6 +192,46 @@ TEST_CASE("tandem status and tandem down work from another process over DDS", "[
   CHECK_FALSE(processes_left(domain));
 }
 
+TEST_CASE("a coordinator hands a task queue to four modules, which complete it", "[distributed]") {
+  const int domain = test_domain(5);
+  const std::string path = work_dir() + "/four.yaml";
+  {
+    std::ofstream f(path);
+    f << "name: four\ndomain_id: " << domain << "\ntransport: shm\ntiming: lockstep\ntimeout: 20\n"
+      << "coordinator:\n  balance: wear\n  tasks:\n";
+    for (int i = 0; i < 3; ++i) {
+      f << "    - {name: out-" << i << ", segments: [{to: [0.0, 0.8, 0.0], duration: 1.0}]}\n"
+        << "    - {name: back-" << i << ", segments: [{to: [-0.2, 0.8, 0.0], duration: 1.0}]}\n";
+    }
+    f << "modules:\n";
+    for (int m = 1; m <= 4; ++m) {
+      f << "  - {name: m" << m << ", scenario: " << kSrc << "/config/scenarios/paper.yaml, case: SOSM}\n";
+    }
+  }
+  const std::string summary = work_dir() + "/four.summary";
+  const Run r = run(kBin + "/tandem up " + path + " --summary " + summary);
+  INFO(r.output);
+  REQUIRE(r.exit_code == 0);
+  CHECK(r.output.find("6/6 tasks done") != std::string::npos);
+  const auto kv = read_summary(summary);
+  CHECK(kv.at("coordinator.done") == 1);
+  int modules_with_tasks = 0;
+  for (int m = 1; m <= 4; ++m) {
+    const std::string id = "m" + std::to_string(m);
+    INFO(id);
+    CHECK(kv.at(id + ".slip_events") == 0);
+    CHECK(kv.at(id + ".contact_lost") == 0);
+    CHECK(kv.at(id + "/left.min_normal_force") >= 19.62);
+    CHECK(kv.at(id + "/right.min_normal_force") >= 19.62);
+    // Every object rests at a task's end point: x is 0.0 or -0.2, y 0.8.
+    const double x = kv.at(id + ".object_final0");
+    CHECK((std::abs(x) < 1e-3 || std::abs(x + 0.2) < 1e-3));
+    if (r.output.find(id + " did 0 task") == std::string::npos) ++modules_with_tasks;
+  }
+  CHECK(modules_with_tasks >= 3);  // the queue is spread over the modules, not run by one
+  CHECK_FALSE(processes_left(domain));
+}
+
 TEST_CASE("a deployment with a bad configuration fails before anything starts", "[distributed]") {
   const int domain = test_domain(1);
   const std::string deploy = write_deployment("badcase", domain, "NoSuchCase");

@@ -31,10 +31,10 @@ int main(int argc, char** argv) {
     return 2;
   }
   bus::Participant part(domain, "test-injector", bus::Transport::SharedMemory);
-  bus::Reader<msg::ArmSensors, msg::ArmSensorsPubSubType> sensors(part, bus::kSensorsTopic, bus::TopicKind::Sensors);
-  bus::Writer<msg::TorqueCommand, msg::TorqueCommandPubSubType> torques(part, bus::kTorquesTopic,
+  bus::Reader<msg::ArmSensors, msg::ArmSensorsPubSubType> sensors(part, bus::module_topic(bus::kSensorsTopic, module), bus::TopicKind::Sensors);
+  bus::Writer<msg::TorqueCommand, msg::TorqueCommandPubSubType> torques(part, bus::module_topic(bus::kTorquesTopic, module),
                                                                          bus::TopicKind::Torques);
-  bus::Writer<msg::ArmReference, msg::ArmReferencePubSubType> refs(part, bus::kReferencesTopic,
+  bus::Writer<msg::ArmReference, msg::ArmReferencePubSubType> refs(part, bus::module_topic(bus::kReferencesTopic, module),
                                                                    bus::TopicKind::References);
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const double inf = std::numeric_limits<double>::infinity();

@@ -7,19 +7,25 @@ namespace {
 // Per-tick topics: reliable (lockstep must not lose a tick), keep-last 32 (a reader that is one or two
 // ticks behind still gets everything; nothing older matters), volatile (a late joiner starts from the next
 // tick). Summaries and status: reliable, transient-local, keep-last 1 per key, so a launcher or a
-// `tandem status` that looks late still sees the latest value. Control requests: reliable, keep-last 32,
+// `tandem status` that looks late still sees the latest value; the same for task assignments and task
+// states, so a supervisor that (re)joins gets its module's current task. Control requests: reliable, keep-last 32,
 // volatile (a request is for the launchers running now).
 template <class Q>
 void apply(Q& q, TopicKind kind) {
   q.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
   q.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
-  if (kind == TopicKind::Summary || kind == TopicKind::Status) {
+  if (kind == TopicKind::Summary || kind == TopicKind::Status || kind == TopicKind::Task) {
     q.history().depth = 1;
     q.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
   } else {
     q.history().depth = 32;
     q.durability().kind = fdds::VOLATILE_DURABILITY_QOS;
   }
+  // Keyed topics carry one instance per arm, process or module: the default limit of 10 instances would
+  // silently drop the 11th process of a large deployment.
+  q.resource_limits().max_instances = 1024;
+  q.resource_limits().max_samples_per_instance = q.history().depth;
+  q.resource_limits().max_samples = 1024 * q.history().depth;
 }
 }  // namespace
 

@@ -3,6 +3,7 @@
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
+#include <limits>
 #include <stdexcept>
 
 #include "tandem/sim/scenario_yaml.hpp"
@@ -18,7 +19,7 @@ void usage(const char* role, bool needs_arm, std::FILE* f) {
   std::fprintf(f,
                "usage: tandem-%s --scenario FILE --case NAME [--module NAME]%s [--domain ID]\n"
                "       [--transport shm|udp] [--timeout SECONDS] [--timing lockstep|realtime]\n"
-               "       [--deployment NAME]\n"
+               "       [--deployment NAME] [--continuous]\n"
                "Started by 'tandem up'; one Fast DDS participant. Exit: 0 done, 2 bad arguments or\n"
                "configuration, 3 peers not found in time, 4 a tick timed out.\n",
                role, needs_arm ? " --arm ROBOT" : "");
@@ -39,6 +40,10 @@ bool parse_role_options(const char* role, int argc, char** argv, bool needs_arm,
       usage(role, needs_arm, stdout);
       exit_code = 0;
       return false;
+    }
+    if (a == "--continuous") {
+      o.continuous = true;
+      continue;
     }
     if (i + 1 >= argc) {
       std::fprintf(stderr, "tandem-%s: '%s' needs a value (or is unknown)\n", role, a.c_str());
@@ -111,6 +116,7 @@ RoleContext load_context(const RoleOptions& o) {
   }
   if (!found) throw sim::ConfigError(o.scenario + ": no case '" + o.case_name + "'; cases: " + list);
   c.module = sim::make_module(c.scenario, c.case_config);
+  if (o.continuous) c.module.steps = std::numeric_limits<long>::max();  // until stopped
   c.module_name = o.module;
   return c;
 }

@@ -3,6 +3,7 @@
 
 #include <fastdds/dds/publisher/qos/DataWriterQos.hpp>
 #include <fastdds/dds/subscriber/qos/DataReaderQos.hpp>
+#include <string>
 
 namespace tandem::dds {
 
@@ -13,12 +14,16 @@ enum class TopicKind {
   Summary,     ///< end-of-run results for the launcher
   Status,      ///< lifecycle and live figures of every process
   Control,     ///< requests to a launcher (tandem down)
+  Task,        ///< task assignments and task states (latest per module)
 };
 
 eprosima::fastdds::dds::DataWriterQos writer_qos(TopicKind kind);
 eprosima::fastdds::dds::DataReaderQos reader_qos(TopicKind kind);
 
-/// Topic names.
+/// Topic names. The per-tick topics are per module ("<base>/<module>"), so that a world, its supervisor and
+/// its robots receive only their own module's samples, however many modules share the domain.
+inline std::string module_topic(const char* base, const std::string& module) { return std::string(base) + "/" + module; }
+
 inline constexpr const char* kSensorsTopic = "tandem/arm_sensors";
 inline constexpr const char* kReferencesTopic = "tandem/arm_references";
 inline constexpr const char* kTorquesTopic = "tandem/torque_commands";
@@ -26,5 +31,7 @@ inline constexpr const char* kRobotSummaryTopic = "tandem/robot_summary";
 inline constexpr const char* kWorldSummaryTopic = "tandem/world_summary";
 inline constexpr const char* kStatusTopic = "tandem/process_status";
 inline constexpr const char* kControlTopic = "tandem/control";
+inline constexpr const char* kTaskAssignmentTopic = "tandem/task_assignment";
+inline constexpr const char* kTaskStateTopic = "tandem/task_state";
 
 }  // namespace tandem::dds

@@ -23,6 +23,7 @@ struct RoleOptions {
   double timeout = 10.0;      ///< seconds to wait for peers / a tick before giving up
   bool realtime = false;      ///< world: step on the wall clock (else lockstep)
   std::string deployment;     ///< name of the deployment (in status messages)
+  bool continuous = false;    ///< run until stopped, tasks from the coordinator (else the scenario's task)
 };
 
 /// Parses the common options; on error prints to stderr the problem and the usage and returns false.

@@ -4,12 +4,18 @@
 #include <string>
 #include <vector>
 
-namespace tandem::cli {
+namespace tandem::runtime {
 
 struct ModuleDeployment {
   std::string name;
   std::string scenario;  ///< resolved path
   std::string case_name;
+};
+
+/// A task of the coordinator's queue: waypoints of the object's absolute pose, from wherever it is.
+struct TaskSpec {
+  std::string name;
+  std::vector<double> waypoints;  ///< (x, y, phi_E, duration) per waypoint, flattened
 };
 
 struct Deployment {
@@ -20,9 +26,12 @@ struct Deployment {
   std::string timing = "lockstep";
   double timeout = 10.0;
   std::vector<ModuleDeployment> modules;
+  bool coordinator = false;        ///< a coordinator hands out `tasks`; modules run until it is done
+  std::vector<TaskSpec> tasks;
+  std::string balance = "wear";    ///< wear | round_robin
 };
 
 /// Reads and validates a deployment, including every scenario and case it names. Throws sim::ConfigError.
 Deployment load_deployment(const std::string& path);
 
-}  // namespace tandem::cli
+}  // namespace tandem::runtime

@@ -1,0 +1,122 @@
+#include "tandem/runtime/deployment.hpp"
+
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include "tandem/sim/module_setup.hpp"
+#include "tandem/sim/scenario_yaml.hpp"
+#include "tandem/sim/yaml_reader.hpp"
+
+namespace tandem::runtime {
+
+Deployment load_deployment(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw sim::ConfigError(path + ": cannot open the deployment file");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  YAML::Node root;
+  try {
+    root = YAML::Load(ss.str());
+  } catch (const YAML::Exception& e) {
+    throw sim::ConfigError(path + ":" + std::to_string(e.mark.line + 1) + ": invalid YAML: " + e.msg);
+  }
+  if (!root || root.IsNull()) throw sim::ConfigError(path + ": the file is empty; expected a deployment mapping");
+  Deployment d;
+  d.source = path;
+  const std::string dir = path.find('/') == std::string::npos ? "." : path.substr(0, path.rfind('/'));
+  sim::yaml::MapReader top(root, "", path);
+  top.text("name", d.name, true);
+  int domain = 0;
+  top.integer("domain_id", domain, 0, 232, true);
+  d.domain_id = domain;
+  top.choice("transport", d.transport, {"shm", "udp"});
+  top.choice("timing", d.timing, {"lockstep", "realtime"});
+  top.num("timeout", d.timeout, 0.1, 3600.0);
+  YAML::Node mods = top.sequence("modules", true);
+  std::set<std::string> names;
+  for (size_t i = 0; i < mods.size(); ++i) {
+    sim::yaml::MapReader mr(mods[i], "modules[" + std::to_string(i) + "]", path);
+    ModuleDeployment m;
+    mr.text("name", m.name, true);
+    if (m.name.empty() || m.name.find('/') != std::string::npos || !names.insert(m.name).second) {
+      mr.fail(mods[i]["name"], mr.key_path("name"), "module names must be unique, non-empty, without '/'");
+    }
+    mr.text("scenario", m.scenario, true);
+    if (!m.scenario.empty() && m.scenario[0] != '/') m.scenario = dir + "/" + m.scenario;
+    mr.text("case", m.case_name, true);
+    mr.finish();
+    // Validate what each process will load, before anything starts.
+    const sim::Scenario sc = sim::load_scenario(m.scenario);
+    bool found = false;
+    std::string list;
+    for (const auto& c : sc.cases) {
+      found = found || c.name == m.case_name;
+      list += (list.empty() ? "" : ", ") + c.name;
+    }
+    if (!found) {
+      mr.fail(mods[i]["case"], mr.key_path("case"), "no case '" + m.case_name + "' in " + m.scenario + "; cases: " + list);
+    }
+    d.modules.push_back(m);
+  }
+  if (d.modules.empty()) top.fail(mods, "modules", "list at least one module");
+  if (top.has("coordinator")) {
+    sim::yaml::MapReader co = top.child("coordinator");
+    d.coordinator = true;
+    co.choice("balance", d.balance, {"wear", "round_robin"});
+    YAML::Node tasks = co.sequence("tasks", true);
+    for (size_t i = 0; i < tasks.size(); ++i) {
+      sim::yaml::MapReader tr(tasks[i], co.key_path("tasks[" + std::to_string(i) + "]"), path);
+      TaskSpec t;
+      tr.text("name", t.name, true);
+      YAML::Node segs = tr.sequence("segments", true);
+      for (size_t k = 0; k < segs.size(); ++k) {
+        sim::yaml::MapReader sr(segs[k], tr.key_path("segments[" + std::to_string(k) + "]"), path);
+        Eigen::Vector3d to = Eigen::Vector3d::Zero();
+        double duration = 1.0;
+        sr.vec<3>("to", to, -100.0, 100.0, true);
+        sr.num("duration", duration, 1e-3, 3600.0, true);
+        sr.finish();
+        t.waypoints.insert(t.waypoints.end(), {to(0), to(1), to(2), duration});
+      }
+      if (t.waypoints.empty()) tr.fail(tasks[i], tr.key_path("segments"), "a task needs at least one segment");
+      tr.finish();
+      d.tasks.push_back(t);
+    }
+    if (d.tasks.empty()) co.fail(tasks, co.key_path("tasks"), "list at least one task");
+    co.finish();
+    // Every waypoint must be reachable by every module's arms, on the way from any other waypoint or the
+    // start: check the straight segments between all of them every 10 ms of their planned motion.
+    for (const auto& m : d.modules) {
+      const sim::Scenario sc = sim::load_scenario(m.scenario);
+      std::vector<Eigen::Vector3d> poses{sc.start};
+      for (const auto& t : d.tasks) {
+        for (size_t w = 0; w + 3 < t.waypoints.size() + 0; w += 4) {
+          poses.emplace_back(t.waypoints[w], t.waypoints[w + 1], t.waypoints[w + 2]);
+        }
+      }
+      for (const auto& a : poses) {
+        for (const auto& b : poses) {
+          sim::Scenario probe = sc;
+          probe.start = a;
+          probe.hold = 0.0;
+          probe.segments = {model::ObjectPath::Segment{b, 1.0}};
+          probe.duration = 1.0;
+          try {
+            for (const auto& c : probe.cases) {
+              if (c.name == m.case_name) (void)sim::make_module(probe, c);
+            }
+          } catch (const std::exception& e) {
+            co.fail(tasks, co.key_path("tasks"),
+                    "module '" + m.name + "' cannot move the object between (" + std::to_string(a(0)) + ", " +
+                        std::to_string(a(1)) + ") and (" + std::to_string(b(0)) + ", " + std::to_string(b(1)) + ")");
+          }
+        }
+      }
+    }
+  }
+  top.finish();
+  return d;
+}
+
+}  // namespace tandem::runtime

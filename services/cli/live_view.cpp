@@ -14,8 +14,9 @@ void LiveView::print(std::FILE* f) const {
                    static_cast<unsigned long long>(s.tick()), progress, s.grasp_margin(),
                    static_cast<unsigned long long>(s.late()), s.detail().empty() ? "" : "  ", s.detail().c_str());
     } else if (s.role() == "robot") {
-      std::fprintf(f, "  %-18s %-11s tick %6llu  |e_p| %9.3e m  wear %7.3f rad  rejected %llu  pid %lld%s%s\n",
-                   id.c_str(), state, static_cast<unsigned long long>(s.tick()), s.tracking_error(), s.wear(),
+      std::fprintf(f, "  %-18s %-11s tick %6llu  |e_p| %9.3e m  step %5.0f us  wear %7.3f rad  rejected %llu  pid %lld%s%s\n",
+                   id.c_str(), state, static_cast<unsigned long long>(s.tick()), s.tracking_error(),
+                   s.latency_p99_us(), s.wear(),
                    static_cast<unsigned long long>(s.late()), static_cast<long long>(s.pid()),
                    s.detail().empty() ? "" : "  ", s.detail().c_str());
     } else {

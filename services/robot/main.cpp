@@ -69,7 +69,7 @@ int main(int argc, char** argv) {
   };
   std::array<Slot, 4> ring{};
   model::Vec3 prev_q = model::Vec3::Zero();
-  double wear = 0.0, workload = 0.0;
+  double wear = 0.0, workload = 0.0, interval_worst_us = 0.0;
   unsigned long long rejected = 0;
   auto last_input = std::chrono::steady_clock::now();
   while (!runtime::g_stop && done + 1 < m.steps) {
@@ -111,11 +111,15 @@ int main(int argc, char** argv) {
     ref = due.ref;
     if (have_sensor > done && have_ref == have_sensor) {
       const long k = have_sensor;
+      const auto compute_start = std::chrono::steady_clock::now();
       const model::ControlOutput out = ctl.step(in, ref);
       meter.add(static_cast<double>(k) * m.period, ref, out);
       cmd.tick(static_cast<uint64_t>(k));
       for (int i = 0; i < 3; ++i) cmd.tau()[static_cast<size_t>(i)] = out.tau(i);
       torques.write(cmd);
+      interval_worst_us = std::max(
+          interval_worst_us,
+          std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - compute_start).count());
       // Wear and workload, for the coordinator's balancing: joint travel and mechanical work so far.
       if (done >= 0) {
         const model::Vec3 dq = (in.q - prev_q).cwiseAbs();
@@ -130,6 +134,8 @@ int main(int argc, char** argv) {
         status.msg().late(rejected);
         status.msg().wear(wear);
         status.msg().workload(workload);
+        status.msg().latency_p99_us(interval_worst_us);  // worst control step + write of the interval
+        interval_worst_us = 0.0;
         status.publish();
       }
       done = k;

@@ -167,8 +167,11 @@ TEST_CASE("invalid samples on the wire are rejected and counted; the run is unaf
   CHECK_FALSE(processes_left(domain));
 }
 
+int shm_files() { return std::stoi(run("ls /dev/shm | grep -c fastrtps || true").output); }
+
 TEST_CASE("tandem status and tandem down work from another process over DDS", "[distributed]") {
   const int domain = test_domain(4);
+  const int shm_before = shm_files();
   const std::string deploy = write_deployment("remote", domain, "SOSM", "realtime");
   const std::string up_log = work_dir() + "/remote.log";
   // Start the deployment in the background; ask for its status, then stop it with `tandem down`.
@@ -190,6 +193,7 @@ TEST_CASE("tandem status and tandem down work from another process over DDS", "[
   CHECK(ss.str().find("finalized") != std::string::npos);
   CHECK(ss.str().find("exited with code") == std::string::npos);  // every process stopped cleanly
   CHECK_FALSE(processes_left(domain));
+  CHECK(shm_files() == shm_before);  // every participant removed its shared-memory files
 }
 
 TEST_CASE("a coordinator hands a task queue to four modules, which complete it", "[distributed]") {

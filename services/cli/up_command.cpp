@@ -13,6 +13,7 @@
 #include <chrono>
 #include <cstdio>
 #include <algorithm>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <map>
@@ -39,6 +40,8 @@ void on_signal(int) { g_stop = true; }
 struct Child {
   std::string label;
   pid_t pid = -1;
+  std::string arm;  ///< robots: the arm it controls (a dead robot is not fatal while another serves the arm)
+  bool reported = false;
   int status = -1;  ///< exit code once reaped (128 + signal if killed)
   bool running = true;
 };
@@ -175,19 +178,24 @@ int up_command(const std::vector<std::string>& args) {
                                           "--timing",   d.timing,   "--deployment", d.name};
     if (d.coordinator) common.push_back("--continuous");
     const sim::Scenario sc = sim::load_scenario(m.scenario);
-    children.push_back({m.name + "/world", spawn(dir + "/tandem-world", common)});
-    children.push_back({m.name + "/supervisor", spawn(dir + "/tandem-supervisor", common)});
+    children.push_back({m.name + "/world", spawn(dir + "/tandem-world", common), ""});
+    children.push_back({m.name + "/supervisor", spawn(dir + "/tandem-supervisor", common), ""});
     for (const auto& r : sc.robots) {
-      std::vector<std::string> a = common;
-      a.push_back("--arm");
-      a.push_back(r.name);
-      children.push_back({m.name + "/" + r.name, spawn(dir + "/tandem-robot", a)});
+      for (int i = 0; i <= m.standby; ++i) {
+        // The primary has strength 100; standbys 50, 40, ...: the world follows the strongest live one.
+        const int strength = i == 0 ? 100 : 60 - 10 * i;
+        std::vector<std::string> a = common;
+        a.insert(a.end(), {"--arm", r.name, "--strength", std::to_string(strength)});
+        const std::string label = m.name + "/" + r.name + (i == 0 ? "" : "@" + std::to_string(strength));
+        children.push_back({label, spawn(dir + "/tandem-robot", a), m.name + "/" + r.name});
+      }
     }
   }
   if (d.coordinator) {
     children.push_back({"coordinator", spawn(dir + "/tandem-coordinator",
                                              {"--deployment-file", file, "--domain", std::to_string(d.domain_id),
-                                              "--timeout", std::to_string(std::max(30.0, 3 * d.timeout))})});
+                                              "--timeout", std::to_string(std::max(30.0, 3 * d.timeout))}),
+                        ""});
   }
   for (const auto& c : children) std::printf("  started %-16s pid %d\n", c.label.c_str(), c.pid);
 
@@ -198,21 +206,31 @@ int up_command(const std::vector<std::string>& args) {
   bool failed = false, stopping = false, coordinator_done = false;
   auto collect = [&] {
     msg::RobotSummary rs;
-    while (robot_sum.take(rs)) robots[rs.arm_id()] = rs;
+    while (robot_sum.take(rs)) robots[rs.robot_id()] = rs;
     msg::WorldSummary ws;
     while (world_sum.take(ws)) worlds[ws.module_id()] = ws;
   };
   while (running_count(children) > 0) {
     reap(children, false);
     collect();
-    for (const auto& c : children) {
+    for (auto& c : children) {
       if (!c.running && c.status == 0 && c.label == "coordinator" && !stopping) {
         std::printf("tandem up: the coordinator reports every task done; stopping the deployment\n");
         coordinator_done = true;
         stopping = true;
         stop_all(children, SIGTERM);
       }
-      if (!c.running && c.status != 0 && !stopping) {
+      if (!c.running && c.status != 0 && !stopping && !c.reported && !c.arm.empty()) {
+        bool served = false;
+        for (const auto& o : children) served = served || (o.running && o.arm == c.arm);
+        if (served) {
+          std::printf("tandem up: %s exited with code %d; another robot serves %s, the deployment goes on\n",
+                      c.label.c_str(), c.status, c.arm.c_str());
+          c.reported = true;
+          continue;
+        }
+      }
+      if (!c.running && c.status != 0 && !stopping && !c.reported) {
         std::fprintf(stderr, "tandem up: %s exited with code %d; stopping the deployment\n", c.label.c_str(), c.status);
         failed = true;
         stopping = true;
@@ -286,6 +304,11 @@ int up_command(const std::vector<std::string>& args) {
                 static_cast<unsigned long long>(ws.contact_lost()),
                 static_cast<unsigned long long>(ws.rejected_commands()),
                 ws.realtime() ? "late arm-ticks" : "timeouts", static_cast<unsigned long long>(ws.late_commands()));
+    if (ws.failovers() > 0) {
+      std::printf("%s: %llu failover(s): the world switched robots after a gap of %.1f ms (worst %.1f ms)\n",
+                  m.name.c_str(), static_cast<unsigned long long>(ws.failovers()), ws.failover_last_ms(),
+                  ws.failover_max_ms());
+    }
     if (ws.realtime()) {
       std::printf("%s: real time: sample->command latency p50 %.0f us, p99 %.0f us, max %.0f us; late arm-ticks %llu "
                   "of %llu (%.2f%%); world tick start late p99 %.0f us\n",
@@ -300,19 +323,30 @@ int up_command(const std::vector<std::string>& args) {
           << m.name << ".contact_lost=" << ws.contact_lost() << "\n" << m.name
           << ".rejected_commands=" << ws.rejected_commands() << "\n" << m.name
           << ".late_commands=" << ws.late_commands() << "\n" << m.name << ".latency_p50_us=" << ws.latency_p50_us()
-          << "\n" << m.name << ".latency_p99_us=" << ws.latency_p99_us() << "\n";
+          << "\n" << m.name << ".latency_p99_us=" << ws.latency_p99_us() << "\n" << m.name
+          << ".failovers=" << ws.failovers() << "\n" << m.name << ".failover_max_ms=" << ws.failover_max_ms() << "\n";
       for (size_t i = 0; i < 6; ++i) out << m.name << ".q_final" << i << "=" << ws.q_final()[i] << "\n";
       for (size_t i = 0; i < 3; ++i) out << m.name << ".object_final" << i << "=" << ws.object_final()[i] << "\n";
     }
   }
   for (const auto& c : children) {
-    if (c.status != 0) std::printf("process %s exited with code %d\n", c.label.c_str(), c.status);
+    if (c.status != 0) {
+      std::printf("process %s exited with code %d%s\n", c.label.c_str(), c.status,
+                  c.reported ? " (its arm was served by another robot)" : "");
+    }
   }
   {
     msg::ProcessStatus ps;
     while (status.take(ps)) view.update(ps);
     std::printf("final states:\n");
     view.print(stdout);
+  }
+  // A process killed by a signal could not remove its shared-memory files: clean the segments and ports
+  // that no live participant uses (best effort, with Fast DDS's own tool).
+  bool killed = false;
+  for (const auto& c : children) killed = killed || c.status >= 128;
+  if (killed && std::system("fastdds shm clean > /dev/null 2>&1") != 0) {
+    std::printf("note: 'fastdds shm clean' failed; stale files may remain in /dev/shm\n");
   }
   if (d.coordinator && !coordinator_done) failed = true;
   const bool ok = !failed && !g_stop && grasp_ok;

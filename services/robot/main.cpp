@@ -39,7 +39,9 @@ int main(int argc, char** argv) {
   }
   const sim::ModuleSetup& m = ctx.module;
   const std::string my_arm = ctx.arm_id(j);
-  const std::string robot_id = my_arm + "#" + std::to_string(::getpid());
+  // Process id: the arm for the primary, "<arm>@<strength>" for a standby (one per strength).
+  const std::string robot_id =
+      opt.strength == runtime::RoleOptions::kPrimaryStrength ? my_arm : my_arm + "@" + std::to_string(opt.strength);
   model::HybridController ctl(m.plant.arms[j], m.control[j]);
   sim::RobotMeter meter(m.control[j].selection_p, ctx.scenario.transient, m.path.motion_end());
 
@@ -48,11 +50,11 @@ int main(int argc, char** argv) {
   bus::Reader<msg::ArmReference, msg::ArmReferencePubSubType> refs(part, bus::module_topic(bus::kReferencesTopic, opt.module),
                                                                    bus::TopicKind::References);
   bus::Writer<msg::TorqueCommand, msg::TorqueCommandPubSubType> torques(part, bus::module_topic(bus::kTorquesTopic, opt.module),
-                                                                         bus::TopicKind::Torques);
+                                                                         bus::TopicKind::Torques, opt.strength);
   bus::Writer<msg::RobotSummary, msg::RobotSummaryPubSubType> summary(part, bus::kRobotSummaryTopic,
                                                                        bus::TopicKind::Summary);
 
-  runtime::StatusPublisher status(part, my_arm, "robot", opt.module);
+  runtime::StatusPublisher status(part, robot_id, "robot", opt.module);
   status.msg().deployment(opt.deployment);
   status.set(runtime::Lifecycle::Inactive, "waiting for the first tick");
   msg::ArmSensors s;
@@ -67,11 +69,17 @@ int main(int argc, char** argv) {
     long tick = -1;
     model::ArmReference ref;
   };
-  std::array<Slot, 4> ring{};
+  std::array<Slot, 64> ring{};
+  struct SensorSlot {
+    long tick = -1;
+    model::ArmSensors in;
+  };
+  std::array<SensorSlot, 64> sring{};
   model::Vec3 prev_q = model::Vec3::Zero();
   double wear = 0.0, workload = 0.0, interval_worst_us = 0.0;
   unsigned long long rejected = 0;
   auto last_input = std::chrono::steady_clock::now();
+  auto last_assert = last_input;
   while (!runtime::g_stop && done + 1 < m.steps) {
     bool got = false;
     while (sensors.take(s)) {
@@ -81,12 +89,16 @@ int main(int argc, char** argv) {
         ++rejected;
         continue;
       }
+      // Samples are queued by tick and processed in order, so that a standby running in shadow computes
+      // exactly what the primary computes (same inputs, same controller state).
+      SensorSlot& slot = sring[s.tick() % sring.size()];
       for (int i = 0; i < 3; ++i) {
-        in.q(i) = s.q()[static_cast<size_t>(i)];
-        in.qd(i) = s.qd()[static_cast<size_t>(i)];
+        slot.in.q(i) = s.q()[static_cast<size_t>(i)];
+        slot.in.qd(i) = s.qd()[static_cast<size_t>(i)];
       }
-      in.h = model::Vec2(s.h()[0], s.h()[1]);
-      have_sensor = static_cast<long>(s.tick());
+      slot.in.h = model::Vec2(s.h()[0], s.h()[1]);
+      slot.tick = static_cast<long>(s.tick());
+      have_sensor = std::max(have_sensor, slot.tick);
     }
     while (refs.take(r)) {
       got = true;
@@ -96,7 +108,7 @@ int main(int argc, char** argv) {
         ++rejected;
         continue;
       }
-      // References arrive up to a tick ahead: keep a small ring indexed by tick.
+      // References arrive up to a tick ahead, and a standby may lag: keep a ring indexed by tick.
       Slot& slot = ring[r.tick() % ring.size()];
       for (int i = 0; i < 3; ++i) {
         slot.ref.x(i) = r.x()[static_cast<size_t>(i)];
@@ -106,11 +118,17 @@ int main(int argc, char** argv) {
       slot.ref.force = r.force();
       slot.tick = static_cast<long>(r.tick());
     }
-    const Slot& due = ring[static_cast<size_t>(std::max(have_sensor, 0L)) % ring.size()];
-    have_ref = due.tick == have_sensor ? have_sensor : -1;
-    ref = due.ref;
-    if (have_sensor > done && have_ref == have_sensor) {
-      const long k = have_sensor;
+    // The next tick to compute; a robot more than a ring behind (real time) skips to the newest sample.
+    long next = done + 1;
+    if (have_sensor - next >= static_cast<long>(sring.size())) next = have_sensor;
+    const SensorSlot& due_in = sring[static_cast<size_t>(std::max(next, 0L)) % sring.size()];
+    const Slot& due = ring[static_cast<size_t>(std::max(next, 0L)) % ring.size()];
+    const bool sensor_ready = due_in.tick == next;
+    have_ref = due.tick == next ? next : -1;
+    if (sensor_ready && have_ref == next) {
+      const long k = next;
+      in = due_in.in;
+      ref = due.ref;
       const auto compute_start = std::chrono::steady_clock::now();
       const model::ControlOutput out = ctl.step(in, ref);
       meter.add(static_cast<double>(k) * m.period, ref, out);
@@ -142,18 +160,28 @@ int main(int argc, char** argv) {
       last_input = std::chrono::steady_clock::now();
       continue;
     }
-    if (got) last_input = std::chrono::steady_clock::now();
-    if (std::chrono::duration<double>(std::chrono::steady_clock::now() - last_input).count() > opt.timeout) {
+    const auto now = std::chrono::steady_clock::now();
+    if (got) last_input = now;
+    // Liveliness (MANUAL_BY_TOPIC): assert while waiting, so that a live robot is never taken for dead. While
+    // the world waits for this tick, repeat the last command: after a failover the new owner's earlier
+    // sample was filtered out by the world's reader, and this repeat is what reaches it.
+    if (now - last_assert > std::chrono::milliseconds(bus::kLivelinessAssertMs)) {
+      torques.assert_liveliness();
+      if (done >= 0 && now - last_input > std::chrono::milliseconds(2 * bus::kLivelinessAssertMs)) torques.write(cmd);
+      last_assert = now;
+    }
+    if (std::chrono::duration<double>(now - last_input).count() > opt.timeout) {
       std::fprintf(stderr, "tandem-robot %s: no input for %.1f s after tick %ld; stopping\n", my_arm.c_str(),
                    opt.timeout, done);
       break;
     }
     // The reference of a tick follows its sensor sample (the supervisor answers the sample): wait on the
     // reader whose sample is due next.
-    if (have_sensor > done && have_ref != have_sensor) {
-      refs.wait(0.01);
+    const double wait_s = bus::kLivelinessAssertMs * 1e-3;
+    if (sensor_ready && have_ref != next) {
+      refs.wait(wait_s);
     } else {
-      sensors.wait(0.01);
+      sensors.wait(wait_s);
     }
   }
   const sim::RobotMeter::Summary sm = meter.summary();

@@ -61,6 +61,11 @@ int main(int argc, char** argv) {
   std::this_thread::sleep_for(std::chrono::milliseconds(200));  // let the reverse matches settle
 
   unsigned long long rejected = 0, timeouts = 0, late = 0;
+  std::array<std::string, 2> owner;
+  std::array<std::chrono::steady_clock::time_point, 2> last_applied{};
+  unsigned long long failovers = 0;
+  double failover_max_ms = 0.0, failover_last_ms = 0.0;
+  unsigned long long stale = 0;
   runtime::Histogram latency_us, wake_late_us;  // fixed bins: no allocation per tick, any run length
   double interval_worst_us = 0.0;
   msg::ArmSensors s;
@@ -133,7 +138,12 @@ int main(int argc, char** argv) {
         continue;
       }
       if (cmd.tick() != static_cast<uint64_t>(k)) {
-        if (!opt.realtime || cmd.tick() > static_cast<uint64_t>(k)) ++rejected;  // real time: a late answer
+        // An older tick is a late answer or a liveliness repeat: harmless, dropped. A future tick is invalid.
+        if (cmd.tick() > static_cast<uint64_t>(k)) {
+          ++rejected;
+        } else {
+          ++stale;
+        }
         continue;
       }
       const model::Vec3 v(cmd.tau()[0], cmd.tau()[1], cmd.tau()[2]);
@@ -143,6 +153,21 @@ int main(int argc, char** argv) {
       }
       tau[j] = v;
       have[j] = true;
+      // Which robot the arm follows (EXCLUSIVE ownership picks the strongest live one): a change is a failover.
+      const auto now_fo = std::chrono::steady_clock::now();
+      // (In the first 50 ticks discovery order decides which of a primary and its shadow the reader hears
+      // first; their commands are equal, and those switches are not failovers.)
+      if (!owner[j].empty() && cmd.robot_id() != owner[j] && k >= 50) {
+        const double gap_ms = std::chrono::duration<double, std::milli>(now_fo - last_applied[j]).count();
+        ++failovers;
+        failover_last_ms = gap_ms;
+        failover_max_ms = std::max(failover_max_ms, gap_ms);
+        std::printf("tandem-world %s: %s now follows %s (was %s), %.1f ms after the last command of the old one\n",
+                    opt.module.c_str(), ctx.arm_id(j).c_str(), cmd.robot_id().c_str(), owner[j].c_str(), gap_ms);
+        std::fflush(stdout);
+      }
+      owner[j] = cmd.robot_id();
+      last_applied[j] = now_fo;
       if (opt.realtime) {
         timespec now{};
         ::clock_gettime(CLOCK_MONOTONIC, &now);
@@ -187,6 +212,9 @@ int main(int argc, char** argv) {
   ws.latency_p99_us(pct(latency_us, 0.99));
   ws.latency_max_us(pct(latency_us, 1.0));
   ws.wake_late_p99_us(pct(wake_late_us, 0.99));
+  ws.failovers(failovers);
+  ws.failover_max_ms(failover_max_ms);
+  ws.failover_last_ms(failover_last_ms);
   summary.write(ws);
   status.msg().tick(static_cast<uint64_t>(k));
   status.msg().progress(opt.continuous ? -1.0 : static_cast<double>(k) / static_cast<double>(m.steps));

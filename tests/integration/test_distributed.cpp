@@ -30,11 +30,12 @@ std::string work_dir() {
 }
 
 std::string write_deployment(const std::string& name, int domain, const std::string& case_name,
-                             const std::string& timing = "lockstep") {
+                             const std::string& timing = "lockstep", int standby = 0) {
   const std::string path = work_dir() + "/" + name + ".yaml";
   std::ofstream(path) << "name: " << name << "\ndomain_id: " << domain << "\ntransport: shm\ntiming: " << timing
                       << "\ntimeout: 10\nmodules:\n  - name: m1\n    scenario: "
-                      << kSrc << "/config/scenarios/paper.yaml\n    case: " << case_name << "\n";
+                      << kSrc << "/config/scenarios/paper.yaml\n    case: " << case_name << "\n    standby: " << standby
+                      << "\n";
   return path;
 }
 
@@ -233,6 +234,42 @@ TEST_CASE("a coordinator hands a task queue to four modules, which complete it",
     if (r.output.find(id + " did 0 task") == std::string::npos) ++modules_with_tasks;
   }
   CHECK(modules_with_tasks >= 3);  // the queue is spread over the modules, not run by one
+  CHECK_FALSE(processes_left(domain));
+}
+
+TEST_CASE("SIGKILL of a primary robot: its hot standby takes over and nothing changes", "[distributed]") {
+  const int domain = test_domain(6);
+  const std::string deploy = write_deployment("standby", domain, "SOSM", "lockstep", 1);
+  const std::string summary = work_dir() + "/standby.summary";
+  const std::string up_log = work_dir() + "/standby.log";
+  const std::string cmd = kBin + "/tandem up " + deploy + " --summary " + summary + " > " + up_log +
+                          " 2>&1 & up=$!; sleep 2; pkill -9 -f \"tandem-[r]obot.*--domain " + std::to_string(domain) +
+                          " .*--arm left --strength 100\" && echo killed; wait $up; echo up_rc=$?";
+  const Run r = run("bash -c '" + cmd + "'");
+  std::ifstream log(up_log);
+  std::stringstream ss;
+  ss << log.rdbuf();
+  INFO(r.output << "\n--- tandem up ---\n" << ss.str());
+  REQUIRE(r.output.find("killed") != std::string::npos);
+  CHECK(r.output.find("up_rc=0") != std::string::npos);
+  CHECK(ss.str().find("m1/left now follows m1/left@50") != std::string::npos);
+  const auto kv = read_summary(summary);
+  CHECK(kv.at("m1.ticks") == 5000);
+  CHECK(kv.at("m1.slip_events") == 0);
+  CHECK(kv.at("m1.contact_lost") == 0);
+  CHECK(kv.at("m1.failovers") >= 1);
+  // The world waits at most the liveliness lease (20 ms) plus a little; a stall on a busy machine can add.
+  CHECK(kv.at("m1.failover_max_ms") > 1.0);
+  CHECK(kv.at("m1.failover_max_ms") < 500.0);
+  // The standby ran the same controller in shadow on the same inputs: the run is exactly the embedded one.
+  const auto sc = tandem::sim::load_scenario(kSrc + "/config/scenarios/paper.yaml");
+  for (const auto& c : sc.cases) {
+    if (c.name != "SOSM") continue;
+    const tandem::sim::CaseResult e = tandem::sim::run_case(sc, c);
+    CHECK(kv.at("m1/left@50.ep_pos_rms") == Approx(e.robots[0].ep_pos_rms).epsilon(1e-12));
+    CHECK(kv.at("m1/left@50.eh_rms") == Approx(e.robots[0].eh_rms).epsilon(1e-12));
+    CHECK(kv.at("m1.object_final0") == Approx(e.final_state.c(0)).margin(1e-12));
+  }
   CHECK_FALSE(processes_left(domain));
 }
 

@@ -23,15 +23,26 @@ void apply(Q& q, TopicKind kind) {
   }
   // Keyed topics carry one instance per arm, process or module: the default limit of 10 instances would
   // silently drop the 11th process of a large deployment.
+  if (kind == TopicKind::Torques) {
+    // Hot standby (DESIGN.md tier 1): EXCLUSIVE ownership keyed by arm, MANUAL_BY_TOPIC liveliness with a
+    // short lease (AUTOMATIC liveliness waits for the 20 s participant lease and never fails over).
+    q.ownership().kind = fdds::EXCLUSIVE_OWNERSHIP_QOS;
+    q.liveliness().kind = fdds::MANUAL_BY_TOPIC_LIVELINESS_QOS;
+    q.liveliness().lease_duration = eprosima::fastrtps::Duration_t(0, kLivelinessLeaseMs * 1000000u);
+  }
   q.resource_limits().max_instances = 1024;
   q.resource_limits().max_samples_per_instance = q.history().depth;
   q.resource_limits().max_samples = 1024 * q.history().depth;
 }
 }  // namespace
 
-fdds::DataWriterQos writer_qos(TopicKind kind) {
+fdds::DataWriterQos writer_qos(TopicKind kind, int32_t strength) {
   fdds::DataWriterQos q = fdds::DATAWRITER_QOS_DEFAULT;
   apply(q, kind);
+  if (kind == TopicKind::Torques) {
+    q.ownership_strength().value = static_cast<uint32_t>(strength);
+    q.liveliness().announcement_period = eprosima::fastrtps::Duration_t(0, kLivelinessAssertMs * 1000000u);
+  }
   return q;
 }
 

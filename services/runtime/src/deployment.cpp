@@ -45,6 +45,7 @@ Deployment load_deployment(const std::string& path) {
     mr.text("scenario", m.scenario, true);
     if (!m.scenario.empty() && m.scenario[0] != '/') m.scenario = dir + "/" + m.scenario;
     mr.text("case", m.case_name, true);
+    mr.integer("standby", m.standby, 0, 3);
     mr.finish();
     // Validate what each process will load, before anything starts.
     const sim::Scenario sc = sim::load_scenario(m.scenario);

@@ -19,10 +19,10 @@ void usage(const char* role, bool needs_arm, std::FILE* f) {
   std::fprintf(f,
                "usage: tandem-%s --scenario FILE --case NAME [--module NAME]%s [--domain ID]\n"
                "       [--transport shm|udp] [--timeout SECONDS] [--timing lockstep|realtime]\n"
-               "       [--deployment NAME] [--continuous]\n"
+               "       [--deployment NAME] [--continuous]%s\n"
                "Started by 'tandem up'; one Fast DDS participant. Exit: 0 done, 2 bad arguments or\n"
                "configuration, 3 peers not found in time, 4 a tick timed out.\n",
-               role, needs_arm ? " --arm ROBOT" : "");
+               role, needs_arm ? " --arm ROBOT" : "", needs_arm ? " [--strength N (100 primary)]" : "");
 }
 }  // namespace
 
@@ -73,6 +73,14 @@ bool parse_role_options(const char* role, int argc, char** argv, bool needs_arm,
         return false;
       }
       o.transport = v == "shm" ? dds::Transport::SharedMemory : dds::Transport::Udp;
+    } else if (a == "--strength" && needs_arm) {
+      char* end = nullptr;
+      const long v2 = std::strtol(v.c_str(), &end, 10);
+      if (*end != '\0' || v2 < 1 || v2 > 1000000) {
+        std::fprintf(stderr, "tandem-%s: --strength must be an integer in [1, 1000000], got '%s'\n", role, v.c_str());
+        return false;
+      }
+      o.strength = static_cast<int>(v2);
     } else if (a == "--deployment") {
       o.deployment = v;
     } else if (a == "--timing") {

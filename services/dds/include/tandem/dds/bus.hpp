@@ -46,15 +46,17 @@ class Participant {
 template <class T, class PubSubType>
 class Writer {
  public:
-  Writer(Participant& p, const std::string& topic_name, TopicKind kind) : p_(p) {
+  Writer(Participant& p, const std::string& topic_name, TopicKind kind, int32_t strength = 0) : p_(p) {
     fdds::Topic* t = p.topic(topic_name, new PubSubType());
-    writer_ = p.publisher()->create_datawriter(t, writer_qos(kind));
+    writer_ = p.publisher()->create_datawriter(t, writer_qos(kind, strength));
     if (writer_ == nullptr) throw std::runtime_error("cannot create a DDS writer on " + topic_name);
   }
   ~Writer() { p_.publisher()->delete_datawriter(writer_); }
   Writer(const Writer&) = delete;
   Writer& operator=(const Writer&) = delete;
   bool write(T& sample) { return writer_->write(&sample); }
+  /// Manual liveliness: tells readers this writer is alive without writing a sample.
+  void assert_liveliness() { writer_->assert_liveliness(); }
   int matched() const {
     fdds::PublicationMatchedStatus st;
     writer_->get_publication_matched_status(st);

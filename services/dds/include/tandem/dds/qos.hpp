@@ -17,7 +17,14 @@ enum class TopicKind {
   Task,        ///< task assignments and task states (latest per module)
 };
 
-eprosima::fastdds::dds::DataWriterQos writer_qos(TopicKind kind);
+/// strength: ownership strength of a torque writer (EXCLUSIVE ownership keyed by arm: the world follows the
+/// strongest live writer); ignored for other kinds.
+eprosima::fastdds::dds::DataWriterQos writer_qos(TopicKind kind, int32_t strength = 0);
+
+/// Liveliness lease of torque writers: a robot that wrote or asserted nothing for this long is taken for
+/// dead and the world follows the next strongest writer of the arm. Robots assert every kLivelinessAssertMs.
+inline constexpr int kLivelinessLeaseMs = 20;
+inline constexpr int kLivelinessAssertMs = 4;
 eprosima::fastdds::dds::DataReaderQos reader_qos(TopicKind kind);
 
 /// Topic names. The per-tick topics are per module ("<base>/<module>"), so that a world, its supervisor and

@@ -10,6 +10,7 @@ struct ModuleDeployment {
   std::string name;
   std::string scenario;  ///< resolved path
   std::string case_name;
+  int standby = 0;  ///< standby robot processes per arm (hot standby, lower ownership strength)
 };
 
 /// A task of the coordinator's queue: waypoints of the object's absolute pose, from wherever it is.

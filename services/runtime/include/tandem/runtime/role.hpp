@@ -24,6 +24,8 @@ struct RoleOptions {
   bool realtime = false;      ///< world: step on the wall clock (else lockstep)
   std::string deployment;     ///< name of the deployment (in status messages)
   bool continuous = false;    ///< run until stopped, tasks from the coordinator (else the scenario's task)
+  int strength = kPrimaryStrength;  ///< robot: ownership strength of its torque writer (standby: lower)
+  static constexpr int kPrimaryStrength = 100;
 };
 
 /// Parses the common options; on error prints to stderr the problem and the usage and returns false.

@@ -20,6 +20,7 @@ void usage(std::FILE* f) {
       "  up <deploy.yaml>      start a deployment as separate processes over Fast DDS (lockstep)\n"
       "  status <deploy.yaml>  lifecycle state and live figures of a running deployment (over DDS)\n"
       "  down <deploy.yaml>    stop a running deployment cleanly (over DDS)\n"
+      "  kill <deploy.yaml> P  fault injection: SIGKILL process P of a running deployment (over DDS)\n"
       "  help [command]        show this help, or the help of one command\n"
       "\n"
       "Run 'tandem help sim' or 'tandem help up' for their options. Exit codes: 0 success, 1 a run failed its grasp\n"
@@ -42,7 +43,7 @@ int main(int argc, char** argv) {
       tandem::cli::sim_usage(stdout);
     } else if (!args.empty() && args[0] == "up") {
       tandem::cli::up_usage(stdout);
-    } else if (!args.empty() && (args[0] == "status" || args[0] == "down")) {
+    } else if (!args.empty() && (args[0] == "status" || args[0] == "down" || args[0] == "kill")) {
       tandem::cli::remote_usage(stdout);
     } else {
       usage(stdout);
@@ -53,6 +54,7 @@ int main(int argc, char** argv) {
   if (cmd == "up") return tandem::cli::up_command(args);
   if (cmd == "status") return tandem::cli::status_command(args);
   if (cmd == "down") return tandem::cli::down_command(args);
+  if (cmd == "kill") return tandem::cli::kill_command(args);
   std::fprintf(stderr, "tandem: unknown command '%s'\n\n", cmd.c_str());
   usage(stderr);
   return 2;

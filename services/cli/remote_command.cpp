@@ -49,8 +49,10 @@ void remote_usage(std::FILE* f) {
   std::fputs(
       "usage: tandem status <deploy.yaml> | --domain ID [--name NAME]\n"
       "       tandem down   <deploy.yaml> | --domain ID --name NAME\n"
+      "       tandem kill   <deploy.yaml> | --domain ID --name NAME  PROCESS\n"
       "status: prints the lifecycle state and live figures of every process of the deployment(s) on the domain.\n"
-      "down:   asks the deployment's launcher to stop it cleanly (as Ctrl-C would); exit 1 if no launcher heard.\n",
+      "down:   asks the deployment's launcher to stop it cleanly (as Ctrl-C would); exit 1 if no launcher heard.\n"
+      "kill:   fault injection: the launcher SIGKILLs PROCESS (a label of its live view, e.g. m1/left).\n",
       f);
 }
 
@@ -75,11 +77,10 @@ int status_command(const std::vector<std::string>& args) {
   return 0;
 }
 
-int down_command(const std::vector<std::string>& args) {
-  Deployment d;
-  if (!parse_target("down", args, d)) return 2;
+namespace {
+int send_request(const char* verb, const Deployment& d, const std::string& target) {
   if (d.name.empty()) {
-    std::fprintf(stderr, "tandem down: name the deployment (--name NAME or a deployment file)\n");
+    std::fprintf(stderr, "tandem %s: name the deployment (--name NAME or a deployment file)\n", verb);
     return 2;
   }
   bus::Participant part(d.domain_id, "tandem-down", d.transport == "udp" ? bus::Transport::Udp : bus::Transport::SharedMemory);
@@ -89,17 +90,40 @@ int down_command(const std::vector<std::string>& args) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
   if (control.matched() < 1) {
-    std::fprintf(stderr, "tandem down: no launcher on domain %d answered\n", d.domain_id);
+    std::fprintf(stderr, "tandem %s: no launcher on domain %d answered\n", verb, d.domain_id);
     return 1;
   }
   msg::ControlRequest req;
   req.deployment(d.name);
-  req.command("down");
+  req.command(verb);
+  req.target(target);
   req.seq(1);
   control.write(req);
   std::this_thread::sleep_for(std::chrono::milliseconds(300));  // let it be delivered
-  std::printf("asked %s on domain %d to stop\n", d.name.c_str(), d.domain_id);
+  if (target.empty()) {
+    std::printf("asked %s on domain %d to stop\n", d.name.c_str(), d.domain_id);
+  } else {
+    std::printf("asked %s on domain %d to %s %s\n", d.name.c_str(), d.domain_id, verb, target.c_str());
+  }
   return 0;
+}
+}  // namespace
+
+int down_command(const std::vector<std::string>& args) {
+  Deployment d;
+  if (!parse_target("down", args, d)) return 2;
+  return send_request("down", d, "");
+}
+
+int kill_command(const std::vector<std::string>& args) {
+  if (args.empty()) {
+    remote_usage(stderr);
+    return 2;
+  }
+  const std::string target = args.back();
+  Deployment d;
+  if (!parse_target("kill", std::vector<std::string>(args.begin(), args.end() - 1), d)) return 2;
+  return send_request("kill", d, target);
 }
 
 }  // namespace tandem::cli

@@ -8,4 +8,5 @@ namespace tandem::cli {
 void remote_usage(std::FILE* f);
 int status_command(const std::vector<std::string>& args);
 int down_command(const std::vector<std::string>& args);
+int kill_command(const std::vector<std::string>& args);
 }  // namespace tandem::cli

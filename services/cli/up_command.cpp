@@ -245,6 +245,17 @@ int up_command(const std::vector<std::string>& args) {
         std::printf("tandem up: 'down' requested over DDS; stopping %d process(es)\n", running_count(children));
         g_stop = true;
       }
+      if (req.deployment() == d.name && req.command() == "kill") {
+        bool found = false;
+        for (const auto& c : children) {
+          if (c.label == req.target() && c.running) {
+            std::printf("tandem up: fault injection: SIGKILL %s (pid %d)\n", c.label.c_str(), c.pid);
+            ::kill(c.pid, SIGKILL);
+            found = true;
+          }
+        }
+        if (!found) std::printf("tandem up: 'kill %s': no such running process\n", req.target().c_str());
+      }
     }
     if (g_stop && !stopping) {
       std::printf("tandem up: stop requested; stopping %d process(es)\n", running_count(children));

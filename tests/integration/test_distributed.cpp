@@ -243,8 +243,8 @@ TEST_CASE("SIGKILL of a primary robot: its hot standby takes over and nothing ch
   const std::string summary = work_dir() + "/standby.summary";
   const std::string up_log = work_dir() + "/standby.log";
   const std::string cmd = kBin + "/tandem up " + deploy + " --summary " + summary + " > " + up_log +
-                          " 2>&1 & up=$!; sleep 2; pkill -9 -f \"tandem-[r]obot.*--domain " + std::to_string(domain) +
-                          " .*--arm left --strength 100\" && echo killed; wait $up; echo up_rc=$?";
+                          " 2>&1 & up=$!; sleep 2; " + kBin + "/tandem kill " + deploy +
+                          " m1/left && echo killed; wait $up; echo up_rc=$?";
   const Run r = run("bash -c '" + cmd + "'");
   std::ifstream log(up_log);
   std::stringstream ss;
@@ -252,6 +252,7 @@ TEST_CASE("SIGKILL of a primary robot: its hot standby takes over and nothing ch
   INFO(r.output << "\n--- tandem up ---\n" << ss.str());
   REQUIRE(r.output.find("killed") != std::string::npos);
   CHECK(r.output.find("up_rc=0") != std::string::npos);
+  CHECK(ss.str().find("fault injection: SIGKILL m1/left") != std::string::npos);
   CHECK(ss.str().find("m1/left now follows m1/left@50") != std::string::npos);
   const auto kv = read_summary(summary);
   CHECK(kv.at("m1.ticks") == 5000);

@@ -17,7 +17,7 @@ void usage(std::FILE* f) {
       "commands:\n"
       "  sim <scenario.yaml>   run a basic module in one process (deterministic embedded simulation)\n"
       "                        and print the RMS table beside the paper's Table IV\n"
-      "  up <deploy.yaml>      start a deployment as separate processes over Fast DDS (lockstep)\n"
+      "  up <deploy.yaml>      start a deployment as separate processes over Fast DDS (lockstep or real time)\n"
       "  status <deploy.yaml>  lifecycle state and live figures of a running deployment (over DDS)\n"
       "  down <deploy.yaml>    stop a running deployment cleanly (over DDS)\n"
       "  kill <deploy.yaml> P  fault injection: SIGKILL process P of a running deployment (over DDS)\n"

@@ -23,7 +23,13 @@ bool parse_target(const char* cmd, const std::vector<std::string>& args, Deploym
   bool have = false;
   for (size_t i = 0; i < args.size(); ++i) {
     if (args[i] == "--domain" && i + 1 < args.size()) {
-      d.domain_id = std::atoi(args[++i].c_str());
+      char* end = nullptr;
+      const long v = std::strtol(args[++i].c_str(), &end, 10);
+      if (*end != '\0' || v < 0 || v > 232) {
+        std::fprintf(stderr, "tandem %s: --domain must be an integer in [0, 232], got '%s'\n", cmd, args[i].c_str());
+        return false;
+      }
+      d.domain_id = static_cast<int>(v);
       have = true;
     } else if (args[i] == "--name" && i + 1 < args.size()) {
       d.name = args[++i];
@@ -51,8 +57,10 @@ void remote_usage(std::FILE* f) {
       "       tandem down   <deploy.yaml> | --domain ID --name NAME\n"
       "       tandem kill   <deploy.yaml> | --domain ID --name NAME  PROCESS\n"
       "status: prints the lifecycle state and live figures of every process of the deployment(s) on the domain.\n"
-      "down:   asks the deployment's launcher to stop it cleanly (as Ctrl-C would); exit 1 if no launcher heard.\n"
-      "kill:   fault injection: the launcher SIGKILLs PROCESS (a label of its live view, e.g. m1/left).\n",
+      "down:   asks the deployment's launcher to stop it cleanly (as Ctrl-C would); exit 1 if no launcher on the\n"
+      "        domain is listening (a launcher of another deployment on the same domain ignores the request).\n"
+      "kill:   fault injection: the launcher SIGKILLs PROCESS (a label of its live view, e.g. m1/left); the\n"
+      "        launcher prints whether that process was running.\n",
       f);
 }
 

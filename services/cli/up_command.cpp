@@ -13,6 +13,7 @@
 #include <chrono>
 #include <cstdio>
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
@@ -41,6 +42,8 @@ struct Child {
   std::string label;
   pid_t pid = -1;
   std::string arm;  ///< robots: the arm it controls (a dead robot is not fatal while another serves the arm)
+  std::vector<std::string> args;  ///< robots: how to start it again
+  const runtime::ModuleDeployment* module = nullptr;
   bool reported = false;
   int status = -1;  ///< exit code once reaped (128 + signal if killed)
   bool running = true;
@@ -56,28 +59,40 @@ std::string self_dir() {
 }
 
 pid_t spawn(const std::string& exe, const std::vector<std::string>& args) {
-  const pid_t launcher = ::getpid();
-  const pid_t pid = ::fork();
-  if (pid != 0) return pid;
-  ::prctl(PR_SET_PDEATHSIG, SIGTERM);  // never outlive the launcher
-  if (::getppid() != launcher) ::_exit(127);
+  // Everything the child needs is built before fork: after fork only async-signal-safe calls.
   std::vector<char*> argv;
   argv.push_back(const_cast<char*>(exe.c_str()));
   for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
   argv.push_back(nullptr);
+  const pid_t launcher = ::getpid();
+  const pid_t pid = ::fork();
+  if (pid < 0) {
+    std::fprintf(stderr, "tandem up: cannot start %s: fork failed: %s\n", exe.c_str(), std::strerror(errno));
+    return -1;
+  }
+  if (pid != 0) return pid;
+  ::signal(SIGINT, SIG_DFL);  // the launcher's handlers must not be inherited
+  ::signal(SIGTERM, SIG_DFL);
+  ::prctl(PR_SET_PDEATHSIG, SIGTERM);  // never outlive the launcher
+  if (::getppid() != launcher) ::_exit(127);
   ::execv(exe.c_str(), argv.data());
-  std::fprintf(stderr, "tandem up: cannot start %s: %s\n", exe.c_str(), std::strerror(errno));
+  static const char msg[] = "tandem up: cannot exec a role process\n";
+  (void)!::write(2, msg, sizeof msg - 1);
   ::_exit(127);
 }
 
 void stop_all(std::vector<Child>& children, int sig) {
   for (auto& c : children) {
-    if (c.running) ::kill(c.pid, sig);
+    if (c.running && c.pid > 0) ::kill(c.pid, sig);
   }
 }
 
 void reap(std::vector<Child>& children, bool block) {
   for (auto& c : children) {
+    if (c.running && c.pid <= 0) {  // never started
+      c.running = false;
+      c.status = 127;
+    }
     if (!c.running) continue;
     int st = 0;
     const pid_t r = ::waitpid(c.pid, &st, block ? 0 : WNOHANG);
@@ -178,8 +193,8 @@ int up_command(const std::vector<std::string>& args) {
                                           "--timing",   d.timing,   "--deployment", d.name};
     if (d.coordinator) common.push_back("--continuous");
     const sim::Scenario sc = sim::load_scenario(m.scenario);
-    children.push_back({m.name + "/world", spawn(dir + "/tandem-world", common), ""});
-    children.push_back({m.name + "/supervisor", spawn(dir + "/tandem-supervisor", common), ""});
+    children.push_back({m.name + "/world", spawn(dir + "/tandem-world", common), "", {}, &m});
+    children.push_back({m.name + "/supervisor", spawn(dir + "/tandem-supervisor", common), "", {}, &m});
     for (const auto& r : sc.robots) {
       for (int i = 0; i <= m.standby; ++i) {
         // The primary has strength 100; standbys 50, 40, ...: the world follows the strongest live one.
@@ -187,7 +202,7 @@ int up_command(const std::vector<std::string>& args) {
         std::vector<std::string> a = common;
         a.insert(a.end(), {"--arm", r.name, "--strength", std::to_string(strength)});
         const std::string label = m.name + "/" + r.name + (i == 0 ? "" : "@" + std::to_string(strength));
-        children.push_back({label, spawn(dir + "/tandem-robot", a), m.name + "/" + r.name});
+        children.push_back({label, spawn(dir + "/tandem-robot", a), m.name + "/" + r.name, a, &m});
       }
     }
   }
@@ -195,9 +210,50 @@ int up_command(const std::vector<std::string>& args) {
     children.push_back({"coordinator", spawn(dir + "/tandem-coordinator",
                                              {"--deployment-file", file, "--domain", std::to_string(d.domain_id),
                                               "--timeout", std::to_string(std::max(30.0, 3 * d.timeout))}),
-                        ""});
+                        "", {}, nullptr});
   }
   for (const auto& c : children) std::printf("  started %-16s pid %d\n", c.label.c_str(), c.pid);
+
+  // Restart policy of robot processes: restarts pending, and each arm's restart history (intensity).
+  struct PendingRestart {
+    std::chrono::steady_clock::time_point when;
+    Child child;
+  };
+  std::vector<PendingRestart> pending_restarts;
+  std::map<std::string, std::vector<std::chrono::steady_clock::time_point>> restart_history;
+  std::map<std::string, int> restarts_of_arm;
+  // Returns true if the dead robot c will be restarted (as a standby of lower strength).
+  auto schedule_restart = [&](const Child& c) {
+    const runtime::ModuleDeployment& m = *c.module;
+    const bool wanted = m.restart == "always" || (m.restart == "on-failure" && c.status != 0);
+    if (!wanted) return false;
+    const auto now = std::chrono::steady_clock::now();
+    auto& hist = restart_history[c.arm];
+    hist.erase(std::remove_if(hist.begin(), hist.end(),
+                              [&](auto t) { return now - t > std::chrono::duration<double>(m.restart_window); }),
+               hist.end());
+    if (static_cast<int>(hist.size()) >= m.restart_limit) {
+      std::printf("tandem up: giving up on %s: %zu restarts within %.0f s (restart_limit %d)\n", c.arm.c_str(),
+                  hist.size(), m.restart_window, m.restart_limit);
+      return false;
+    }
+    const int n = ++restarts_of_arm[c.arm];
+    const int strength = std::max(1, 30 - n);  // joins as a standby, below the configured ones
+    Child next = c;
+    next.args.back() = std::to_string(strength);  // the last argument is the strength
+    next.label = c.arm + "@" + std::to_string(strength);
+    next.running = true;
+    next.reported = false;
+    next.status = -1;
+    const double backoff = m.restart_backoff * std::pow(2.0, static_cast<double>(hist.size()));
+    hist.push_back(now);
+    std::printf("tandem up: restarting %s as %s in %.2f s (restart %zu of at most %d within %.0f s)\n",
+                c.label.c_str(), next.label.c_str(), backoff, hist.size(), m.restart_limit, m.restart_window);
+    pending_restarts.push_back({now + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                          std::chrono::duration<double>(backoff)),
+                                next});
+    return true;
+  };
 
   std::map<std::string, msg::RobotSummary> robots;
   std::map<std::string, msg::WorldSummary> worlds;
@@ -210,8 +266,16 @@ int up_command(const std::vector<std::string>& args) {
     msg::WorldSummary ws;
     while (world_sum.take(ws)) worlds[ws.module_id()] = ws;
   };
-  while (running_count(children) > 0) {
+  std::chrono::steady_clock::time_point stop_started{};
+  bool escalated = false;
+  while (running_count(children) > 0 || (!pending_restarts.empty() && !stopping)) {
     reap(children, false);
+    if (stopping && stop_started == std::chrono::steady_clock::time_point{}) stop_started = std::chrono::steady_clock::now();
+    if (stopping && !escalated && std::chrono::steady_clock::now() - stop_started > std::chrono::seconds(5)) {
+      std::printf("tandem up: %d process(es) did not stop within 5 s; sending SIGKILL\n", running_count(children));
+      stop_all(children, SIGKILL);
+      escalated = true;
+    }
     collect();
     for (auto& c : children) {
       if (!c.running && c.status == 0 && c.label == "coordinator" && !stopping) {
@@ -220,15 +284,18 @@ int up_command(const std::vector<std::string>& args) {
         stopping = true;
         stop_all(children, SIGTERM);
       }
-      if (!c.running && c.status != 0 && !stopping && !c.reported && !c.arm.empty()) {
+      if (!c.running && !stopping && !c.reported && !c.arm.empty() && (c.status != 0 || c.module->restart == "always")) {
         bool served = false;
         for (const auto& o : children) served = served || (o.running && o.arm == c.arm);
-        if (served) {
-          std::printf("tandem up: %s exited with code %d; another robot serves %s, the deployment goes on\n",
-                      c.label.c_str(), c.status, c.arm.c_str());
-          c.reported = true;
+        c.reported = true;
+        const bool restarting = schedule_restart(c);
+        if (served || restarting) {
+          std::printf("tandem up: %s exited with code %d; %s\n", c.label.c_str(), c.status,
+                      served ? "another robot serves its arm, the deployment goes on"
+                             : "its arm waits for the restarted robot");
           continue;
         }
+        c.reported = false;  // nobody serves the arm and no restart: a failure (below)
       }
       if (!c.running && c.status != 0 && !stopping && !c.reported) {
         std::fprintf(stderr, "tandem up: %s exited with code %d; stopping the deployment\n", c.label.c_str(), c.status);
@@ -236,6 +303,17 @@ int up_command(const std::vector<std::string>& args) {
         stopping = true;
         stop_all(children, SIGTERM);
       }
+    }
+    for (auto it = pending_restarts.begin(); it != pending_restarts.end();) {
+      if (stopping || std::chrono::steady_clock::now() < it->when) {
+        ++it;
+        continue;
+      }
+      Child c = it->child;
+      c.pid = spawn(dir + "/tandem-robot", c.args);
+      std::printf("  started %-16s pid %d (restart)\n", c.label.c_str(), c.pid);
+      children.push_back(c);
+      it = pending_restarts.erase(it);
     }
     msg::ProcessStatus ps;
     while (status.take(ps)) view.update(ps);
@@ -284,7 +362,10 @@ int up_command(const std::vector<std::string>& args) {
   std::printf("%-14s %8s %12s %12s %12s %10s %10s %9s\n", "arm", "ticks", "e_p Sp RMS", "e_p pos RMS",
               "e_p phi RMS", "e_h RMS N", "min h_n N", "rejected");
   std::ofstream out;
-  if (!summary_file.empty()) out.open(summary_file);
+  if (!summary_file.empty()) {
+    out.open(summary_file);
+    if (!out) std::fprintf(stderr, "tandem up: cannot write the summary to %s\n", summary_file.c_str());
+  }
   bool grasp_ok = true;
   for (const auto& m : d.modules) {
     for (const auto& [id, r] : robots) {
@@ -343,7 +424,7 @@ int up_command(const std::vector<std::string>& args) {
   for (const auto& c : children) {
     if (c.status != 0) {
       std::printf("process %s exited with code %d%s\n", c.label.c_str(), c.status,
-                  c.reported ? " (its arm was served by another robot)" : "");
+                  c.reported ? " (restarted, or its arm was served by another robot)" : "");
     }
   }
   {

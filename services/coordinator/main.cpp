@@ -35,8 +35,16 @@ int main(int argc, char** argv) {
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string a = argv[i];
     if (a == "--deployment-file") file = argv[i + 1];
-    if (a == "--domain") domain = std::atoi(argv[i + 1]);
+    if (a == "--domain") {
+      char* end = nullptr;
+      const long v = std::strtol(argv[i + 1], &end, 10);
+      domain = (*end == '\0' && v >= 0 && v <= 232) ? static_cast<int>(v) : -2;
+    }
     if (a == "--timeout") timeout = std::atof(argv[i + 1]);
+  }
+  if (domain == -2) {
+    std::fprintf(stderr, "tandem-coordinator: --domain must be an integer in [0, 232]\n");
+    return 2;
   }
   if (file.empty() || domain < 0) {
     std::fprintf(stderr, "usage: tandem-coordinator --deployment-file FILE --domain ID [--timeout S]\n"

@@ -128,7 +128,10 @@ int main(int argc, char** argv) {
       // The reference depends only on the planned path, so publish tick k and the next one: the robot then
       // holds the reference of tick k+1 before its sensor sample arrives (one DDS hop less per tick).
       const long k = static_cast<long>(s.tick());
-      for (long kk = std::max(k, last[static_cast<size_t>(j)] + 1); kk <= std::min(k + 1, m.steps - 1); ++kk) {
+      // A sample of a tick already answered is the world asking again (a robot joined late): answer again.
+      // References depend only on the tick, so a repeat is identical.
+      const long from = k <= last[static_cast<size_t>(j)] ? k : std::max(k, last[static_cast<size_t>(j)] + 1);
+      for (long kk = from; kk <= std::min(k + 1, m.steps - 1); ++kk) {
         const model::ArmReference ref = model::arm_reference(j, plan.sample(kk), m.geometry, m.reference_force);
         r.arm_id(s.arm_id());
         r.tick(static_cast<uint64_t>(kk));
@@ -139,7 +142,7 @@ int main(int argc, char** argv) {
         }
         r.force(ref.force);
         refs.write(r);
-        last[static_cast<size_t>(j)] = kk;
+        last[static_cast<size_t>(j)] = std::max(last[static_cast<size_t>(j)], kk);
       }
       if (opt.continuous && plan.finish_if_done(std::min(last[0], last[1]))) {
         publish_state(2, std::min(last[0], last[1]));

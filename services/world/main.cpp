@@ -96,19 +96,22 @@ int main(int argc, char** argv) {
     timespec sent{};
     ::clock_gettime(CLOCK_MONOTONIC, &sent);
     if (opt.realtime) wake_late_us.add(static_cast<double>(to_ns(sent) - to_ns(tick_start)) * 1e-3);
-    for (int j = 0; j < 2; ++j) {
-      s.arm_id(ctx.arm_id(j));
-      s.tick(static_cast<uint64_t>(k));
-      s.t(t);
-      for (int i = 0; i < 3; ++i) {
-        s.q()[static_cast<size_t>(i)] = plant.state().q[j](i);
-        s.qd()[static_cast<size_t>(i)] = plant.state().qd[j](i);
+    auto publish_samples = [&] {
+      for (int j = 0; j < 2; ++j) {
+        s.arm_id(ctx.arm_id(j));
+        s.tick(static_cast<uint64_t>(k));
+        s.t(t);
+        for (int i = 0; i < 3; ++i) {
+          s.q()[static_cast<size_t>(i)] = plant.state().q[j](i);
+          s.qd()[static_cast<size_t>(i)] = plant.state().qd[j](i);
+        }
+        s.h()[0] = contact.h[j](0);
+        s.h()[1] = contact.h[j](1);
+        s.braked(false);
+        sensors.write(s);
       }
-      s.h()[0] = contact.h[j](0);
-      s.h()[1] = contact.h[j](1);
-      s.braked(false);
-      sensors.write(s);
-    }
+    };
+    publish_samples();
     // Real time: the tick ends at an absolute deadline; lockstep: when both commands are in (or timeout).
     timespec deadline = tick_start;
     deadline.tv_nsec += period_ns;
@@ -117,6 +120,7 @@ int main(int argc, char** argv) {
       ++deadline.tv_sec;
     }
     std::array<bool, 2> have{false, false};
+    int republished = 0;
     const auto wait_start = std::chrono::steady_clock::now();
     while (!(have[0] && have[1]) && !runtime::g_stop) {
       if (!torques.take(cmd)) {
@@ -127,10 +131,25 @@ int main(int argc, char** argv) {
           if (left <= 0) break;
           torques.wait(static_cast<double>(left) * 1e-9);
         } else {
-          if (std::chrono::duration<double>(std::chrono::steady_clock::now() - wait_start).count() > opt.timeout) break;
-          torques.wait(0.05);
+          const double waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - wait_start).count();
+          if (waited > opt.timeout) break;
+          // Lockstep: every 50 ms without the tick's commands, publish the tick's samples again, for a robot
+          // that joined (or restarted) after they went out; the supervisor answers with the references again.
+          if (waited > 0.05 * static_cast<double>(republished + 1)) {
+            publish_samples();
+            ++republished;
+          }
+          torques.wait(0.01);
         }
         continue;
+      }
+      if (opt.realtime) {
+        timespec now{};
+        ::clock_gettime(CLOCK_MONOTONIC, &now);
+        if (to_ns(now) > to_ns(deadline)) {  // taken after the deadline: too late for this tick
+          ++stale;
+          break;
+        }
       }
       const int j = ctx.arm_index(cmd.arm_id());
       if (j < 0 || !runtime::all_finite(cmd.tau())) {

@@ -32,14 +32,16 @@ int main(int argc, char** argv) {
   }
   bus::Participant part(domain, "test-injector", bus::Transport::SharedMemory);
   bus::Reader<msg::ArmSensors, msg::ArmSensorsPubSubType> sensors(part, bus::module_topic(bus::kSensorsTopic, module), bus::TopicKind::Sensors);
+  // Stronger than any robot: under EXCLUSIVE ownership the world hears only this writer while it is alive,
+  // so every invalid command really reaches the world's checks (and the world must not apply any).
   bus::Writer<msg::TorqueCommand, msg::TorqueCommandPubSubType> torques(part, bus::module_topic(bus::kTorquesTopic, module),
-                                                                         bus::TopicKind::Torques);
+                                                                         bus::TopicKind::Torques, 1000);
   bus::Writer<msg::ArmReference, msg::ArmReferencePubSubType> refs(part, bus::module_topic(bus::kReferencesTopic, module),
                                                                    bus::TopicKind::References);
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const double inf = std::numeric_limits<double>::infinity();
   msg::ArmSensors s;
-  unsigned long long sent = 0;
+  unsigned long long sent = 0, sent_torques = 0;
   const auto t0 = std::chrono::steady_clock::now();
   while (std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() < seconds) {
     if (!sensors.wait(0.05)) continue;
@@ -73,7 +75,8 @@ int main(int argc, char** argv) {
     r.force(-5.0);
     refs.write(r);
     sent += 5;
+    sent_torques += 3;
   }
-  std::printf("injected %llu invalid samples\n", sent);
+  std::printf("injected %llu invalid samples\ninjected_torques=%llu\n", sent, sent_torques);
   return sent > 0 ? 0 : 1;
 }

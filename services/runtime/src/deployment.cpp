@@ -46,6 +46,10 @@ Deployment load_deployment(const std::string& path) {
     if (!m.scenario.empty() && m.scenario[0] != '/') m.scenario = dir + "/" + m.scenario;
     mr.text("case", m.case_name, true);
     mr.integer("standby", m.standby, 0, 3);
+    mr.choice("restart", m.restart, {"never", "on-failure", "always"});
+    mr.integer("restart_limit", m.restart_limit, 0, 100);
+    mr.num("restart_window", m.restart_window, 0.1, 86400.0);
+    mr.num("restart_backoff", m.restart_backoff, 0.0, 60.0);
     mr.finish();
     // Validate what each process will load, before anything starts.
     const sim::Scenario sc = sim::load_scenario(m.scenario);

@@ -106,6 +106,12 @@ Scenario read(const YAML::Node& root, const std::string& file) {
       MapReader rr(robots[j], m.key_path("robots[" + std::to_string(j) + "]"), file);
       RobotConfig& rc = s.robots[j];
       rr.text("name", rc.name, true);
+      bool name_ok = !rc.name.empty() && rc.name != "world" && rc.name != "supervisor";
+      for (char ch : rc.name) name_ok = name_ok && (std::islower(static_cast<unsigned char>(ch)) || std::isdigit(static_cast<unsigned char>(ch)) || ch == '_' || ch == '-');
+      if (!name_ok) {
+        rr.fail(robots[j]["name"], rr.key_path("name"),
+                "expected lower-case letters, digits, '_' or '-', and not 'world' or 'supervisor' (it names processes)");
+      }
       rr.num("elbow", rc.elbow, -1.0, 1.0);
       if (rc.elbow != -1.0 && rc.elbow != 1.0) rr.fail(robots[j]["elbow"], rr.key_path("elbow"), "expected -1 or 1");
       rr.vec<3>("selection_p", rc.selection_p, 0.0, 1.0);

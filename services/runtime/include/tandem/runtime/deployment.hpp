@@ -11,6 +11,12 @@ struct ModuleDeployment {
   std::string scenario;  ///< resolved path
   std::string case_name;
   int standby = 0;  ///< standby robot processes per arm (hot standby, lower ownership strength)
+  /// Restart policy of the module's robot processes (OTP-style): never | on-failure | always, at most
+  /// restart_limit restarts per arm within restart_window seconds, the n-th after restart_backoff * 2^n s.
+  std::string restart = "never";
+  int restart_limit = 3;
+  double restart_window = 30.0;
+  double restart_backoff = 0.2;
 };
 
 /// A task of the coordinator's queue: waypoints of the object's absolute pose, from wherever it is.

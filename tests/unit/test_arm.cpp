@@ -2,6 +2,8 @@
 // computation (finite differences, geometry by hand, Lagrangian identities, energy balance).
 #include <catch2/catch.hpp>
 
+#include "test_support.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -18,20 +20,7 @@ using tandem::model::Vec2;
 using tandem::model::Vec3;
 namespace tm = tandem::model;
 
-/// Deterministic pseudo-random numbers (64-bit LCG), independent of the standard library's distributions.
-class Lcg {
- public:
-  explicit Lcg(std::uint64_t seed) : s_(seed) {}
-  double uniform(double lo, double hi) {
-    s_ = s_ * 6364136223846793005ULL + 1442695040888963407ULL;
-    const double u = static_cast<double>(s_ >> 11) * (1.0 / 9007199254740992.0);
-    return lo + (hi - lo) * u;
-  }
-  Vec3 vec3(double lo, double hi) { return {uniform(lo, hi), uniform(lo, hi), uniform(lo, hi)}; }
-
- private:
-  std::uint64_t s_;
-};
+using tandem::test::Lcg;
 
 /// Fixed pseudo-random joint configurations over the workspace [-2.5, 2.5]^3.
 std::vector<Vec3> sample_configurations(int n, std::uint64_t seed) {

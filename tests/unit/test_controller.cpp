@@ -3,6 +3,8 @@
 // the reaching-gain bound, and that the control and plant steps do not allocate.
 #include <catch2/catch.hpp>
 
+#include "test_support.hpp"
+
 #include <algorithm>
 #include <array>
 #include <atomic>
@@ -94,19 +96,7 @@ using tandem::model::Vec2;
 using tandem::model::Vec3;
 namespace tm = tandem::model;
 
-class Lcg {
- public:
-  explicit Lcg(std::uint64_t seed) : s_(seed) {}
-  double uniform(double lo, double hi) {
-    s_ = s_ * 6364136223846793005ULL + 1442695040888963407ULL;
-    const double u = static_cast<double>(s_ >> 11) * (1.0 / 9007199254740992.0);
-    return lo + (hi - lo) * u;
-  }
-  Vec3 vec3(double lo, double hi) { return {uniform(lo, hi), uniform(lo, hi), uniform(lo, hi)}; }
-
- private:
-  std::uint64_t s_;
-};
+using tandem::test::Lcg;
 
 double max_abs(const Eigen::MatrixXd& m) { return m.cwiseAbs().maxCoeff(); }
 

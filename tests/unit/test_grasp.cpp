@@ -2,6 +2,8 @@
 // contacts at rest, checked against independent linear algebra, statics and finite differences.
 #include <catch2/catch.hpp>
 
+#include "test_support.hpp"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -23,19 +25,7 @@ namespace tm = tandem::model;
 using Mat12 = Eigen::Matrix<double, 12, 12>;
 using Vec6 = Eigen::Matrix<double, 6, 1>;
 
-class Lcg {
- public:
-  explicit Lcg(std::uint64_t seed) : s_(seed) {}
-  double uniform(double lo, double hi) {
-    s_ = s_ * 6364136223846793005ULL + 1442695040888963407ULL;
-    const double u = static_cast<double>(s_ >> 11) * (1.0 / 9007199254740992.0);
-    return lo + (hi - lo) * u;
-  }
-  Vec3 vec3(double lo, double hi) { return {uniform(lo, hi), uniform(lo, hi), uniform(lo, hi)}; }
-
- private:
-  std::uint64_t s_;
-};
+using tandem::test::Lcg;
 
 double max_abs(const Eigen::MatrixXd& m) { return m.cwiseAbs().maxCoeff(); }
 

@@ -1,8 +1,9 @@
 // tandem-world: the simulated hardware of one basic module (both arms, object, contacts). Lockstep: it
 // publishes the sensor sample of tick k and advances only when both arms' torque commands for tick k have
 // arrived. Real time: it steps on absolute 1 kHz deadlines (clock_nanosleep), applies the commands of tick k
-// that arrived before the deadline, and an arm without one keeps its previous torque (a late arm-tick). Invalid commands (NaN/inf, over the torque limit, unknown arm, stale tick) are
-// rejected, counted and never applied.
+// that arrived before the deadline, and an arm without one keeps its previous torque (a late arm-tick).
+// Invalid commands (NaN/inf, over the torque limit, unknown arm, future tick) are rejected, counted and never
+// applied; commands for an earlier tick or taken after the deadline are dropped and counted as stale.
 #include <tandemPubSubTypes.h>
 
 #include <time.h>
@@ -242,8 +243,8 @@ int main(int argc, char** argv) {
   } else {
     status.set(runtime::Lifecycle::Finalized, runtime::g_stop ? "stopped" : "task done");
   }
-  std::printf("tandem-world %s: %ld ticks, slip %ld, contact lost %ld, rejected %llu, %s %llu\n", opt.module.c_str(),
-              k, plant.counters().slip_events, plant.counters().contact_lost, rejected,
+  std::printf("tandem-world %s: %ld ticks, slip %ld, contact lost %ld, rejected %llu, stale %llu, %s %llu\n",
+              opt.module.c_str(), k, plant.counters().slip_events, plant.counters().contact_lost, rejected, stale,
               opt.realtime ? "late arm-ticks" : "timeouts", opt.realtime ? late : timeouts);
   std::this_thread::sleep_for(std::chrono::milliseconds(300));  // let the summary reach the launcher
   return timeouts > 0 ? 4 : 0;

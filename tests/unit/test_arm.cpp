@@ -249,7 +249,7 @@ TEST_CASE("gravity is the gradient of the potential energy, which is highest upr
   CHECK(tm::gravity(p, Vec3(kPi / 2, 0.0, 0.0)).norm() > 1.0);
 }
 
-TEST_CASE("a frictionless free-swinging arm conserves energy; friction only dissipates", "[arm]") {
+TEST_CASE("a frictionless free-swinging arm conserves energy, and friction only dissipates", "[arm]") {
   const double h = 1e-4;
   const int steps = 20000;  // 2 s
   ArmState start;

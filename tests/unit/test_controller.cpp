@@ -298,7 +298,7 @@ TEST_CASE("inverse-dynamics VLLC makes the task-space acceleration equal the PD 
   CHECK(tested == 100);
 }
 
-TEST_CASE("sliding mode reaches the surface in finite time; PD only approaches it", "[controller]") {
+TEST_CASE("sliding mode reaches the surface in finite time, PD only approaches it", "[controller]") {
   const double T = 1e-3, K = 10.0, m = 5.0;
   const double band = 2.0 * K * T;  // sampled-and-held K sgn(s) moves s by about K T per period
   // The identified arm, and the same arm without Coulomb friction. Its smoothed term (band 0.01 rad/s)

@@ -144,7 +144,7 @@ TEST_CASE("safe grasp force (eq. 16): two friction cones carry exactly the weigh
   }
 }
 
-TEST_CASE("stick tips meet at the object centre; absolute and relative pose (eq. 6, 11, 12)", "[grasp]") {
+TEST_CASE("stick tips meet at the object centre, and absolute and relative pose (eq. 6, 11, 12)", "[grasp]") {
   const tm::GraspGeometry g;  // defaults: sticks 0.3 m, phi_I = -pi, p_I = 0, preload 0
   for (const Vec3& pose : {Vec3(-0.2, 0.8, 0.0), Vec3(0.1, 0.9, 0.3), Vec3(0.25, 0.7, -0.4)}) {
     tm::PoseSample obj;

@@ -186,20 +186,7 @@ CaseResult run_case(const Scenario& sc, const CaseConfig& cc, const RunOptions& 
       break;
     }
   }
-  for (int j = 0; j < 2; ++j) {
-    const RobotMeter::Summary s = meter[j].summary();
-    RobotMetrics& r = res.robots[j];
-    r.ep_pos_rms = s.ep_pos_rms;
-    r.ep_ori_rms = s.ep_ori_rms;
-    r.ep_sel_rms = s.ep_sel_rms;
-    r.eh_rms = s.eh_rms;
-    r.ep_pos_rms_steady = s.ep_pos_rms_steady;
-    r.ep_ori_rms_steady = s.ep_ori_rms_steady;
-    r.eh_rms_steady = s.eh_rms_steady;
-    r.ep_pos_max = s.ep_pos_max;
-    r.min_normal_force = s.min_normal_force;
-    r.max_normal_force = s.max_normal_force;
-  }
+  for (int j = 0; j < 2; ++j) static_cast<RobotMeter::Summary&>(res.robots[j]) = meter[j].summary();
   res.counters = plant.counters();
   res.object_pos_rms = obj.value();
   res.object_final_error = (plant.state().c - m.path.sample(sc.duration).pose.head<2>()).norm();

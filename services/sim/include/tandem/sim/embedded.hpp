@@ -6,23 +6,14 @@
 #include <string>
 #include <vector>
 
+#include "tandem/sim/module_setup.hpp"
 #include "tandem/sim/scenario.hpp"
 
 namespace tandem::sim {
 
-/// RMS and extremes of one robot over a run. "Whole run" is every control period; "steady" is the final
-/// hold after the object's motion ends. Position RMS is of the Euclidean norm of the (x, y) error.
-struct RobotMetrics {
-  double ep_pos_rms = 0.0;      ///< ||(x_d - x)_xy||, whole run [m]
-  double ep_ori_rms = 0.0;      ///< |phi_d - phi|, whole run [rad]
-  double ep_sel_rms = 0.0;      ///< position components selected by Sigma_p (contact frame), whole run [m]
-  double eh_rms = 0.0;          ///< |h_ref - h_n|, whole run [N]
-  double ep_pos_rms_steady = 0.0;
-  double ep_ori_rms_steady = 0.0;
-  double eh_rms_steady = 0.0;
-  double ep_pos_max = 0.0;
-  double min_normal_force = 0.0;  ///< after the start-up transient [N]
-  double max_normal_force = 0.0;
+/// RMS and extremes of one robot over a run (RobotMeter's summary; "steady" is the final hold after the
+/// object's motion ends; position RMS is of the Euclidean norm of the (x, y) error), and the gains used.
+struct RobotMetrics : RobotMeter::Summary {
   model::Vec3 gains = model::Vec3::Zero();  ///< K (or K_P for PD) per contact-frame axis actually used
 };
 

@@ -41,9 +41,18 @@ class RobotMeter {
   RobotMeter(const model::Vec3& selection_p, double transient, double motion_end)
       : sel_(selection_p), transient_(transient), motion_end_(motion_end) {}
   void add(double t, const model::ArmReference& ref, const model::ControlOutput& out) noexcept;
+  /// RMS over every tick ("steady": the ticks after the planned motion ends), extremes after the transient.
   struct Summary {
-    double ep_pos_rms, ep_ori_rms, ep_sel_rms, eh_rms, ep_pos_rms_steady, ep_ori_rms_steady, eh_rms_steady,
-        ep_pos_max, min_normal_force, max_normal_force;
+    double ep_pos_rms = 0.0;  ///< ||(x_d - x)_xy|| [m]
+    double ep_ori_rms = 0.0;  ///< |phi_d - phi| [rad]
+    double ep_sel_rms = 0.0;  ///< position components selected by Sigma_p (contact frame) [m]
+    double eh_rms = 0.0;      ///< |h_ref - h_n| [N]
+    double ep_pos_rms_steady = 0.0;
+    double ep_ori_rms_steady = 0.0;
+    double eh_rms_steady = 0.0;
+    double ep_pos_max = 0.0;
+    double min_normal_force = 0.0;  ///< after the start-up transient [N]
+    double max_normal_force = 0.0;
   };
   Summary summary() const noexcept;
 

@@ -56,28 +56,8 @@ Mat3 fd_jacobian(const ArmParams& p, const Vec3& q, double h) {
   return J;
 }
 
-/// Arm state for the test's own integrator.
-struct ArmState {
-  Vec3 q = Vec3::Zero();
-  Vec3 qd = Vec3::Zero();
-};
-
-/// One classical RK4 step of q'' = forward_dynamics(q, q', tau, 0) with tau held.
-ArmState rk4(const ArmParams& p, const ArmState& s, const Vec3& tau, double h) {
-  const Vec3 zero = Vec3::Zero();
-  const Vec3 k1q = s.qd;
-  const Vec3 k1v = tm::forward_dynamics(p, s.q, s.qd, tau, zero);
-  const Vec3 k2q = s.qd + 0.5 * h * k1v;
-  const Vec3 k2v = tm::forward_dynamics(p, s.q + 0.5 * h * k1q, s.qd + 0.5 * h * k1v, tau, zero);
-  const Vec3 k3q = s.qd + 0.5 * h * k2v;
-  const Vec3 k3v = tm::forward_dynamics(p, s.q + 0.5 * h * k2q, s.qd + 0.5 * h * k2v, tau, zero);
-  const Vec3 k4q = s.qd + h * k3v;
-  const Vec3 k4v = tm::forward_dynamics(p, s.q + h * k3q, s.qd + h * k3v, tau, zero);
-  ArmState n;
-  n.q = s.q + (h / 6.0) * (k1q + 2.0 * k2q + 2.0 * k3q + k4q);
-  n.qd = s.qd + (h / 6.0) * (k1v + 2.0 * k2v + 2.0 * k3v + k4v);
-  return n;
-}
+using tandem::test::ArmState;
+using tandem::test::rk4;
 
 double total_energy(const ArmParams& p, const ArmState& s) {
   return tm::kinetic_energy(p, s.q, s.qd) + tm::potential_energy(p, s.q);

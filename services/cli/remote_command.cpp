@@ -9,6 +9,7 @@
 #include <thread>
 
 #include "tandem/runtime/deployment.hpp"
+#include "tandem/runtime/role.hpp"
 #include "live_view.hpp"
 #include "tandem/dds/bus.hpp"
 
@@ -23,13 +24,10 @@ bool parse_target(const char* cmd, const std::vector<std::string>& args, Deploym
   bool have = false;
   for (size_t i = 0; i < args.size(); ++i) {
     if (args[i] == "--domain" && i + 1 < args.size()) {
-      char* end = nullptr;
-      const long v = std::strtol(args[++i].c_str(), &end, 10);
-      if (*end != '\0' || v < 0 || v > 232) {
+      if (!runtime::parse_domain(args[++i], d.domain_id)) {
         std::fprintf(stderr, "tandem %s: --domain must be an integer in [0, 232], got '%s'\n", cmd, args[i].c_str());
         return false;
       }
-      d.domain_id = static_cast<int>(v);
       have = true;
     } else if (args[i] == "--name" && i + 1 < args.size()) {
       d.name = args[++i];
@@ -67,7 +65,7 @@ void remote_usage(std::FILE* f) {
 int status_command(const std::vector<std::string>& args) {
   Deployment d;
   if (!parse_target("status", args, d)) return 2;
-  bus::Participant part(d.domain_id, "tandem-status", d.transport == "udp" ? bus::Transport::Udp : bus::Transport::SharedMemory);
+  bus::Participant part(d.domain_id, "tandem-status", runtime::transport_of(d));
   bus::Reader<msg::ProcessStatus, msg::ProcessStatusPubSubType> status(part, bus::kStatusTopic, bus::TopicKind::Status);
   LiveView view(d.name);
   const auto t0 = std::chrono::steady_clock::now();
@@ -91,7 +89,7 @@ int send_request(const char* verb, const Deployment& d, const std::string& targe
     std::fprintf(stderr, "tandem %s: name the deployment (--name NAME or a deployment file)\n", verb);
     return 2;
   }
-  bus::Participant part(d.domain_id, "tandem-down", d.transport == "udp" ? bus::Transport::Udp : bus::Transport::SharedMemory);
+  bus::Participant part(d.domain_id, "tandem-down", runtime::transport_of(d));
   bus::Writer<msg::ControlRequest, msg::ControlRequestPubSubType> control(part, bus::kControlTopic, bus::TopicKind::Control);
   const auto t0 = std::chrono::steady_clock::now();
   while (control.matched() < 1 && std::chrono::steady_clock::now() - t0 < std::chrono::seconds(3)) {

@@ -151,7 +151,8 @@ int up_command(const std::vector<std::string>& args) {
     return 2;
   }
   Deployment d;
-  std::map<std::string, double> h_sg;  // per module
+  std::map<std::string, double> h_sg;                     // per module
+  std::map<std::string, std::vector<std::string>> robot_names;  // per module
   try {
     d = load_deployment(file);
     for (const auto& m : d.modules) {
@@ -159,6 +160,7 @@ int up_command(const std::vector<std::string>& args) {
       for (const auto& c : sc.cases) {
         if (c.name == m.case_name) h_sg[m.name] = sim::make_module(sc, c).safe_grasp_force;
       }
+      for (const auto& r : sc.robots) robot_names[m.name].push_back(r.name);
     }
   } catch (const std::exception& e) {
     std::fprintf(stderr, "tandem up: %s\n", e.what());
@@ -171,7 +173,7 @@ int up_command(const std::vector<std::string>& args) {
   ::sigaction(SIGTERM, &sa, nullptr);
 
   bus::Participant part(d.domain_id, "launcher/" + d.name,
-                        d.transport == "shm" ? bus::Transport::SharedMemory : bus::Transport::Udp);
+                        runtime::transport_of(d));
   bus::Reader<msg::RobotSummary, msg::RobotSummaryPubSubType> robot_sum(part, bus::kRobotSummaryTopic,
                                                                        bus::TopicKind::Summary);
   bus::Reader<msg::WorldSummary, msg::WorldSummaryPubSubType> world_sum(part, bus::kWorldSummaryTopic,
@@ -192,17 +194,16 @@ int up_command(const std::vector<std::string>& args) {
                                           "--transport", d.transport, "--timeout", std::to_string(d.timeout),
                                           "--timing",   d.timing,   "--deployment", d.name};
     if (d.coordinator) common.push_back("--continuous");
-    const sim::Scenario sc = sim::load_scenario(m.scenario);
     children.push_back({m.name + "/world", spawn(dir + "/tandem-world", common), "", {}, &m});
     children.push_back({m.name + "/supervisor", spawn(dir + "/tandem-supervisor", common), "", {}, &m});
-    for (const auto& r : sc.robots) {
+    for (const auto& robot : robot_names[m.name]) {
       for (int i = 0; i <= m.standby; ++i) {
         // The primary has strength 100; standbys 50, 40, ...: the world follows the strongest live one.
         const int strength = i == 0 ? 100 : 60 - 10 * i;
         std::vector<std::string> a = common;
-        a.insert(a.end(), {"--arm", r.name, "--strength", std::to_string(strength)});
-        const std::string label = m.name + "/" + r.name + (i == 0 ? "" : "@" + std::to_string(strength));
-        children.push_back({label, spawn(dir + "/tandem-robot", a), m.name + "/" + r.name, a, &m});
+        a.insert(a.end(), {"--arm", robot, "--strength", std::to_string(strength)});
+        const std::string label = m.name + "/" + robot + (i == 0 ? "" : "@" + std::to_string(strength));
+        children.push_back({label, spawn(dir + "/tandem-robot", a), m.name + "/" + robot, a, &m});
       }
     }
   }

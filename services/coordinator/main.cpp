@@ -35,11 +35,7 @@ int main(int argc, char** argv) {
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string a = argv[i];
     if (a == "--deployment-file") file = argv[i + 1];
-    if (a == "--domain") {
-      char* end = nullptr;
-      const long v = std::strtol(argv[i + 1], &end, 10);
-      domain = (*end == '\0' && v >= 0 && v <= 232) ? static_cast<int>(v) : -2;
-    }
+    if (a == "--domain" && !runtime::parse_domain(argv[i + 1], domain)) domain = -2;
     if (a == "--timeout") timeout = std::atof(argv[i + 1]);
   }
   if (domain == -2) {
@@ -59,8 +55,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "tandem-coordinator: %s\n", e.what());
     return 2;
   }
-  bus::Participant part(domain, "coordinator/" + d.name,
-                        d.transport == "udp" ? bus::Transport::Udp : bus::Transport::SharedMemory);
+  bus::Participant part(domain, "coordinator/" + d.name, runtime::transport_of(d));
   bus::Reader<msg::TaskState, msg::TaskStatePubSubType> states(part, bus::kTaskStateTopic, bus::TopicKind::Task);
   bus::Reader<msg::ProcessStatus, msg::ProcessStatusPubSubType> status_in(part, bus::kStatusTopic,
                                                                           bus::TopicKind::Status);
@@ -73,6 +68,13 @@ int main(int argc, char** argv) {
   std::map<std::string, ModuleInfo> modules;
   for (const auto& m : d.modules) modules[m.name] = ModuleInfo{};
   std::map<std::string, double> wear;  // per robot process id
+  auto module_wear = [&wear](const std::string& module) {  // joint travel of a module's robots
+    double w = 0.0;
+    for (const auto& [id, v] : wear) {
+      if (id.rfind(module + "/", 0) == 0) w += v;
+    }
+    return w;
+  };
   std::deque<size_t> pending;
   for (size_t i = 0; i < d.tasks.size(); ++i) pending.push_back(i);
   std::map<uint64_t, size_t> task_of_id;
@@ -108,10 +110,7 @@ int main(int argc, char** argv) {
       uint64_t best_done = 0;
       for (const auto& [name, mi] : modules) {
         if (!mi.seen || mi.assigned != 0) continue;
-        double w = 0.0;
-        for (const auto& [id, v] : wear) {
-          if (id.rfind(name + "/", 0) == 0) w += v;
-        }
+        const double w = module_wear(name);
         // wear: least joint travel first; round_robin: fewest tasks first. Ties: fewer tasks, then name.
         const bool better = d.balance == "round_robin" ? mi.done < best_done
                                                        : (w < best_wear || (w == best_wear && mi.done < best_done));
@@ -145,10 +144,7 @@ int main(int argc, char** argv) {
   }
   std::printf("coordinator: %zu/%zu tasks done\n", completed, d.tasks.size());
   for (const auto& [name, mi] : modules) {
-    double w = 0.0;
-    for (const auto& [id, v] : wear) {
-      if (id.rfind(name + "/", 0) == 0) w += v;
-    }
+    const double w = module_wear(name);
     std::string list;
     for (const auto& n : mi.done_names) list += (list.empty() ? "" : ", ") + n;
     std::printf("coordinator: %s did %llu task(s) [%s], joint travel %.3f rad\n", name.c_str(),

@@ -18,16 +18,9 @@ namespace bus = tandem::dds;
 
 int main(int argc, char** argv) {
   runtime::RoleOptions opt;
-  int code = 0;
-  if (!runtime::parse_role_options("robot", argc, argv, true, opt, code)) return code;
-  runtime::install_stop_handlers();
   runtime::RoleContext ctx;
-  try {
-    ctx = runtime::load_context(opt);
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "tandem-robot: %s\n", e.what());
-    return 2;
-  }
+  int code = 0;
+  if (!runtime::start_role("robot", argc, argv, true, opt, ctx, code)) return code;
   int j = -1;
   for (int i = 0; i < 2; ++i) {
     if (ctx.scenario.robots[i].name == opt.arm) j = i;

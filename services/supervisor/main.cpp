@@ -72,16 +72,9 @@ class TaskPlan {
 
 int main(int argc, char** argv) {
   runtime::RoleOptions opt;
-  int code = 0;
-  if (!runtime::parse_role_options("supervisor", argc, argv, false, opt, code)) return code;
-  runtime::install_stop_handlers();
   runtime::RoleContext ctx;
-  try {
-    ctx = runtime::load_context(opt);
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "tandem-supervisor: %s\n", e.what());
-    return 2;
-  }
+  int code = 0;
+  if (!runtime::start_role("supervisor", argc, argv, false, opt, ctx, code)) return code;
   const sim::ModuleSetup& m = ctx.module;
   bus::Participant part(opt.domain, "supervisor/" + opt.module, opt.transport);
   bus::Reader<msg::ArmSensors, msg::ArmSensorsPubSubType> sensors(part, bus::module_topic(bus::kSensorsTopic, opt.module), bus::TopicKind::Sensors);

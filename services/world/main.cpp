@@ -24,16 +24,9 @@ namespace bus = tandem::dds;
 
 int main(int argc, char** argv) {
   runtime::RoleOptions opt;
-  int code = 0;
-  if (!runtime::parse_role_options("world", argc, argv, false, opt, code)) return code;
-  runtime::install_stop_handlers();
   runtime::RoleContext ctx;
-  try {
-    ctx = runtime::load_context(opt);
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "tandem-world: %s\n", e.what());
-    return 2;
-  }
+  int code = 0;
+  if (!runtime::start_role("world", argc, argv, false, opt, ctx, code)) return code;
   const sim::ModuleSetup& m = ctx.module;
   model::ModulePlant plant(m.plant);
   plant.reset(m.initial);
@@ -212,7 +205,6 @@ int main(int argc, char** argv) {
     plant.step(tau, t, m.period, m.substeps);
     if (opt.realtime) tick_start = deadline;
   }
-  auto pct = [](const runtime::Histogram& h, double p) { return h.percentile(p); };
 
   msg::WorldSummary ws;
   ws.module_id(opt.module);
@@ -228,10 +220,10 @@ int main(int argc, char** argv) {
   ws.late_commands(opt.realtime ? late : timeouts);
   ws.rejected_commands(rejected);
   ws.realtime(opt.realtime);
-  ws.latency_p50_us(pct(latency_us, 0.5));
-  ws.latency_p99_us(pct(latency_us, 0.99));
-  ws.latency_max_us(pct(latency_us, 1.0));
-  ws.wake_late_p99_us(pct(wake_late_us, 0.99));
+  ws.latency_p50_us(latency_us.percentile(0.5));
+  ws.latency_p99_us(latency_us.percentile(0.99));
+  ws.latency_max_us(latency_us.percentile(1.0));
+  ws.wake_late_p99_us(wake_late_us.percentile(0.99));
   ws.failovers(failovers);
   ws.failover_max_ms(failover_max_ms);
   ws.failover_last_ms(failover_last_ms);

@@ -60,13 +60,10 @@ bool parse_role_options(const char* role, int argc, char** argv, bool needs_arm,
     } else if (a == "--arm" && needs_arm) {
       o.arm = v;
     } else if (a == "--domain") {
-      char* end = nullptr;
-      const long d = std::strtol(v.c_str(), &end, 10);
-      if (*end != '\0' || d < 0 || d > 232) {
+      if (!parse_domain(v, o.domain)) {
         std::fprintf(stderr, "tandem-%s: --domain must be an integer in [0, 232], got '%s'\n", role, v.c_str());
         return false;
       }
-      o.domain = static_cast<int>(d);
     } else if (a == "--transport") {
       if (v != "shm" && v != "udp") {
         std::fprintf(stderr, "tandem-%s: --transport must be shm or udp, got '%s'\n", role, v.c_str());
@@ -127,6 +124,28 @@ RoleContext load_context(const RoleOptions& o) {
   if (o.continuous) c.module.steps = std::numeric_limits<long>::max();  // until stopped
   c.module_name = o.module;
   return c;
+}
+
+bool parse_domain(const std::string& text, int& domain) {
+  char* end = nullptr;
+  const long v = std::strtol(text.c_str(), &end, 10);
+  if (text.empty() || *end != '\0' || v < 0 || v > 232) return false;
+  domain = static_cast<int>(v);
+  return true;
+}
+
+bool start_role(const char* role, int argc, char** argv, bool needs_arm, RoleOptions& opt, RoleContext& ctx,
+                int& exit_code) {
+  if (!parse_role_options(role, argc, argv, needs_arm, opt, exit_code)) return false;
+  install_stop_handlers();
+  try {
+    ctx = load_context(opt);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "tandem-%s: %s\n", role, e.what());
+    exit_code = 2;
+    return false;
+  }
+  return true;
 }
 
 int RoleContext::arm_index(const std::string& id) const {

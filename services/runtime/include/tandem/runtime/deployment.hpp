@@ -4,6 +4,8 @@
 #include <string>
 #include <vector>
 
+#include "tandem/dds/bus.hpp"
+
 namespace tandem::runtime {
 
 struct ModuleDeployment {
@@ -37,6 +39,11 @@ struct Deployment {
   std::vector<TaskSpec> tasks;
   std::string balance = "wear";    ///< wear | round_robin
 };
+
+/// The DDS transport a deployment asks for.
+inline dds::Transport transport_of(const Deployment& d) {
+  return d.transport == "udp" ? dds::Transport::Udp : dds::Transport::SharedMemory;
+}
 
 /// Reads and validates a deployment, including every scenario and case it names. Throws sim::ConfigError.
 Deployment load_deployment(const std::string& path);

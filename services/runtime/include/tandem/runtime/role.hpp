@@ -44,6 +44,14 @@ struct RoleContext {
 };
 RoleContext load_context(const RoleOptions& o);
 
+/// Parses a DDS domain id (an integer in [0, 232]); false if the text is not one.
+bool parse_domain(const std::string& text, int& domain);
+
+/// The common start of a role process: options, stop handlers, and the module's context. On failure prints
+/// the reason and returns false with `exit_code` set (0 for --help, 2 for bad arguments or configuration).
+bool start_role(const char* role, int argc, char** argv, bool needs_arm, RoleOptions& opt, RoleContext& ctx,
+                int& exit_code);
+
 /// Set by SIGINT/SIGTERM.
 extern std::atomic<bool> g_stop;
 void install_stop_handlers();

@@ -7,6 +7,7 @@
 #include <array>
 #include <chrono>
 #include <cstdio>
+#include <optional>
 #include <thread>
 #include <unistd.h>
 
@@ -42,19 +43,24 @@ int main(int argc, char** argv) {
   bus::Reader<msg::ArmSensors, msg::ArmSensorsPubSubType> sensors(part, bus::module_topic(bus::kSensorsTopic, opt.module), bus::TopicKind::Sensors);
   bus::Reader<msg::ArmReference, msg::ArmReferencePubSubType> refs(part, bus::module_topic(bus::kReferencesTopic, opt.module),
                                                                    bus::TopicKind::References);
-  bus::Writer<msg::TorqueCommand, msg::TorqueCommandPubSubType> torques(part, bus::module_topic(bus::kTorquesTopic, opt.module),
-                                                                         bus::TopicKind::Torques, opt.strength);
+  // The torque writer goes first when the robot stops (std::optional::reset below): deleting it tells the
+  // world at once, so a standby takes over within a tick instead of after the liveliness lease.
+  std::optional<bus::Writer<msg::TorqueCommand, msg::TorqueCommandPubSubType>> torque_writer;
+  torque_writer.emplace(part, bus::module_topic(bus::kTorquesTopic, opt.module), bus::TopicKind::Torques, opt.strength);
+  auto& torques = *torque_writer;
   bus::Writer<msg::RobotSummary, msg::RobotSummaryPubSubType> summary(part, bus::kRobotSummaryTopic,
                                                                        bus::TopicKind::Summary);
 
   runtime::StatusPublisher status(part, robot_id, "robot", opt.module);
   status.msg().deployment(opt.deployment);
+  status.msg().serving(std::to_string(opt.strength));
   status.set(runtime::Lifecycle::Inactive, "waiting for the first tick");
   msg::ArmSensors s;
   msg::ArmReference r;
   msg::TorqueCommand cmd;
   cmd.arm_id(my_arm);
   cmd.robot_id(robot_id);
+  cmd.strength(opt.strength);
   long have_sensor = -1, have_ref = -1, done = -1;
   model::ArmSensors in;
   model::ArmReference ref;
@@ -177,6 +183,7 @@ int main(int argc, char** argv) {
       sensors.wait(wait_s);
     }
   }
+  torque_writer.reset();  // leave the arm first (graceful hand-over), then report
   const sim::RobotMeter::Summary sm = meter.summary();
   msg::RobotSummary rs;
   rs.arm_id(my_arm);

@@ -4,6 +4,10 @@
 // that arrived before the deadline, and an arm without one keeps its previous torque (a late arm-tick).
 // Invalid commands (NaN/inf, over the torque limit, unknown arm, future tick) are rejected, counted and never
 // applied; commands for an earlier tick or taken after the deadline are dropped and counted as stale.
+// Brakes: an arm whose controller falls silent (50 ms in real time, 1 s of waiting in lockstep) is locked
+// where it is (ModulePlant::set_brake) and its samples say braked, so the supervisor pauses the module; the
+// first valid command of a robot for that arm releases it. Every change of the robot an arm follows is
+// logged with its gap, and whether it was a failover (to a weaker robot) or a takeover (a stronger one).
 #include <tandemPubSubTypes.h>
 
 #include <time.h>
@@ -13,6 +17,7 @@
 #include <cmath>
 #include <vector>
 #include <cstdio>
+#include <string>
 #include <thread>
 
 #include "tandem/runtime/histogram.hpp"
@@ -35,6 +40,8 @@ int main(int argc, char** argv) {
   bus::Writer<msg::ArmSensors, msg::ArmSensorsPubSubType> sensors(part, bus::module_topic(bus::kSensorsTopic, opt.module), bus::TopicKind::Sensors);
   bus::Reader<msg::TorqueCommand, msg::TorqueCommandPubSubType> torques(part, bus::module_topic(bus::kTorquesTopic, opt.module),
                                                                          bus::TopicKind::Torques);
+  bus::Reader<msg::ArmReference, msg::ArmReferencePubSubType> refs(part, bus::module_topic(bus::kReferencesTopic, opt.module),
+                                                                   bus::TopicKind::References);
   bus::Writer<msg::WorldSummary, msg::WorldSummaryPubSubType> summary(part, bus::kWorldSummaryTopic,
                                                                        bus::TopicKind::Summary);
 
@@ -54,21 +61,74 @@ int main(int argc, char** argv) {
   }
   std::this_thread::sleep_for(std::chrono::milliseconds(200));  // let the reverse matches settle
 
-  unsigned long long rejected = 0, timeouts = 0, late = 0;
-  std::array<std::string, 2> owner;
-  std::array<std::chrono::steady_clock::time_point, 2> last_applied{};
+  unsigned long long rejected = 0, timeouts = 0, late = 0, stale = 0, braked_ticks = 0;
+  // Which robot each arm follows (EXCLUSIVE ownership: the strongest live writer) and when it last applied one.
+  struct ArmLink {
+    std::string owner;
+    int32_t strength = 0;
+    long last_tick = -1;                            // tick of the last applied command
+    std::chrono::steady_clock::time_point last_at{};  // when it was applied
+    bool braked = false;
+    bool release = false;  // lockstep: a robot answered while braked: wait for it again from the next tick
+  };
+  std::array<ArmLink, 2> link{};
   unsigned long long failovers = 0;
   double failover_max_ms = 0.0, failover_last_ms = 0.0;
-  unsigned long long stale = 0;
   runtime::Histogram latency_us, wake_late_us;  // fixed bins: no allocation per tick, any run length
   double interval_worst_us = 0.0;
+  // The last 256 ticks' tracking error per arm and lowest normal force, and the open windows after a switch
+  // of owner (failover or takeover): each gathers its worst |e_p| and lowest normal force for 300 ticks.
+  constexpr size_t kHistory = 256;
+  constexpr long kWindowTicks = 300;
+  struct TickRecord {
+    std::array<double, 2> ep{0.0, 0.0};
+    double hn_min = 0.0;
+  };
+  std::array<TickRecord, kHistory> history{};
+  struct Window {
+    int arm;
+    long end;
+    size_t index;
+  };
+  std::vector<Window> windows;
+  msg::WorldSummary ws;
+  // Supervisor references, to measure each arm's tracking error |x_d - x| as the world sees it.
+  struct RefSlot {
+    long tick = -1;
+    model::Vec2 x = model::Vec2::Zero();
+  };
+  std::array<std::array<RefSlot, 64>, 2> ref_ring{};
+  std::array<double, 2> ep{0.0, 0.0};
   msg::ArmSensors s;
   msg::TorqueCommand cmd;
+  msg::ArmReference ref_in;
   std::array<model::Vec3, 2> tau{model::Vec3::Zero(), model::Vec3::Zero()};
   timespec tick_start{};
   ::clock_gettime(CLOCK_MONOTONIC, &tick_start);
   const long period_ns = std::lround(m.period * 1e9);
   auto to_ns = [](const timespec& ts) { return static_cast<long long>(ts.tv_sec) * 1000000000LL + ts.tv_nsec; };
+  // An arm whose controller has gone quiet for this long is braked (real time: wall time without a command
+  // while the world ticks on; lockstep: wall time the tick waited). Longer than a standby's failover (the
+  // 20 ms liveliness lease plus a few ticks), so a failover never brakes.
+  const double brake_after_s = opt.realtime ? 0.05 : 1.0;
+  auto serving_text = [&] {
+    std::string out;
+    for (int j = 0; j < 2; ++j) {
+      out += (j ? "," : "") + ctx.scenario.robots[j].name + "=" + (link[j].braked ? "braked" : link[j].owner);
+    }
+    return out;
+  };
+  auto set_brake = [&](int j, bool on, const std::string& why) {
+    link[j].braked = on;
+    plant.set_brake(j, on);
+    std::printf("tandem-world %s: %s %s (%s)\n", opt.module.c_str(), ctx.arm_id(j).c_str(),
+                on ? "braked" : "released", why.c_str());
+    std::fflush(stdout);
+    status.msg().serving(serving_text());
+    status.msg().detail(link[0].braked || link[1].braked ? "arm braked: no live controller" : "");
+    status.publish();
+  };
+  status.msg().serving(serving_text());
   status.set(runtime::Lifecycle::Active, opt.realtime ? "real time" : "lockstep");
   double min_normal = 1e300;
   long k = 0;
@@ -76,12 +136,39 @@ int main(int argc, char** argv) {
     const double t = static_cast<double>(k) * m.period;
     const model::ContactReading contact = plant.contacts();
     min_normal = std::min({min_normal, contact.normal[0], contact.normal[1]});
+    for (int j = 0; j < 2; ++j) {
+      if (link[j].release) {
+        link[j].release = false;
+        set_brake(j, false, "a robot answers again");
+      }
+    }
+    // Tracking error as the world sees it, and the windows after owner switches.
+    while (refs.take(ref_in)) {
+      const int j = ctx.arm_index(ref_in.arm_id());
+      if (j < 0 || !runtime::all_finite(ref_in.x())) continue;
+      RefSlot& slot = ref_ring[static_cast<size_t>(j)][ref_in.tick() % 64];
+      slot.tick = static_cast<long>(ref_in.tick());
+      slot.x = model::Vec2(ref_in.x()[0], ref_in.x()[1]);
+    }
+    TickRecord& rec = history[static_cast<size_t>(k) % kHistory];
+    for (int j = 0; j < 2; ++j) {
+      const RefSlot& slot = ref_ring[static_cast<size_t>(j)][static_cast<size_t>(k) % 64];
+      if (slot.tick == k) ep[j] = (slot.x - plant.end_effector(j).head<2>()).norm();
+      rec.ep[static_cast<size_t>(j)] = ep[j];
+    }
+    rec.hn_min = std::min(contact.normal[0], contact.normal[1]);
+    for (auto it = windows.begin(); it != windows.end();) {
+      ws.switch_ep_max()[it->index] = std::max(ws.switch_ep_max()[it->index], ep[it->arm]);
+      ws.switch_hn_min()[it->index] = std::min(ws.switch_hn_min()[it->index], rec.hn_min);
+      it = k >= it->end ? windows.erase(it) : it + 1;
+    }
     if (k % 100 == 0) {  // live status, every 100 ticks
       auto& st = status.msg();
       st.tick(static_cast<uint64_t>(k));
       st.progress(opt.continuous ? -1.0 : static_cast<double>(k) / static_cast<double>(m.steps));
       st.grasp_margin(min_normal - m.safe_grasp_force);
       st.late(opt.realtime ? late : timeouts);
+      st.tracking_error(std::max(ep[0], ep[1]));
       st.latency_p99_us(interval_worst_us);  // the worst of the interval (at most 200 arm-ticks)
       interval_worst_us = 0.0;
       status.publish();
@@ -101,12 +188,13 @@ int main(int argc, char** argv) {
         }
         s.h()[0] = contact.h[j](0);
         s.h()[1] = contact.h[j](1);
-        s.braked(false);
+        s.braked(link[j].braked);
         sensors.write(s);
       }
     };
     publish_samples();
-    // Real time: the tick ends at an absolute deadline; lockstep: when both commands are in (or timeout).
+    // Real time: the tick ends at an absolute deadline; lockstep: when every arm that is not braked has its
+    // command in (a braked arm's robot may answer too: that releases it).
     timespec deadline = tick_start;
     deadline.tv_nsec += period_ns;
     while (deadline.tv_nsec >= 1000000000L) {
@@ -114,9 +202,12 @@ int main(int argc, char** argv) {
       ++deadline.tv_sec;
     }
     std::array<bool, 2> have{false, false};
+    auto done_waiting = [&] {
+      return (have[0] || (link[0].braked && !opt.realtime)) && (have[1] || (link[1].braked && !opt.realtime));
+    };
     int republished = 0;
     const auto wait_start = std::chrono::steady_clock::now();
-    while (!(have[0] && have[1]) && !runtime::g_stop) {
+    while (!done_waiting() && !runtime::g_stop) {
       if (!torques.take(cmd)) {
         if (opt.realtime) {
           timespec now{};
@@ -126,7 +217,17 @@ int main(int argc, char** argv) {
           torques.wait(static_cast<double>(left) * 1e-9);
         } else {
           const double waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - wait_start).count();
-          if (waited > opt.timeout) break;
+          bool gave_up = false;
+          for (int j = 0; j < 2; ++j) {
+            if (have[j] || link[j].braked) continue;
+            if (link[j].last_tick >= 0 && waited > brake_after_s) {
+              set_brake(j, true, "no command for " + std::to_string(std::lround(waited * 1e3)) + " ms");
+              ++timeouts;
+            } else if (link[j].last_tick < 0 && waited > opt.timeout) {
+              gave_up = true;
+            }
+          }
+          if (gave_up) break;
           // Lockstep: every 50 ms without the tick's commands, publish the tick's samples again, for a robot
           // that joined (or restarted) after they went out; the supervisor answers with the references again.
           if (waited > 0.05 * static_cast<double>(republished + 1)) {
@@ -150,13 +251,8 @@ int main(int argc, char** argv) {
         ++rejected;
         continue;
       }
-      if (cmd.tick() != static_cast<uint64_t>(k)) {
-        // An older tick is a late answer or a liveliness repeat: harmless, dropped. A future tick is invalid.
-        if (cmd.tick() > static_cast<uint64_t>(k)) {
-          ++rejected;
-        } else {
-          ++stale;
-        }
+      if (cmd.tick() > static_cast<uint64_t>(k)) {  // a future tick is invalid
+        ++rejected;
         continue;
       }
       const model::Vec3 v(cmd.tau()[0], cmd.tau()[1], cmd.tau()[2]);
@@ -164,23 +260,63 @@ int main(int argc, char** argv) {
         ++rejected;
         continue;
       }
+      if (cmd.tick() != static_cast<uint64_t>(k)) {
+        // An older tick is a late answer or a liveliness repeat: dropped. From a braked arm's robot it means
+        // a controller is back: lockstep waits for it again from the next tick.
+        ++stale;
+        if (link[j].braked && !opt.realtime && cmd.tick() + 64 > static_cast<uint64_t>(k)) link[j].release = true;
+        continue;
+      }
       tau[j] = v;
       have[j] = true;
-      // Which robot the arm follows (EXCLUSIVE ownership picks the strongest live one): a change is a failover.
       const auto now_fo = std::chrono::steady_clock::now();
-      // (In the first 50 ticks discovery order decides which of a primary and its shadow the reader hears
-      // first; their commands are equal, and those switches are not failovers.)
-      if (!owner[j].empty() && cmd.robot_id() != owner[j] && k >= 50) {
-        const double gap_ms = std::chrono::duration<double, std::milli>(now_fo - last_applied[j]).count();
-        ++failovers;
-        failover_last_ms = gap_ms;
-        failover_max_ms = std::max(failover_max_ms, gap_ms);
-        std::printf("tandem-world %s: %s now follows %s (was %s), %.1f ms after the last command of the old one\n",
-                    opt.module.c_str(), ctx.arm_id(j).c_str(), cmd.robot_id().c_str(), owner[j].c_str(), gap_ms);
+      ArmLink& L = link[j];
+      if (L.braked) {
+        std::printf("tandem-world %s: %s follows %s after %.0f ms braked\n", opt.module.c_str(), ctx.arm_id(j).c_str(),
+                    cmd.robot_id().c_str(), std::chrono::duration<double, std::milli>(now_fo - L.last_at).count());
+        L.owner = cmd.robot_id();
+        L.strength = cmd.strength();
+        set_brake(j, false, "a robot answers again");
+      } else if (!L.owner.empty() && cmd.robot_id() != L.owner && k >= 50) {
+        // A change of owner (EXCLUSIVE ownership picks the strongest live writer). To a weaker robot it is a
+        // failover (the owner died or left); to a stronger one a takeover. In the first 50 ticks discovery
+        // order decides which of a primary and its shadow the reader hears first: not a switch.
+        const double gap_ms = std::chrono::duration<double, std::milli>(now_fo - L.last_at).count();
+        const bool failover = cmd.strength() < L.strength;
+        if (failover) {
+          ++failovers;
+          failover_last_ms = gap_ms;
+          failover_max_ms = std::max(failover_max_ms, gap_ms);
+        }
+        std::printf("tandem-world %s: %s now follows %s (was %s): %s %.1f ms after the last command of the old one\n",
+                    opt.module.c_str(), ctx.arm_id(j).c_str(), cmd.robot_id().c_str(), L.owner.c_str(),
+                    failover ? "failover" : "takeover", gap_ms);
         std::fflush(stdout);
+        if (ws.switch_gap_ms().size() < 512) {
+          ws.switch_gap_ms().push_back(gap_ms);
+          ws.switch_failover().push_back(failover);
+          // The window starts at the old owner's last command: the gap, held on its last torque, counts.
+          double ep_max = 0.0, hn_min = 1e300;
+          for (long kk = std::max({L.last_tick, k - static_cast<long>(kHistory) + 1, 0L}); kk <= k; ++kk) {
+            ep_max = std::max(ep_max, history[static_cast<size_t>(kk) % kHistory].ep[static_cast<size_t>(j)]);
+            hn_min = std::min(hn_min, history[static_cast<size_t>(kk) % kHistory].hn_min);
+          }
+          ws.switch_ep_max().push_back(ep_max);
+          ws.switch_hn_min().push_back(hn_min);
+          windows.push_back({j, k + kWindowTicks, ws.switch_gap_ms().size() - 1});
+        }
+        L.owner = cmd.robot_id();
+        L.strength = cmd.strength();
+        status.msg().serving(serving_text());
+        status.publish();
+      } else if (L.owner != cmd.robot_id() || L.strength != cmd.strength()) {
+        L.owner = cmd.robot_id();
+        L.strength = cmd.strength();
+        status.msg().serving(serving_text());
+        status.publish();
       }
-      owner[j] = cmd.robot_id();
-      last_applied[j] = now_fo;
+      L.last_tick = k;
+      L.last_at = now_fo;
       if (opt.realtime) {
         timespec now{};
         ::clock_gettime(CLOCK_MONOTONIC, &now);
@@ -189,25 +325,39 @@ int main(int argc, char** argv) {
         interval_worst_us = std::max(interval_worst_us, us);
       }
     }
-    if (!(have[0] && have[1])) {
-      if (runtime::g_stop) break;
+    if (runtime::g_stop) break;
+    bool stop_run = false;
+    for (int j = 0; j < 2; ++j) {
+      if (have[j]) continue;
+      if (link[j].braked) {
+        ++braked_ticks;
+        continue;
+      }
       if (opt.realtime) {
-        // A late or missing command: the arm keeps its previous torque for this tick (counted).
-        late += (have[0] ? 0 : 1) + (have[1] ? 0 : 1);
-      } else {
+        // A late or missing command: the arm keeps its previous torque for this tick (counted); an arm whose
+        // controller stays silent is braked.
+        ++late;
+        const double quiet = std::chrono::duration<double>(std::chrono::steady_clock::now() - link[j].last_at).count();
+        if (link[j].last_tick >= 0 && quiet > brake_after_s) set_brake(j, true, "no live controller");
+      } else if (link[j].last_tick < 0) {
         ++timeouts;
         std::fprintf(stderr, "tandem-world: tick %ld: no valid torque from %s within %.1f s; stopping\n", k,
-                     have[0] ? ctx.arm_id(1).c_str() : ctx.arm_id(0).c_str(), opt.timeout);
-        break;
+                     ctx.arm_id(j).c_str(), opt.timeout);
+        stop_run = true;
       }
     }
-    if (opt.realtime) ::clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &deadline, nullptr);
+    if (stop_run) break;
+    if (opt.realtime) {
+      ::clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &deadline, nullptr);
+    } else if (link[0].braked && link[1].braked) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));  // nothing to wait for: hold at about 1 kHz
+    }
     plant.step(tau, t, m.period, m.substeps);
     if (opt.realtime) tick_start = deadline;
   }
 
-  msg::WorldSummary ws;
   ws.module_id(opt.module);
+  ws.braked_ticks(braked_ticks);
   ws.ticks(static_cast<uint64_t>(k));
   for (int j = 0; j < 2; ++j) {
     for (int i = 0; i < 3; ++i) ws.q_final()[static_cast<size_t>(3 * j + i)] = plant.state().q[j](i);
@@ -230,14 +380,15 @@ int main(int argc, char** argv) {
   summary.write(ws);
   status.msg().tick(static_cast<uint64_t>(k));
   status.msg().progress(opt.continuous ? -1.0 : static_cast<double>(k) / static_cast<double>(m.steps));
-  if (timeouts > 0) {
+  const bool never_answered = link[0].last_tick < 0 || link[1].last_tick < 0;
+  if (never_answered && !runtime::g_stop) {
     status.set(runtime::Lifecycle::Error, "a robot did not answer a tick");
   } else {
     status.set(runtime::Lifecycle::Finalized, runtime::g_stop ? "stopped" : "task done");
   }
   std::printf("tandem-world %s: %ld ticks, slip %ld, contact lost %ld, rejected %llu, stale %llu, %s %llu\n",
               opt.module.c_str(), k, plant.counters().slip_events, plant.counters().contact_lost, rejected, stale,
-              opt.realtime ? "late arm-ticks" : "timeouts", opt.realtime ? late : timeouts);
+              opt.realtime ? "late arm-ticks" : "brakings", opt.realtime ? late : timeouts);
   std::this_thread::sleep_for(std::chrono::milliseconds(300));  // let the summary reach the launcher
-  return timeouts > 0 ? 4 : 0;
+  return never_answered && !runtime::g_stop ? 4 : 0;
 }

@@ -318,3 +318,76 @@ TEST_CASE("module plant at reset: pressing arms hold the object in static equili
     CHECK(plant.counters().contact_lost == 0);
   }
 }
+
+TEST_CASE("brakes: locked arms hold the object by friction alone, a released arm falls", "[grasp]") {
+  const double h = 29.43;  // 1.5 h_sg
+  Grasp g = make_grasp(Vec3(-0.2, 0.8, 0.0), h);
+  tm::ModulePlant plant(g.params);
+  plant.reset(g.state);
+  plant.set_brake(0, true);
+  plant.set_brake(1, true);
+  const std::array<Vec3, 2> zero{Vec3::Zero(), Vec3::Zero()};
+  // With both arms locked and no torque at all, the pre-loaded contacts carry the weight: the object settles
+  // by no more than the tangential spring deflection M g / (2 k_t) (here 0.1 mm) and never slides.
+  for (int k = 0; k < 1000; ++k) plant.step(zero, 1e-3 * static_cast<double>(k), 1e-3, 10);
+  const tm::ModuleState& s = plant.state();
+  for (size_t j = 0; j < 2; ++j) {
+    CHECK(max_abs(s.q[j] - g.state.q[j]) == 0.0);
+    CHECK(max_abs(s.qd[j]) == 0.0);
+  }
+  const double sag = g.params.object.mass * g.params.g0 / (2.0 * g.params.contact.k_tangent);
+  INFO("object moved by " << (s.c - g.state.c).transpose());
+  CHECK((s.c - g.state.c).norm() <= 2.0 * sag + 1e-9);
+  CHECK(plant.counters().slip_events == 0);
+  CHECK(plant.counters().contact_lost == 0);
+  CHECK(s.cd.norm() <= 1e-3);
+  // Released with no torque, gravity takes the left arm down: it is no longer locked.
+  plant.set_brake(0, false);
+  CHECK_FALSE(plant.braked(0));
+  CHECK(plant.braked(1));
+  for (int k = 0; k < 50; ++k) plant.step(zero, 1.0 + 1e-3 * static_cast<double>(k), 1e-3, 10);
+  CHECK(max_abs(plant.state().q[0] - g.state.q[0]) > 1e-3);
+  CHECK(max_abs(plant.state().q[1] - g.state.q[1]) == 0.0);
+}
+
+TEST_CASE("time scale: pause and resume keep the reference C1, tau by finite differences", "[grasp]") {
+  const tm::ObjectPath path(Vec3(-0.2, 0.8, 0.0), 0.0, {tm::ObjectPath::Segment{Vec3(0.2, 0.9, 0.2), 2.0}});
+  tm::TimeScale ts;
+  const double T = 0.3;
+  ts.retarget(0.7, 0.0, T);   // pause from t = 0.7
+  ts.retarget(1.5, 1.0, T);   // resume at t = 1.5
+  // Before any ramp: the identity.
+  CHECK(ts.at(0.5).tau == 0.5);
+  CHECK(ts.at(0.5).rate == 1.0);
+  // While paused, tau stands still at 0.7 + T/2 (a smoothstep from 1 to 0 covers half its length).
+  CHECK(ts.at(1.2).tau == Approx(0.7 + 0.5 * T).epsilon(1e-14));
+  CHECK(ts.at(1.2).rate == 0.0);
+  CHECK_FALSE(ts.settled(0.9));
+  CHECK(ts.settled(1.9));
+  // After the resume ramp, tau runs at rate 1 again, T/2 behind where the pause left it plus the pause.
+  CHECK(ts.at(2.5).tau == Approx(0.7 + 0.5 * T + 0.5 * T + (2.5 - 1.5 - T)).epsilon(1e-13));
+  // dtau/dt = rate and drate/dt = rate_dot, by central differences everywhere (ramps included).
+  const double h = 1e-6;
+  double worst_rate = 0.0, worst_rd = 0.0, worst_vel = 0.0, worst_acc = 0.0;
+  for (double t = 0.01; t < 2.6; t += 0.00737) {
+    const auto a = ts.at(t - h), b = ts.at(t + h), c = ts.at(t);
+    worst_rate = std::max(worst_rate, std::abs((b.tau - a.tau) / (2 * h) - c.rate));
+    worst_rd = std::max(worst_rd, std::abs((b.rate - a.rate) / (2 * h) - c.rate_dot));
+    const tm::PoseSample pa = tm::sample_scaled(path, a), pb = tm::sample_scaled(path, b), pc = tm::sample_scaled(path, c);
+    worst_vel = std::max(worst_vel, max_abs((pb.pose - pa.pose) / (2 * h) - pc.vel));
+    worst_acc = std::max(worst_acc, max_abs((pb.vel - pa.vel) / (2 * h) - pc.acc));
+  }
+  CHECK(worst_rate <= 1e-8);
+  CHECK(worst_rd <= 1e-5);
+  CHECK(worst_vel <= 1e-7);
+  CHECK(worst_acc <= 1e-4);
+  // Paused: the reference is at rest.
+  const tm::PoseSample still = tm::sample_scaled(path, ts.at(1.3));
+  CHECK(max_abs(still.vel) == 0.0);
+  CHECK(max_abs(still.acc) == 0.0);
+  // A later retarget leaves earlier times as they were.
+  const auto before = ts.at(2.0);
+  ts.retarget(2.2, 0.0, 0.0);
+  CHECK(ts.at(2.0).tau == before.tau);
+  CHECK(ts.at(2.4).tau == ts.at(2.2).tau);
+}

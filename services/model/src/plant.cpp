@@ -98,6 +98,11 @@ ModulePlant::StateVec ModulePlant::derivative(const StateVec& x, const std::arra
   StateVec dx;
   for (int j = 0; j < 2; ++j) {
     const Vec3 h(c.h[j](0), c.h[j](1), 0.0);  // point contacts transmit no moment
+    if (braked_[static_cast<size_t>(j)]) {  // locked joints: the brake takes whatever torque holds them
+      dx.segment<3>(3 * j).setZero();
+      dx.segment<3>(6 + 3 * j).setZero();
+      continue;
+    }
     const Vec3 qdd = forward_dynamics(params_.arms[j], s.q[j], s.qd[j], tau[j], h) + params_.disturbance[j](t);
     dx.segment<3>(3 * j) = s.qd[j];
     dx.segment<3>(6 + 3 * j) = qdd;
@@ -173,6 +178,11 @@ void ModulePlant::step(const std::array<Vec3, 2>& tau_cmd, double t, double dt, 
       break;
     }
   }
+}
+
+void ModulePlant::set_brake(int j, bool on) noexcept {
+  braked_[static_cast<size_t>(j)] = on;
+  if (on) state_.qd[static_cast<size_t>(j)].setZero();
 }
 
 double ModulePlant::mechanical_energy() const noexcept {

@@ -1,5 +1,6 @@
 #include "tandem/model/reference.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <utility>
 
@@ -37,6 +38,52 @@ PoseSample ObjectPath::sample(double t) const noexcept {
     out.acc = sdd * delta;
     return out;
   }
+  return out;
+}
+
+void TimeScale::retarget(double t0, double rate, double ramp) {
+  const Sample s = at(t0);
+  if (!breaks_.empty() && t0 < breaks_.back().t0) t0 = breaks_.back().t0;
+  breaks_.push_back({t0, s.tau, s.rate, rate, std::max(ramp, 0.0)});
+}
+
+TimeScale::Sample TimeScale::at(double t) const noexcept {
+  Sample out;
+  out.tau = t;
+  // The last break at or before t (none: the identity, rate 1 from t = 0).
+  const Break* b = nullptr;
+  for (auto it = breaks_.rbegin(); it != breaks_.rend(); ++it) {
+    if (it->t0 <= t) {
+      b = &*it;
+      break;
+    }
+  }
+  if (b == nullptr) return out;
+  const double dt = t - b->t0;
+  const double dr = b->r1 - b->r0;
+  if (b->ramp <= 0.0 || dt >= b->ramp) {
+    // Integral of the whole ramp: r0 T + (r1 - r0) T / 2; then the new rate.
+    const double ramp_int = b->ramp > 0.0 ? b->r0 * b->ramp + 0.5 * dr * b->ramp : 0.0;
+    out.tau = b->tau0 + ramp_int + b->r1 * (dt - std::max(b->ramp, 0.0));
+    out.rate = b->r1;
+    out.rate_dot = 0.0;
+    return out;
+  }
+  const double T = b->ramp;
+  const double u = dt / T;
+  // int_0^u (3 s^2 - 2 s^3) ds = u^3 - u^4 / 2
+  out.tau = b->tau0 + b->r0 * dt + dr * T * (u * u * u - 0.5 * u * u * u * u);
+  out.rate = b->r0 + dr * u * u * (3.0 - 2.0 * u);
+  out.rate_dot = dr * 6.0 * u * (1.0 - u) / T;
+  return out;
+}
+
+PoseSample sample_scaled(const ObjectPath& path, const TimeScale::Sample& s, double tau_offset) noexcept {
+  const PoseSample p = path.sample(s.tau - tau_offset);
+  PoseSample out;
+  out.pose = p.pose;
+  out.vel = p.vel * s.rate;
+  out.acc = p.acc * s.rate * s.rate + p.vel * s.rate_dot;
   return out;
 }
 

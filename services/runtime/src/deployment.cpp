@@ -50,6 +50,8 @@ Deployment load_deployment(const std::string& path) {
     mr.integer("restart_limit", m.restart_limit, 0, 100);
     mr.num("restart_window", m.restart_window, 0.1, 86400.0);
     mr.num("restart_backoff", m.restart_backoff, 0.0, 60.0);
+    mr.choice("restart_as", m.restart_as, {"standby", "primary"});
+    mr.boolean("autostart", m.autostart);
     mr.finish();
     // Validate what each process will load, before anything starts.
     const sim::Scenario sc = sim::load_scenario(m.scenario);
@@ -69,6 +71,8 @@ Deployment load_deployment(const std::string& path) {
     sim::yaml::MapReader co = top.child("coordinator");
     d.coordinator = true;
     co.choice("balance", d.balance, {"wear", "round_robin"});
+    co.integer("standby", d.coordinator_standby, 0, 3);
+    co.choice("restart", d.coordinator_restart, {"never", "on-failure", "always"});
     YAML::Node tasks = co.sequence("tasks", true);
     for (size_t i = 0; i < tasks.size(); ++i) {
       sim::yaml::MapReader tr(tasks[i], co.key_path("tasks[" + std::to_string(i) + "]"), path);
@@ -86,6 +90,9 @@ Deployment load_deployment(const std::string& path) {
       }
       if (t.waypoints.empty()) tr.fail(tasks[i], tr.key_path("segments"), "a task needs at least one segment");
       tr.finish();
+      for (const auto& o : d.tasks) {
+        if (o.name == t.name) tr.fail(tasks[i]["name"], tr.key_path("name"), "task names must be unique ('" + t.name + "' twice)");
+      }
       d.tasks.push_back(t);
     }
     if (d.tasks.empty()) co.fail(tasks, co.key_path("tasks"), "list at least one task");
@@ -122,6 +129,13 @@ Deployment load_deployment(const std::string& path) {
   }
   top.finish();
   return d;
+}
+
+const ModuleDeployment* find_module(const Deployment& d, const std::string& name) {
+  for (const auto& m : d.modules) {
+    if (m.name == name) return &m;
+  }
+  return nullptr;
 }
 
 }  // namespace tandem::runtime

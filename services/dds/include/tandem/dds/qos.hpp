@@ -40,5 +40,6 @@ inline constexpr const char* kStatusTopic = "tandem/process_status";
 inline constexpr const char* kControlTopic = "tandem/control";
 inline constexpr const char* kTaskAssignmentTopic = "tandem/task_assignment";
 inline constexpr const char* kTaskStateTopic = "tandem/task_state";
+inline constexpr const char* kCoordinatorStateTopic = "tandem/coordinator_state";
 
 }  // namespace tandem::dds

@@ -84,6 +84,11 @@ class ModulePlant {
   /// at the start of the period (for the disturbance). Torques are clipped to each arm's tau_max.
   void step(const std::array<Vec3, 2>& tau, double t, double dt, int substeps) noexcept;
 
+  /// Brakes of arm j (an arm without a live controller): an ideal lock, the joints stop at once and are
+  /// held where they are (q' = 0, q'' = 0) until released; the contacts and the object stay dynamic.
+  void set_brake(int j, bool on) noexcept;
+  bool braked(int j) const noexcept { return braked_[static_cast<size_t>(j)]; }
+
   const ModuleState& state() const noexcept { return state_; }
   const ModuleParams& params() const noexcept { return params_; }
   const PlantCounters& counters() const noexcept { return counters_; }
@@ -106,6 +111,7 @@ class ModulePlant {
   ModuleState state_;
   std::array<double, 2> anchor_{0.0, 0.0};  ///< rest position of each sticking contact along its face
   PlantCounters counters_;
+  std::array<bool, 2> braked_{false, false};
 };
 
 }  // namespace tandem::model

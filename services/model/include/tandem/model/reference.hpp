@@ -35,6 +35,39 @@ class ObjectPath {
   std::vector<Segment> segments_;
 };
 
+/// Time scaling of a path, for pausing and resuming a module without a jump in the reference: the path is
+/// sampled at tau(t), whose rate r = dtau/dt moves between 0 (paused) and 1 (normal) along a smoothstep
+/// ramp r0 + (r1 - r0)(3u^2 - 2u^3), u = (t - t0)/T, so that r and dr/dt are continuous at the ramp's ends.
+/// tau is integrated in closed form (no drift), and every retarget is kept, so a time before the latest
+/// retarget samples exactly as it did before it (a supervisor answering a repeated tick gives the same).
+class TimeScale {
+ public:
+  struct Sample {
+    double tau = 0.0;       ///< path time
+    double rate = 1.0;      ///< dtau/dt
+    double rate_dot = 0.0;  ///< d2tau/dt2
+  };
+  TimeScale() = default;
+  /// From time t0 on (t0 not before the latest retarget), the rate moves to `rate` over `ramp` seconds
+  /// (ramp 0: at once).
+  void retarget(double t0, double rate, double ramp);
+  Sample at(double t) const noexcept;
+  double target() const noexcept { return breaks_.empty() ? 1.0 : breaks_.back().r1; }
+  /// True once the latest ramp is over at time t.
+  bool settled(double t) const noexcept {
+    return breaks_.empty() || t >= breaks_.back().t0 + breaks_.back().ramp;
+  }
+
+ private:
+  struct Break {
+    double t0, tau0, r0, r1, ramp;
+  };
+  std::vector<Break> breaks_;
+};
+
+/// The path sampled through a time scale: pose p(tau), velocity p'(tau) r, acceleration p''(tau) r^2 + p'(tau) r'.
+PoseSample sample_scaled(const ObjectPath& path, const TimeScale::Sample& s, double tau_offset = 0.0) noexcept;
+
 /// How the supervisor places the two end-effectors around the object (eq. 15).
 struct GraspGeometry {
   double stick_length[2] = {0.3, 0.3};  ///< |r_j| [m]

@@ -19,6 +19,11 @@ struct ModuleDeployment {
   int restart_limit = 3;
   double restart_window = 30.0;
   double restart_backoff = 0.2;
+  /// How a restarted robot joins: as a standby (below the live ones) or as the arm's primary (it takes the
+  /// arm over from the standby that served it meanwhile).
+  std::string restart_as = "standby";
+  /// false: listed but not started by `tandem up`; `tandem plug module NAME` starts it later.
+  bool autostart = true;
 };
 
 /// A task of the coordinator's queue: waypoints of the object's absolute pose, from wherever it is.
@@ -38,7 +43,12 @@ struct Deployment {
   bool coordinator = false;        ///< a coordinator hands out `tasks`; modules run until it is done
   std::vector<TaskSpec> tasks;
   std::string balance = "wear";    ///< wear | round_robin
+  int coordinator_standby = 0;     ///< standby coordinators (they take over with the queue's state)
+  std::string coordinator_restart = "never";  ///< never | on-failure | always (restarted ones are standbys)
 };
+
+/// Finds a module of the deployment by name (nullptr if none).
+const ModuleDeployment* find_module(const Deployment& d, const std::string& name);
 
 /// The DDS transport a deployment asks for.
 inline dds::Transport transport_of(const Deployment& d) {

@@ -20,7 +20,9 @@ void usage(std::FILE* f) {
       "  up <deploy.yaml>      start a deployment as separate processes over Fast DDS (lockstep or real time)\n"
       "  status <deploy.yaml>  lifecycle state and live figures of a running deployment (over DDS)\n"
       "  down <deploy.yaml>    stop a running deployment cleanly (over DDS)\n"
-      "  kill <deploy.yaml> P  fault injection: SIGKILL process P of a running deployment (over DDS)\n"
+      "  kill <deploy.yaml> P  fault injection: SIGKILL process (or module) P of a running deployment\n"
+      "  plug <deploy.yaml> robot M/ARM [--standby] | module NAME   attach a robot or a module live\n"
+      "  unplug <deploy.yaml> robot M/ARM[@S] | module NAME        detach one gracefully\n"
       "  help [command]        show this help, or the help of one command\n"
       "\n"
       "Run 'tandem help sim' or 'tandem help up' for their options. Exit codes: 0 success, 1 a run failed its grasp\n"
@@ -43,7 +45,8 @@ int main(int argc, char** argv) {
       tandem::cli::sim_usage(stdout);
     } else if (!args.empty() && args[0] == "up") {
       tandem::cli::up_usage(stdout);
-    } else if (!args.empty() && (args[0] == "status" || args[0] == "down" || args[0] == "kill")) {
+    } else if (!args.empty() && (args[0] == "status" || args[0] == "down" || args[0] == "kill" ||
+                               args[0] == "plug" || args[0] == "unplug")) {
       tandem::cli::remote_usage(stdout);
     } else {
       usage(stdout);
@@ -55,6 +58,8 @@ int main(int argc, char** argv) {
   if (cmd == "status") return tandem::cli::status_command(args);
   if (cmd == "down") return tandem::cli::down_command(args);
   if (cmd == "kill") return tandem::cli::kill_command(args);
+  if (cmd == "plug") return tandem::cli::plug_command(args);
+  if (cmd == "unplug") return tandem::cli::unplug_command(args);
   std::fprintf(stderr, "tandem: unknown command '%s'\n\n", cmd.c_str());
   usage(stderr);
   return 2;

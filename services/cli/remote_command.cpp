@@ -57,8 +57,21 @@ void remote_usage(std::FILE* f) {
       "status: prints the lifecycle state and live figures of every process of the deployment(s) on the domain.\n"
       "down:   asks the deployment's launcher to stop it cleanly (as Ctrl-C would); exit 1 if no launcher on the\n"
       "        domain is listening (a launcher of another deployment on the same domain ignores the request).\n"
-      "kill:   fault injection: the launcher SIGKILLs PROCESS (a label of its live view, e.g. m1/left); the\n"
-      "        launcher prints whether that process was running.\n",
+      "       tandem plug   <deploy.yaml> | --domain ID --name NAME  robot MODULE/ARM [--standby | --primary]\n"
+      "       tandem plug   <deploy.yaml> | --domain ID --name NAME  module NAME [--scenario FILE --case CASE]\n"
+      "       tandem unplug <deploy.yaml> | --domain ID --name NAME  robot MODULE/ARM[@STRENGTH] | module NAME\n"
+      "kill:   fault injection: the launcher SIGKILLs PROCESS (a label of the status view, e.g. m1/left, m1/world,\n"
+      "        coordinator) or every process of a MODULE.\n"
+      "plug robot: starts a robot process for the arm, as its primary (default; refused if the arm has one) or as\n"
+      "        a standby computing in shadow. Plugged into a paused module (arm braked), it releases the brake and\n"
+      "        the module resumes.\n"
+      "plug module: starts a module of the deployment file not yet running (autostart: false), or a new one\n"
+      "        with --scenario and --case; the coordinator gives it tasks.\n"
+      "unplug robot: graceful. With another robot on the arm, it hands over at once (its writer is deleted\n"
+      "        first). Without, the module pauses (object brought to rest, the arm braked) until a robot is plugged.\n"
+      "unplug module: the module finishes its task, takes no new one, and its processes stop.\n"
+      "kill, plug and unplug wait for the launcher's answer and print it: exit 0 done, 1 refused or no answer,\n"
+      "2 bad command line.\n",
       f);
 }
 
@@ -84,13 +97,17 @@ int status_command(const std::vector<std::string>& args) {
 }
 
 namespace {
-int send_request(const char* verb, const Deployment& d, const std::string& target) {
+// Sends a request to the deployment's launcher. With `wait_reply`, waits up to 5 s for the launcher's answer
+// (its status detail "reply <seq> ok|error: text"), prints it, and returns 0 for ok, 1 for an error.
+int send_request(const char* verb, const Deployment& d, const std::string& target, const std::string& option,
+                 bool wait_reply) {
   if (d.name.empty()) {
     std::fprintf(stderr, "tandem %s: name the deployment (--name NAME or a deployment file)\n", verb);
     return 2;
   }
-  bus::Participant part(d.domain_id, "tandem-down", runtime::transport_of(d));
+  bus::Participant part(d.domain_id, std::string("tandem-") + verb, runtime::transport_of(d));
   bus::Writer<msg::ControlRequest, msg::ControlRequestPubSubType> control(part, bus::kControlTopic, bus::TopicKind::Control);
+  bus::Reader<msg::ProcessStatus, msg::ProcessStatusPubSubType> status(part, bus::kStatusTopic, bus::TopicKind::Status);
   const auto t0 = std::chrono::steady_clock::now();
   while (control.matched() < 1 && std::chrono::steady_clock::now() - t0 < std::chrono::seconds(3)) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
@@ -99,37 +116,125 @@ int send_request(const char* verb, const Deployment& d, const std::string& targe
     std::fprintf(stderr, "tandem %s: no launcher on domain %d answered\n", verb, d.domain_id);
     return 1;
   }
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));  // let every launcher and supervisor match
   msg::ControlRequest req;
   req.deployment(d.name);
   req.command(verb);
   req.target(target);
-  req.seq(1);
+  req.option(option);
+  // A sequence number unique enough to tell this request's answer from an earlier one.
+  const auto seq = static_cast<unsigned long long>(
+      std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch()).count());
+  req.seq(seq);
   control.write(req);
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // let it be delivered
-  if (target.empty()) {
+  if (!wait_reply) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));  // let it be delivered
     std::printf("asked %s on domain %d to stop\n", d.name.c_str(), d.domain_id);
-  } else {
-    std::printf("asked %s on domain %d to %s %s\n", d.name.c_str(), d.domain_id, verb, target.c_str());
+    return 0;
   }
-  return 0;
+  const std::string prefix = "reply " + std::to_string(seq) + " ";
+  const auto t1 = std::chrono::steady_clock::now();
+  while (std::chrono::steady_clock::now() - t1 < std::chrono::seconds(5)) {
+    status.wait(0.05);
+    msg::ProcessStatus s;
+    while (status.take(s)) {
+      if (s.deployment() != d.name || s.role() != "launcher" || s.detail().rfind(prefix, 0) != 0) continue;
+      const std::string text = s.detail().substr(prefix.size());
+      const bool ok = text.rfind("ok: ", 0) == 0;
+      std::printf("%s: %s\n", d.name.c_str(), text.substr(ok ? 4 : 7).c_str());
+      return ok ? 0 : 1;
+    }
+  }
+  std::fprintf(stderr, "tandem %s: the launcher of %s did not answer within 5 s\n", verb, d.name.c_str());
+  return 1;
+}
+
+// Splits args into the target options (a file, --domain, --name) and the rest.
+std::vector<std::string> take_target_args(std::vector<std::string>& args) {
+  std::vector<std::string> target, rest;
+  for (size_t i = 0; i < args.size(); ++i) {
+    if ((args[i] == "--domain" || args[i] == "--name") && i + 1 < args.size()) {
+      target.push_back(args[i]);
+      target.push_back(args[++i]);
+    } else if (target.empty() && rest.empty() && !args[i].empty() && args[i][0] != '-') {
+      target.push_back(args[i]);  // the deployment file comes first
+    } else {
+      rest.push_back(args[i]);
+    }
+  }
+  args = rest;
+  return target;
 }
 }  // namespace
 
 int down_command(const std::vector<std::string>& args) {
   Deployment d;
   if (!parse_target("down", args, d)) return 2;
-  return send_request("down", d, "");
+  return send_request("down", d, "", "", false);
 }
 
-int kill_command(const std::vector<std::string>& args) {
-  if (args.empty()) {
+int kill_command(const std::vector<std::string>& args_in) {
+  std::vector<std::string> args = args_in;
+  const std::vector<std::string> target_args = take_target_args(args);
+  if (args.size() != 1 || args[0].empty() || args[0][0] == '-') {
+    std::fprintf(stderr, "tandem kill: name one process (e.g. m1/left, m1/left@50, m2/world, coordinator) or module\n");
     remote_usage(stderr);
     return 2;
   }
-  const std::string target = args.back();
   Deployment d;
-  if (!parse_target("kill", std::vector<std::string>(args.begin(), args.end() - 1), d)) return 2;
-  return send_request("kill", d, target);
+  if (!parse_target("kill", target_args, d)) return 2;
+  return send_request("kill", d, args[0], "", true);
 }
+
+namespace {
+int plug_or_unplug(const char* verb, const std::vector<std::string>& args_in) {
+  std::vector<std::string> args = args_in;
+  const std::vector<std::string> target_args = take_target_args(args);
+  const bool plug = std::string(verb) == "plug";
+  auto bad = [&](const std::string& why) {
+    std::fprintf(stderr, "tandem %s: %s\n", verb, why.c_str());
+    remote_usage(stderr);
+    return 2;
+  };
+  if (args.size() < 2 || (args[0] != "robot" && args[0] != "module")) return bad("expected 'robot <label>' or 'module <name>'");
+  const bool robot = args[0] == "robot";
+  const std::string name = args[1];
+  std::string option, scenario, case_name;
+  for (size_t i = 2; i < args.size(); ++i) {
+    if (plug && robot && (args[i] == "--standby" || args[i] == "--primary")) {
+      option = args[i].substr(2);
+    } else if (plug && !robot && args[i] == "--scenario" && i + 1 < args.size()) {
+      scenario = args[++i];
+    } else if (plug && !robot && args[i] == "--case" && i + 1 < args.size()) {
+      case_name = args[++i];
+    } else {
+      return bad("unexpected '" + args[i] + "'");
+    }
+  }
+  if (robot) {
+    // <module>/<robot>, with @<strength> for a standby (unplug only).
+    const auto slash = name.find('/');
+    if (slash == std::string::npos || slash == 0 || slash + 1 == name.size() || (plug && name.find('@') != std::string::npos)) {
+      return bad("a robot is named <module>/<arm>" + std::string(plug ? "" : "[@<strength>]") + ", e.g. m1/left; got '" + name + "'");
+    }
+    if (plug && option.empty()) option = "primary";
+  } else {
+    if (name.empty() || name.find('/') != std::string::npos) return bad("a module name has no '/'; got '" + name + "'");
+    if (!scenario.empty() || !case_name.empty()) {
+      if (scenario.empty() || case_name.empty()) return bad("give both --scenario FILE and --case NAME");
+      // The launcher may run elsewhere: send an absolute path, and check the file here first.
+      char resolved[4096];
+      if (::realpath(scenario.c_str(), resolved) == nullptr) return bad("cannot open the scenario '" + scenario + "'");
+      option = "scenario=" + std::string(resolved) + " case=" + case_name;
+    }
+  }
+  Deployment d;
+  if (!parse_target(verb, target_args, d)) return 2;
+  return send_request(verb, d, args[0] + " " + name, option, true);
+}
+}  // namespace
+
+int plug_command(const std::vector<std::string>& args) { return plug_or_unplug("plug", args); }
+int unplug_command(const std::vector<std::string>& args) { return plug_or_unplug("unplug", args); }
 
 }  // namespace tandem::cli

@@ -1,6 +1,12 @@
-// `tandem up`: starts a deployment as separate processes (world, supervisor and two robots per module) that
-// talk only over Fast DDS, follows them, and ends with a summary. Ctrl-C / SIGTERM stops every child; no
-// child outlives the launcher (PR_SET_PDEATHSIG), and every child is reaped.
+// `tandem up`: starts a deployment as separate processes (world, supervisor and robots per module, and the
+// coordinator) that talk only over Fast DDS, supervises them, serves live commands, and ends with a summary.
+// Ctrl-C / SIGTERM stops every child; no child outlives the launcher (PR_SET_PDEATHSIG), every child is reaped.
+//
+// The launcher is the deployment's supervisor (DESIGN.md, failure tiers 2 and 3): it restarts robots and
+// coordinators by policy (intensity limit, doubling backoff) and gives up on one that keeps failing; with a
+// coordinator, a module whose world or supervisor dies is failed and stopped while the others go on (the
+// coordinator re-plans its task). Live commands arrive over DDS (tandem plug/unplug/kill/down) and are
+// carried out here: docs/failure-model.md.
 #include "up_command.hpp"
 
 #include <signal.h>
@@ -9,22 +15,28 @@
 #include <tandemPubSubTypes.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cstdarg>
 #include <atomic>
 #include <chrono>
-#include <cstdio>
-#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <deque>
 #include <fstream>
 #include <map>
+#include <set>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
 
-#include "tandem/runtime/deployment.hpp"
 #include "live_view.hpp"
 #include "tandem/dds/bus.hpp"
+#include "tandem/runtime/deployment.hpp"
+#include "tandem/runtime/role.hpp"
+#include "tandem/runtime/status.hpp"
 #include "tandem/sim/module_setup.hpp"
 #include "tandem/sim/scenario_yaml.hpp"
 
@@ -34,19 +46,33 @@ using runtime::load_deployment;
 namespace {
 
 namespace bus = tandem::dds;
+using Clock = std::chrono::steady_clock;
 
 std::atomic<bool> g_stop{false};
 void on_signal(int) { g_stop = true; }
 
 struct Child {
-  std::string label;
+  std::string label;               ///< process id in status: "m1/world", "m1/left", "m1/left@50", "coordinator"
+  std::string role;                ///< world | supervisor | robot | coordinator
+  std::string module;              ///< its module ("" for the coordinator)
+  std::string arm;                 ///< robots: "<module>/<robot>"
+  int strength = 0;                ///< robots: ownership strength of the torque writer
+  std::string exe;
+  std::vector<std::string> args;   ///< how to start it (again)
   pid_t pid = -1;
-  std::string arm;  ///< robots: the arm it controls (a dead robot is not fatal while another serves the arm)
-  std::vector<std::string> args;  ///< robots: how to start it again
-  const runtime::ModuleDeployment* module = nullptr;
-  bool reported = false;
-  int status = -1;  ///< exit code once reaped (128 + signal if killed)
   bool running = true;
+  int status = -1;                 ///< exit code once reaped (128 + signal if killed)
+  bool expected = false;           ///< its exit is no failure (unplugged, drained, module stopped, restarted)
+  bool handled = false;            ///< its exit has been dealt with
+};
+
+struct ModuleRun {
+  runtime::ModuleDeployment cfg;
+  std::vector<std::string> robots;  ///< robot names of its scenario
+  double h_sg = 0.0;
+  bool started = false;
+  std::string end;                   ///< "", "failed: ...", "unplugged"
+  bool paused_for_unplug = false;    ///< a pause was asked for an unplug without standby: resume on plug
 };
 
 std::string self_dir() {
@@ -81,33 +107,555 @@ pid_t spawn(const std::string& exe, const std::vector<std::string>& args) {
   ::_exit(127);
 }
 
-void stop_all(std::vector<Child>& children, int sig) {
-  for (auto& c : children) {
-    if (c.running && c.pid > 0) ::kill(c.pid, sig);
+// Parses "key=value key=value" (the option of `plug module`).
+std::map<std::string, std::string> parse_kv(const std::string& text) {
+  std::map<std::string, std::string> out;
+  std::istringstream in(text);
+  std::string item;
+  while (in >> item) {
+    const auto eq = item.find('=');
+    if (eq != std::string::npos) out[item.substr(0, eq)] = item.substr(eq + 1);
   }
+  return out;
 }
 
-void reap(std::vector<Child>& children, bool block) {
-  for (auto& c : children) {
-    if (c.running && c.pid <= 0) {  // never started
-      c.running = false;
-      c.status = 127;
+/// The launcher's state and its actions; the main loop calls poll() until nothing runs.
+class Launcher {
+ public:
+  Launcher(Deployment d, std::string file) : d_(std::move(d)), file_(std::move(file)), dir_(self_dir()) {}
+
+  /// Validates every module (scenario read once) and starts what autostarts.
+  void prepare_module(const runtime::ModuleDeployment& cfg) {
+    ModuleRun run;
+    run.cfg = cfg;
+    const sim::Scenario sc = sim::load_scenario(cfg.scenario);
+    for (const auto& c : sc.cases) {
+      if (c.name == cfg.case_name) run.h_sg = sim::make_module(sc, c).safe_grasp_force;
     }
-    if (!c.running) continue;
-    int st = 0;
-    const pid_t r = ::waitpid(c.pid, &st, block ? 0 : WNOHANG);
-    if (r == c.pid) {
-      c.running = false;
-      c.status = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+    for (const auto& r : sc.robots) run.robots.push_back(r.name);
+    modules_[cfg.name] = run;
+  }
+
+  void start_module(const std::string& name) {
+    ModuleRun& mr = modules_.at(name);
+    const auto& m = mr.cfg;
+    mr.started = true;
+    mr.end.clear();
+    for (const char* role : {"world", "supervisor"}) {
+      Child c;
+      c.label = m.name + "/" + role;
+      c.role = role;
+      c.module = m.name;
+      c.exe = dir_ + "/tandem-" + role;
+      c.args = common_args(m);
+      launch(c);
+    }
+    for (const auto& robot : mr.robots) {
+      for (int i = 0; i <= m.standby; ++i) {
+        // The primary has strength 100; standbys 50, 40, ...: the world follows the strongest live one.
+        start_robot(m.name, robot, i == 0 ? runtime::RoleOptions::kPrimaryStrength : 60 - 10 * i, "");
+      }
     }
   }
-}
 
-int running_count(const std::vector<Child>& children) {
-  int n = 0;
-  for (const auto& c : children) n += c.running ? 1 : 0;
-  return n;
-}
+  void start_coordinators() {
+    if (!d_.coordinator) return;
+    for (int i = 0; i <= d_.coordinator_standby; ++i) {
+      start_coordinator(i == 0 ? "coordinator" : "coordinator@standby" + std::to_string(i), i > 0, "");
+    }
+  }
+
+  void start_coordinator(const std::string& id, bool standby, const char* note) {
+    Child c;
+    c.label = id;
+    c.role = "coordinator";
+    c.exe = dir_ + "/tandem-coordinator";
+    c.args = {"--deployment-file", file_, "--domain", std::to_string(d_.domain_id), "--timeout",
+              std::to_string(std::max(30.0, 3 * d_.timeout)), "--id", id};
+    if (standby) c.args.push_back("--standby");
+    launch(c, note);
+  }
+
+  /// Starts a robot for `module`/`robot` with the given strength; false (and why) if it cannot.
+  bool start_robot(const std::string& module, const std::string& robot, int strength, const char* note) {
+    const ModuleRun& mr = modules_.at(module);
+    Child c;
+    c.arm = module + "/" + robot;
+    c.label = c.arm + (strength == runtime::RoleOptions::kPrimaryStrength ? "" : "@" + std::to_string(strength));
+    c.role = "robot";
+    c.module = module;
+    c.strength = strength;
+    c.exe = dir_ + "/tandem-robot";
+    c.args = common_args(mr.cfg);
+    c.args.insert(c.args.end(), {"--arm", robot, "--strength", std::to_string(strength)});
+    launch(c, note);
+    return c.pid > 0;
+  }
+
+  /// Strength for a new standby of `arm`: below every live robot of the arm (50 if none), 0 if none is left.
+  int standby_strength(const std::string& arm) const {
+    int lowest = 51;
+    for (const auto& c : children_) {
+      if (c.running && c.arm == arm) lowest = std::min(lowest, c.strength);
+    }
+    return std::max(0, lowest - 1);
+  }
+  const Child* primary_of(const std::string& arm) const {
+    for (const auto& c : children_) {
+      if (c.running && !c.expected && c.arm == arm && c.strength == runtime::RoleOptions::kPrimaryStrength) return &c;
+    }
+    return nullptr;
+  }
+  int live_robots(const std::string& arm, const Child* except = nullptr) const {
+    int n = 0;
+    for (const auto& c : children_) n += (c.running && !c.expected && c.arm == arm && &c != except) ? 1 : 0;
+    return n;
+  }
+
+  // ---- live commands ------------------------------------------------------------------------------------
+
+  void handle(const msg::ControlRequest& req) {
+    if (req.deployment() != d_.name) return;
+    const std::string& cmd = req.command();
+    current_seq_ = req.seq();
+    if (cmd == "down") {
+      if (!stopping_) std::printf("tandem up: 'down' requested over DDS; stopping %d process(es)\n", running());
+      g_stop = true;
+    } else if (cmd == "kill") {
+      kill_target(req.target());
+    } else if (cmd == "plug") {
+      plug(req.target(), req.option());
+    } else if (cmd == "unplug") {
+      unplug(req.target());
+    } else if (cmd != "pause" && cmd != "resume" && cmd != "drain") {  // those are the launcher's own, to supervisors
+      say(false, "unknown command '%s' (accepted: down, kill, plug, unplug)\n", cmd.c_str());
+    }
+    std::fflush(stdout);
+  }
+
+  /// Prints a command's outcome and keeps it as the launcher's answer (its status detail), which the
+  /// `tandem plug/unplug/kill` that sent the request waits for.
+  void say(bool ok, const char* fmt, ...) __attribute__((format(printf, 3, 4))) {
+    char buf[512];
+    va_list ap;
+    va_start(ap, fmt);
+    std::vsnprintf(buf, sizeof buf, fmt, ap);
+    va_end(ap);
+    std::printf("tandem up: %s", buf);
+    std::string text(buf);
+    while (!text.empty() && text.back() == '\n') text.pop_back();
+    if (reply_seq_ == current_seq_) {  // a further line for the same request (e.g. kill of a module)
+      reply_ += "; " + text;
+      reply_ok_ = reply_ok_ && ok;
+    } else {
+      reply_ = text;
+      reply_ok_ = ok;
+      reply_seq_ = current_seq_;
+    }
+  }
+
+  void kill_target(const std::string& target) {
+    bool found = false;
+    for (auto& c : children_) {
+      if (!c.running) continue;
+      if (c.label == target || (c.module == target && !target.empty())) {
+        say(true, "fault injection: SIGKILL %s (pid %d)\n", c.label.c_str(), c.pid);
+        ::kill(c.pid, SIGKILL);
+        found = true;
+      }
+    }
+    if (!found) say(false, "'kill %s': no such running process or module\n", target.c_str());
+  }
+
+  void plug(const std::string& target, const std::string& option) {
+    const auto sp = target.find(' ');
+    const std::string what = target.substr(0, sp), name = sp == std::string::npos ? "" : target.substr(sp + 1);
+    if (what == "robot") {
+      const auto slash = name.find('/');
+      const std::string module = name.substr(0, slash), robot = slash == std::string::npos ? "" : name.substr(slash + 1);
+      const auto it = modules_.find(module);
+      if (it == modules_.end() || !it->second.started || !it->second.end.empty()) {
+        say(false, "'plug robot %s': no running module '%s'\n", name.c_str(), module.c_str());
+        return;
+      }
+      if (std::find(it->second.robots.begin(), it->second.robots.end(), robot) == it->second.robots.end()) {
+        say(false, "'plug robot %s': module %s has no arm '%s' (arms: %s, %s)\n", name.c_str(),
+                    module.c_str(), robot.c_str(), it->second.robots[0].c_str(), it->second.robots[1].c_str());
+        return;
+      }
+      int strength = 0;
+      if (option == "standby") {
+        strength = standby_strength(name);
+        if (strength < 1) {
+          say(false, "'plug robot %s --standby': no ownership strength left below the live ones\n", name.c_str());
+          return;
+        }
+      } else {
+        if (const Child* p = primary_of(name)) {
+          say(false, "'plug robot %s': the arm has a primary already (pid %d); plug a standby or "
+                      "unplug it first\n", name.c_str(), p->pid);
+          return;
+        }
+        strength = runtime::RoleOptions::kPrimaryStrength;
+      }
+      if (!start_robot(module, robot, strength, " (plugged)")) {
+        say(false, "'plug robot %s': the process could not be started\n", name.c_str());
+        return;
+      }
+      say(true, "plugged a robot into %s as %s (ownership strength %d)\n", name.c_str(),
+          option == "standby" ? "a standby" : "the primary", strength);
+      resume_if_paused_for_unplug(module);
+    } else if (what == "module") {
+      plug_module(name, option);
+    } else {
+      say(false, "'plug %s': expected 'robot <module>/<arm>' or 'module <name>'\n", target.c_str());
+    }
+  }
+
+  void plug_module(const std::string& name, const std::string& option) {
+    auto it = modules_.find(name);
+    if (it != modules_.end() && it->second.started && it->second.end.empty()) {
+      say(false, "'plug module %s': it is running already\n", name.c_str());
+      return;
+    }
+    const auto kv = parse_kv(option);
+    if (it == modules_.end() || kv.count("scenario") != 0) {
+      if (name.empty() || name.find('/') != std::string::npos || kv.count("scenario") == 0 || kv.count("case") == 0) {
+        say(false, "'plug module %s': not a module of %s; give its scenario and case "
+                    "(tandem plug module NAME --scenario FILE --case CASE)\n", name.c_str(), file_.c_str());
+        return;
+      }
+      runtime::ModuleDeployment cfg;
+      cfg.name = name;
+      cfg.scenario = kv.at("scenario");
+      cfg.case_name = kv.at("case");
+      try {
+        prepare_module(cfg);
+      } catch (const std::exception& e) {
+        say(false, "'plug module %s': %s\n", name.c_str(), e.what());
+        return;
+      }
+      bool found = false;
+      for (const auto& c : sim::load_scenario(cfg.scenario).cases) found = found || c.name == cfg.case_name;
+      if (!found) {
+        modules_.erase(name);
+        say(false, "'plug module %s': no case '%s' in %s\n", name.c_str(), cfg.case_name.c_str(),
+                    cfg.scenario.c_str());
+        return;
+      }
+    }
+    say(true, "plugging module %s (%s, case %s)\n", name.c_str(), modules_.at(name).cfg.scenario.c_str(),
+                modules_.at(name).cfg.case_name.c_str());
+    start_module(name);
+  }
+
+  void unplug(const std::string& target) {
+    const auto sp = target.find(' ');
+    const std::string what = target.substr(0, sp), name = sp == std::string::npos ? "" : target.substr(sp + 1);
+    if (what == "module") {
+      const auto it = modules_.find(name);
+      if (it == modules_.end() || !it->second.started || !it->second.end.empty()) {
+        say(false, "'unplug module %s': no running module of that name\n", name.c_str());
+        return;
+      }
+      // Drain: the supervisor finishes the module's task, takes no new one, and exits; then the rest stops.
+      say(true, "unplugging module %s: draining (it finishes its task first)\n", name.c_str());
+      it->second.end = "draining";
+      send(name, "drain");
+      return;
+    }
+    if (what != "robot") {
+      say(false, "'unplug %s': expected 'robot <label>' or 'module <name>'\n", target.c_str());
+      return;
+    }
+    Child* c = find_running(name);
+    if (c == nullptr || c->role != "robot") {
+      say(false, "'unplug robot %s': no such running robot (labels as in 'tandem status', e.g. "
+                  "m1/left or m1/left@50)\n", name.c_str());
+      return;
+    }
+    if (live_robots(c->arm, c) > 0) {
+      // Graceful: another robot serves the arm; this one deletes its torque writer first, so the world
+      // follows the next strongest at once (a standby computes in shadow: no transient).
+      say(true, "unplugging %s: another robot serves %s, handing over\n", c->label.c_str(), c->arm.c_str());
+      c->expected = true;
+      ::kill(c->pid, SIGTERM);
+      return;
+    }
+    // The only robot of its arm: pause the module (object brought to rest), then let the robot go; the world
+    // brakes the arm; the module resumes when a robot is plugged in again.
+    say(true, "unplugging %s: no standby for %s; pausing %s first\n", c->label.c_str(), c->arm.c_str(),
+                c->module.c_str());
+    c->expected = true;
+    modules_.at(c->module).paused_for_unplug = true;
+    send(c->module, "pause");
+    pending_unplugs_.push_back({c->label, c->module, Clock::now()});
+  }
+
+  // ---- supervision ---------------------------------------------------------------------------------------
+
+  void poll() {
+    reap();
+    for (auto& c : children_) {
+      if (c.running || c.handled) continue;
+      c.handled = true;
+      on_exit(c);
+    }
+    // Unplugs waiting for their module to be at rest.
+    for (auto it = pending_unplugs_.begin(); it != pending_unplugs_.end();) {
+      const auto ts = task_states_.find(it->module);
+      const bool paused = ts != task_states_.end() && ts->second.state() == 3;
+      const bool late = Clock::now() - it->since > std::chrono::seconds(5);
+      Child* c = find_running(it->label);
+      if (c == nullptr) {
+        it = pending_unplugs_.erase(it);
+        continue;
+      }
+      if (!paused && !late) {
+        ++it;
+        continue;
+      }
+      if (!paused) std::printf("tandem up: %s did not report paused within 5 s; unplugging %s anyway (the brakes hold the arm)\n", it->module.c_str(), c->label.c_str());
+      std::printf("tandem up: %s paused; %s leaves, its arm is braked until a robot is plugged in\n",
+                  it->module.c_str(), c->label.c_str());
+      ::kill(c->pid, SIGTERM);
+      it = pending_unplugs_.erase(it);
+    }
+    for (auto it = pending_restarts_.begin(); it != pending_restarts_.end();) {
+      if (stopping_ || Clock::now() < it->when) {
+        ++it;
+        continue;
+      }
+      Child c = it->child;
+      it = pending_restarts_.erase(it);
+      if (c.role == "robot") {
+        int strength = c.strength;
+        if (strength != runtime::RoleOptions::kPrimaryStrength || primary_of(c.arm) != nullptr) {
+          strength = standby_strength(c.arm);
+        }
+        if (strength < 1) {
+          std::printf("tandem up: cannot restart %s: no ownership strength left below the live robots\n", c.arm.c_str());
+          continue;
+        }
+        start_robot(c.module, c.arm.substr(c.arm.find('/') + 1), strength, " (restart)");
+      } else {
+        start_coordinator("coordinator@r" + std::to_string(++coordinator_restarts_), true, " (restart)");
+      }
+    }
+  }
+
+  void on_exit(Child& c) {
+    if (stopping_) return;
+    if (c.role == "coordinator") {
+      if (c.status == 0) {
+        std::printf("tandem up: %s reports every task done; stopping the deployment\n", c.label.c_str());
+        coordinator_done_ = true;
+        stop_all(SIGTERM);
+        return;
+      }
+      const bool restarting = schedule_restart(c, d_.coordinator_restart, 3, 30.0, 0.2);
+      if (live_coordinators() > 0 || restarting) {
+        std::printf("tandem up: %s exited with code %d; %s\n", c.label.c_str(), c.status,
+                    live_coordinators() > 0 ? "a standby coordinator carries on" : "a new coordinator will take over");
+        return;
+      }
+      fail(c.label + " exited with code " + std::to_string(c.status) + " and no coordinator is left");
+      return;
+    }
+    ModuleRun& mr = modules_.at(c.module);
+    if (c.expected) return;  // unplugged, or its module was stopped
+    if (c.role == "supervisor" && c.status == 0 && mr.end == "draining") {
+      std::printf("tandem up: module %s drained; stopping its processes\n", c.module.c_str());
+      mr.end = "unplugged";
+      stop_module(c.module);
+      return;
+    }
+    if (c.role == "robot") {
+      if (c.status == 0 && mr.cfg.restart != "always") return;  // its task is done
+      const bool restarting = schedule_restart(c, mr.cfg.restart, mr.cfg.restart_limit, mr.cfg.restart_window,
+                                               mr.cfg.restart_backoff);
+      const bool served = live_robots(c.arm) > 0;
+      if (served || restarting) {
+        std::printf("tandem up: %s exited with code %d; %s\n", c.label.c_str(), c.status,
+                    served ? "another robot serves its arm, the deployment goes on"
+                           : "its arm is braked until the restarted robot answers");
+        return;
+      }
+      if (d_.coordinator) {
+        std::printf("tandem up: %s exited with code %d and nobody serves %s: the module stays paused with the "
+                    "arm braked; plug a robot in ('tandem plug robot %s') to resume\n",
+                    c.label.c_str(), c.status, c.arm.c_str(), c.arm.c_str());
+        return;
+      }
+      fail(c.label + " exited with code " + std::to_string(c.status));
+      return;
+    }
+    // World or supervisor.
+    if (c.status == 0 && !d_.coordinator) return;  // the module's task is over
+    if (d_.coordinator) {
+      std::printf("tandem up: module %s failed (%s exited with code %d); stopping its processes, the others go on\n",
+                  c.module.c_str(), c.label.c_str(), c.status);
+      mr.end = "failed: " + c.label + " exited with code " + std::to_string(c.status);
+      stop_module(c.module);
+      return;
+    }
+    fail(c.label + " exited with code " + std::to_string(c.status));
+  }
+
+  /// Restart policy (OTP-style): returns true if `c` will be started again after the backoff.
+  bool schedule_restart(const Child& c, const std::string& policy, int limit, double window, double backoff) {
+    const bool wanted = policy == "always" || (policy == "on-failure" && c.status != 0);
+    if (!wanted) return false;
+    const std::string key = c.role == "robot" ? c.arm : "coordinator";
+    const auto now = Clock::now();
+    auto& hist = restart_history_[key];
+    hist.erase(std::remove_if(hist.begin(), hist.end(),
+                              [&](auto t) { return now - t > std::chrono::duration<double>(window); }),
+               hist.end());
+    if (static_cast<int>(hist.size()) >= limit) {
+      std::printf("tandem up: giving up on %s: %zu restarts within %.0f s (restart_limit %d)\n", key.c_str(),
+                  hist.size(), window, limit);
+      return false;
+    }
+    const double delay = backoff * std::pow(2.0, static_cast<double>(hist.size()));
+    hist.push_back(now);
+    std::printf("tandem up: restarting %s in %.2f s (restart %zu of at most %d within %.0f s)\n", c.label.c_str(),
+                delay, hist.size(), limit, window);
+    Child next = c;
+    if (c.role == "robot" && modules_.at(c.module).cfg.restart_as == "standby") next.strength = 0;  // below the live ones
+    pending_restarts_.push_back({now + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(delay)), next});
+    return true;
+  }
+
+  void stop_module(const std::string& module) {
+    for (auto& c : children_) {
+      if (c.module != module) continue;
+      c.expected = true;
+      if (c.running) ::kill(c.pid, SIGTERM);
+    }
+    pending_unplugs_.erase(std::remove_if(pending_unplugs_.begin(), pending_unplugs_.end(),
+                                          [&](const auto& u) { return u.module == module; }),
+                           pending_unplugs_.end());
+  }
+
+  void fail(const std::string& why) {
+    std::fprintf(stderr, "tandem up: %s; stopping the deployment\n", why.c_str());
+    failed_ = true;
+    stop_all(SIGTERM);
+  }
+
+  void stop_all(int sig) {
+    if (!stopping_) stop_started_ = Clock::now();
+    stopping_ = true;
+    for (auto& c : children_) {
+      if (c.running && c.pid > 0) ::kill(c.pid, sig);
+    }
+  }
+
+  /// While stopping: SIGKILL whatever did not stop within 5 s.
+  void escalate() {
+    if (stopping_ && !escalated_ && Clock::now() - stop_started_ > std::chrono::seconds(5)) {
+      std::printf("tandem up: %d process(es) did not stop within 5 s; sending SIGKILL\n", running());
+      stop_all(SIGKILL);
+      escalated_ = true;
+    }
+  }
+
+  void reap(bool block = false) {
+    for (auto& c : children_) {
+      if (c.running && c.pid <= 0) {  // never started
+        c.running = false;
+        c.status = 127;
+      }
+      if (!c.running) continue;
+      int st = 0;
+      const pid_t r = ::waitpid(c.pid, &st, block ? 0 : WNOHANG);
+      if (r == c.pid) {
+        c.running = false;
+        c.status = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+      }
+    }
+  }
+
+  void send(const std::string& module, const std::string& command) {
+    msg::ControlRequest req;
+    req.deployment(d_.name);
+    req.command(command);
+    req.target(module);
+    req.seq(++seq_);
+    control_out_->write(req);
+  }
+
+  void resume_if_paused_for_unplug(const std::string& module) {
+    ModuleRun& mr = modules_.at(module);
+    if (!mr.paused_for_unplug) return;
+    mr.paused_for_unplug = false;
+    send(module, "resume");  // it resumes once the arm's new robot answers (the world releases the brake)
+  }
+
+  int running() const {
+    int n = 0;
+    for (const auto& c : children_) n += c.running ? 1 : 0;
+    return n;
+  }
+  bool busy() const { return running() > 0 || (!pending_restarts_.empty() && !stopping_); }
+  int live_coordinators() const {
+    int n = 0;
+    for (const auto& c : children_) n += (c.running && c.role == "coordinator") ? 1 : 0;
+    return n;
+  }
+  Child* find_running(const std::string& label) {
+    for (auto& c : children_) {
+      if (c.running && c.label == label) return &c;
+    }
+    return nullptr;
+  }
+
+  void on_task_state(const msg::TaskState& ts) {
+    if (ts.deployment() == d_.name) task_states_[ts.module_id()] = ts;
+  }
+
+  Deployment d_;
+  std::string file_, dir_;
+  std::deque<Child> children_;  // deque: references stay valid as children are added
+  std::map<std::string, ModuleRun> modules_;
+  struct PendingRestart {
+    Clock::time_point when;
+    Child child;
+  };
+  std::vector<PendingRestart> pending_restarts_;
+  std::map<std::string, std::vector<Clock::time_point>> restart_history_;
+  struct PendingUnplug {
+    std::string label, module;
+    Clock::time_point since;
+  };
+  std::vector<PendingUnplug> pending_unplugs_;
+  std::map<std::string, msg::TaskState> task_states_;
+  bus::Writer<msg::ControlRequest, msg::ControlRequestPubSubType>* control_out_ = nullptr;
+  bool stopping_ = false, escalated_ = false, failed_ = false, coordinator_done_ = false;
+  Clock::time_point stop_started_{};
+  int coordinator_restarts_ = 0;
+  unsigned long long seq_ = 0;
+  std::string reply_;  ///< the outcome of the latest live command
+  bool reply_ok_ = false;
+  unsigned long long reply_seq_ = 0, current_seq_ = 0;
+
+ private:
+  std::vector<std::string> common_args(const runtime::ModuleDeployment& m) const {
+    std::vector<std::string> a{"--scenario", m.scenario, "--case",      m.case_name,
+                               "--module",   m.name,     "--domain",    std::to_string(d_.domain_id),
+                               "--transport", d_.transport, "--timeout", std::to_string(d_.timeout),
+                               "--timing",   d_.timing,   "--deployment", d_.name};
+    if (d_.coordinator) a.push_back("--continuous");
+    return a;
+  }
+  void launch(Child& c, const char* note = "") {
+    c.pid = spawn(c.exe, c.args);
+    c.running = true;
+    std::printf("  started %-22s pid %d%s\n", c.label.c_str(), c.pid, note);
+    children_.push_back(c);
+  }
+};
 
 }  // namespace
 
@@ -116,14 +664,17 @@ void up_usage(std::FILE* f) {
       "usage: tandem up <deploy.yaml> [--summary FILE]\n"
       "\n"
       "Starts every module of the deployment as separate processes over Fast DDS: tandem-world,\n"
-      "tandem-supervisor and one tandem-robot per arm, in lockstep or real-time timing. Prints progress\n"
-      "while it runs and a summary at the end (RMS per robot, slips, contact losses, rejected samples,\n"
-      "and in real time the sample->command latency and late ticks).\n"
+      "tandem-supervisor and one tandem-robot per arm (plus standbys), and the coordinator if the file has\n"
+      "one, in lockstep or real-time timing. Prints progress while it runs and a summary at the end (RMS per\n"
+      "robot, slips, contact losses, rejected samples, failovers, and in real time the latency and late ticks).\n"
+      "While it runs, from any terminal: tandem status | plug | unplug | kill | down (see 'tandem help plug').\n"
+      "Robots and coordinators are restarted by the file's restart policy; with a coordinator, a module whose\n"
+      "world or supervisor fails is stopped and the others go on (docs/failure-model.md).\n"
       "--summary FILE also writes the summary as key=value lines (full precision).\n"
       "Ctrl-C or SIGTERM stops every process cleanly. Schema: docs/architecture.md.\n"
       "\n"
-      "Exit: 0 every process finished and every module kept the safe grasp; 1 a process failed or a\n"
-      "grasp was lost; 2 bad arguments or configuration (nothing is started).\n",
+      "Exit: 0 every process finished (or the coordinator did every task) and every module kept the safe\n"
+      "grasp; 1 a process failed or a grasp was lost; 2 bad arguments or configuration (nothing is started).\n",
       f);
 }
 
@@ -151,17 +702,15 @@ int up_command(const std::vector<std::string>& args) {
     return 2;
   }
   Deployment d;
-  std::map<std::string, double> h_sg;                     // per module
-  std::map<std::string, std::vector<std::string>> robot_names;  // per module
   try {
     d = load_deployment(file);
-    for (const auto& m : d.modules) {
-      const sim::Scenario sc = sim::load_scenario(m.scenario);
-      for (const auto& c : sc.cases) {
-        if (c.name == m.case_name) h_sg[m.name] = sim::make_module(sc, c).safe_grasp_force;
-      }
-      for (const auto& r : sc.robots) robot_names[m.name].push_back(r.name);
-    }
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "tandem up: %s\n", e.what());
+    return 2;
+  }
+  Launcher L(d, file);
+  try {
+    for (const auto& m : d.modules) L.prepare_module(m);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "tandem up: %s\n", e.what());
     return 2;
@@ -172,260 +721,182 @@ int up_command(const std::vector<std::string>& args) {
   ::sigaction(SIGINT, &sa, nullptr);
   ::sigaction(SIGTERM, &sa, nullptr);
 
-  bus::Participant part(d.domain_id, "launcher/" + d.name,
-                        runtime::transport_of(d));
+  bus::Participant part(d.domain_id, "launcher/" + d.name, runtime::transport_of(d));
   bus::Reader<msg::RobotSummary, msg::RobotSummaryPubSubType> robot_sum(part, bus::kRobotSummaryTopic,
                                                                        bus::TopicKind::Summary);
   bus::Reader<msg::WorldSummary, msg::WorldSummaryPubSubType> world_sum(part, bus::kWorldSummaryTopic,
                                                                        bus::TopicKind::Summary);
-
   bus::Reader<msg::ProcessStatus, msg::ProcessStatusPubSubType> status(part, bus::kStatusTopic,
                                                                        bus::TopicKind::Status);
   bus::Reader<msg::ControlRequest, msg::ControlRequestPubSubType> control(part, bus::kControlTopic,
                                                                          bus::TopicKind::Control);
+  bus::Writer<msg::ControlRequest, msg::ControlRequestPubSubType> control_out(part, bus::kControlTopic,
+                                                                             bus::TopicKind::Control);
+  bus::Reader<msg::TaskState, msg::TaskStatePubSubType> task_states(part, bus::kTaskStateTopic, bus::TopicKind::Task);
+  bus::Reader<msg::CoordinatorState, msg::CoordinatorStatePubSubType> coord_state(part, bus::kCoordinatorStateTopic,
+                                                                                  bus::TopicKind::Task);
+  L.control_out_ = &control_out;
+  runtime::StatusPublisher launcher_status(part, "launcher", "launcher", "");
+  launcher_status.msg().deployment(d.name);
+  launcher_status.set(runtime::Lifecycle::Active, "");
   LiveView view(d.name);
-  const std::string dir = self_dir();
-  std::vector<Child> children;
   std::printf("tandem up %s: %zu module(s), domain %d, %s, %s timing\n", d.name.c_str(), d.modules.size(),
               d.domain_id, d.transport.c_str(), d.timing.c_str());
   for (const auto& m : d.modules) {
-    std::vector<std::string> common{"--scenario", m.scenario, "--case",      m.case_name,
-                                          "--module",   m.name,     "--domain",    std::to_string(d.domain_id),
-                                          "--transport", d.transport, "--timeout", std::to_string(d.timeout),
-                                          "--timing",   d.timing,   "--deployment", d.name};
-    if (d.coordinator) common.push_back("--continuous");
-    children.push_back({m.name + "/world", spawn(dir + "/tandem-world", common), "", {}, &m});
-    children.push_back({m.name + "/supervisor", spawn(dir + "/tandem-supervisor", common), "", {}, &m});
-    for (const auto& robot : robot_names[m.name]) {
-      for (int i = 0; i <= m.standby; ++i) {
-        // The primary has strength 100; standbys 50, 40, ...: the world follows the strongest live one.
-        const int strength = i == 0 ? 100 : 60 - 10 * i;
-        std::vector<std::string> a = common;
-        a.insert(a.end(), {"--arm", robot, "--strength", std::to_string(strength)});
-        const std::string label = m.name + "/" + robot + (i == 0 ? "" : "@" + std::to_string(strength));
-        children.push_back({label, spawn(dir + "/tandem-robot", a), m.name + "/" + robot, a, &m});
-      }
-    }
+    if (m.autostart) L.start_module(m.name);
   }
-  if (d.coordinator) {
-    children.push_back({"coordinator", spawn(dir + "/tandem-coordinator",
-                                             {"--deployment-file", file, "--domain", std::to_string(d.domain_id),
-                                              "--timeout", std::to_string(std::max(30.0, 3 * d.timeout))}),
-                        "", {}, nullptr});
-  }
-  for (const auto& c : children) std::printf("  started %-16s pid %d\n", c.label.c_str(), c.pid);
-
-  // Restart policy of robot processes: restarts pending, and each arm's restart history (intensity).
-  struct PendingRestart {
-    std::chrono::steady_clock::time_point when;
-    Child child;
-  };
-  std::vector<PendingRestart> pending_restarts;
-  std::map<std::string, std::vector<std::chrono::steady_clock::time_point>> restart_history;
-  std::map<std::string, int> restarts_of_arm;
-  // Returns true if the dead robot c will be restarted (as a standby of lower strength).
-  auto schedule_restart = [&](const Child& c) {
-    const runtime::ModuleDeployment& m = *c.module;
-    const bool wanted = m.restart == "always" || (m.restart == "on-failure" && c.status != 0);
-    if (!wanted) return false;
-    const auto now = std::chrono::steady_clock::now();
-    auto& hist = restart_history[c.arm];
-    hist.erase(std::remove_if(hist.begin(), hist.end(),
-                              [&](auto t) { return now - t > std::chrono::duration<double>(m.restart_window); }),
-               hist.end());
-    if (static_cast<int>(hist.size()) >= m.restart_limit) {
-      std::printf("tandem up: giving up on %s: %zu restarts within %.0f s (restart_limit %d)\n", c.arm.c_str(),
-                  hist.size(), m.restart_window, m.restart_limit);
-      return false;
-    }
-    const int n = ++restarts_of_arm[c.arm];
-    const int strength = std::max(1, 30 - n);  // joins as a standby, below the configured ones
-    Child next = c;
-    next.args.back() = std::to_string(strength);  // the last argument is the strength
-    next.label = c.arm + "@" + std::to_string(strength);
-    next.running = true;
-    next.reported = false;
-    next.status = -1;
-    const double backoff = m.restart_backoff * std::pow(2.0, static_cast<double>(hist.size()));
-    hist.push_back(now);
-    std::printf("tandem up: restarting %s as %s in %.2f s (restart %zu of at most %d within %.0f s)\n",
-                c.label.c_str(), next.label.c_str(), backoff, hist.size(), m.restart_limit, m.restart_window);
-    pending_restarts.push_back({now + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                          std::chrono::duration<double>(backoff)),
-                                next});
-    return true;
-  };
+  L.start_coordinators();
 
   std::map<std::string, msg::RobotSummary> robots;
   std::map<std::string, msg::WorldSummary> worlds;
-  const auto t0 = std::chrono::steady_clock::now();
+  msg::CoordinatorState last_coord;
+  bool have_coord = false;
+  const auto t0 = Clock::now();
   auto last_print = t0;
-  bool failed = false, stopping = false, coordinator_done = false;
   auto collect = [&] {
     msg::RobotSummary rs;
     while (robot_sum.take(rs)) robots[rs.robot_id()] = rs;
     msg::WorldSummary ws;
     while (world_sum.take(ws)) worlds[ws.module_id()] = ws;
+    msg::TaskState ts;
+    while (task_states.take(ts)) L.on_task_state(ts);
+    msg::CoordinatorState cs;
+    while (coord_state.take(cs)) {
+      if (cs.deployment() == d.name) {
+        last_coord = cs;
+        have_coord = true;
+      }
+    }
   };
-  std::chrono::steady_clock::time_point stop_started{};
-  bool escalated = false;
-  while (running_count(children) > 0 || (!pending_restarts.empty() && !stopping)) {
-    reap(children, false);
-    if (stopping && stop_started == std::chrono::steady_clock::time_point{}) stop_started = std::chrono::steady_clock::now();
-    if (stopping && !escalated && std::chrono::steady_clock::now() - stop_started > std::chrono::seconds(5)) {
-      std::printf("tandem up: %d process(es) did not stop within 5 s; sending SIGKILL\n", running_count(children));
-      stop_all(children, SIGKILL);
-      escalated = true;
-    }
+  while (L.busy()) {
+    L.poll();
+    L.escalate();
     collect();
-    for (auto& c : children) {
-      if (!c.running && c.status == 0 && c.label == "coordinator" && !stopping) {
-        std::printf("tandem up: the coordinator reports every task done; stopping the deployment\n");
-        coordinator_done = true;
-        stopping = true;
-        stop_all(children, SIGTERM);
-      }
-      if (!c.running && !stopping && !c.reported && !c.arm.empty() && (c.status != 0 || c.module->restart == "always")) {
-        bool served = false;
-        for (const auto& o : children) served = served || (o.running && o.arm == c.arm);
-        c.reported = true;
-        const bool restarting = schedule_restart(c);
-        if (served || restarting) {
-          std::printf("tandem up: %s exited with code %d; %s\n", c.label.c_str(), c.status,
-                      served ? "another robot serves its arm, the deployment goes on"
-                             : "its arm waits for the restarted robot");
-          continue;
-        }
-        c.reported = false;  // nobody serves the arm and no restart: a failure (below)
-      }
-      if (!c.running && c.status != 0 && !stopping && !c.reported) {
-        std::fprintf(stderr, "tandem up: %s exited with code %d; stopping the deployment\n", c.label.c_str(), c.status);
-        failed = true;
-        stopping = true;
-        stop_all(children, SIGTERM);
-      }
-    }
-    for (auto it = pending_restarts.begin(); it != pending_restarts.end();) {
-      if (stopping || std::chrono::steady_clock::now() < it->when) {
-        ++it;
-        continue;
-      }
-      Child c = it->child;
-      c.pid = spawn(dir + "/tandem-robot", c.args);
-      std::printf("  started %-16s pid %d (restart)\n", c.label.c_str(), c.pid);
-      children.push_back(c);
-      it = pending_restarts.erase(it);
-    }
     msg::ProcessStatus ps;
     while (status.take(ps)) view.update(ps);
     msg::ControlRequest req;
     while (control.take(req)) {
-      if (req.deployment() == d.name && req.command() == "down" && !stopping) {
-        std::printf("tandem up: 'down' requested over DDS; stopping %d process(es)\n", running_count(children));
-        g_stop = true;
-      }
-      if (req.deployment() == d.name && req.command() == "kill") {
-        bool found = false;
-        for (const auto& c : children) {
-          if (c.label == req.target() && c.running) {
-            std::printf("tandem up: fault injection: SIGKILL %s (pid %d)\n", c.label.c_str(), c.pid);
-            ::kill(c.pid, SIGKILL);
-            found = true;
-          }
-        }
-        if (!found) std::printf("tandem up: 'kill %s': no such running process\n", req.target().c_str());
+      if (L.stopping_ || req.deployment() != d.name) continue;
+      L.handle(req);
+      if (L.reply_seq_ == req.seq() && !L.reply_.empty()) {  // the answer the sender waits for
+        launcher_status.msg().detail("reply " + std::to_string(req.seq()) + (L.reply_ok_ ? " ok: " : " error: ") + L.reply_);
+        launcher_status.publish();
       }
     }
-    if (g_stop && !stopping) {
-      std::printf("tandem up: stop requested; stopping %d process(es)\n", running_count(children));
-      stopping = true;
-      stop_all(children, SIGTERM);
+    if (g_stop && !L.stopping_) {
+      std::printf("tandem up: stop requested; stopping %d process(es)\n", L.running());
+      L.stop_all(SIGTERM);
     }
-    const auto now = std::chrono::steady_clock::now();
+    const auto now = Clock::now();
     if (now - last_print > std::chrono::seconds(1)) {
-      std::printf("[%5.1f s] processes running %d/%zu\n", std::chrono::duration<double>(now - t0).count(),
-                  running_count(children), children.size());
+      std::printf("[%5.1f s] processes running %d/%zu\n", std::chrono::duration<double>(now - t0).count(), L.running(),
+                  L.children_.size());
       view.print(stdout);
       std::fflush(stdout);
       last_print = now;
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
-  reap(children, true);
-  const auto settle = std::chrono::steady_clock::now();
-  while (robots.size() < 2 * d.modules.size() || worlds.size() < d.modules.size()) {
-    if (std::chrono::steady_clock::now() - settle > std::chrono::milliseconds(500)) break;
+  L.reap(true);
+  size_t started_modules = 0;
+  for (const auto& [name, mr] : L.modules_) started_modules += mr.started ? 1 : 0;
+  const auto settle = Clock::now();
+  while (worlds.size() < started_modules && Clock::now() - settle < std::chrono::milliseconds(500)) {
     robot_sum.wait(0.05);
     collect();
   }
+  collect();
 
-  std::printf("\nsummary (%.1f s wall)\n", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-  std::printf("%-14s %8s %12s %12s %12s %10s %10s %9s\n", "arm", "ticks", "e_p Sp RMS", "e_p pos RMS",
+  std::printf("\nsummary (%.1f s wall)\n", std::chrono::duration<double>(Clock::now() - t0).count());
+  std::printf("%-16s %8s %12s %12s %12s %10s %10s %9s\n", "robot", "ticks", "e_p Sp RMS", "e_p pos RMS",
               "e_p phi RMS", "e_h RMS N", "min h_n N", "rejected");
   std::ofstream out;
   if (!summary_file.empty()) {
     out.open(summary_file);
     if (!out) std::fprintf(stderr, "tandem up: cannot write the summary to %s\n", summary_file.c_str());
+    out.precision(17);
   }
-  bool grasp_ok = true;
-  for (const auto& m : d.modules) {
+  bool grasp_ok = true, failed = L.failed_;
+  for (const auto& [name, mr] : L.modules_) {
+    if (!mr.started) continue;
+    const bool counted = mr.end.empty() || mr.end == "draining";  // failed or unplugged modules: reported only
+    if (!mr.end.empty()) std::printf("%s: %s\n", name.c_str(), mr.end.c_str());
+    if (out) out << name << ".end=" << (mr.end.empty() ? "ran" : mr.end.substr(0, mr.end.find(':'))) << "\n";
     for (const auto& [id, r] : robots) {
-      if (id.rfind(m.name + "/", 0) != 0) continue;
-      std::printf("%-14s %8llu %12.4e %12.4e %12.4e %10.4f %10.2f %9llu\n", id.c_str(),
+      if (id.rfind(name + "/", 0) != 0) continue;
+      std::printf("%-16s %8llu %12.4e %12.4e %12.4e %10.4f %10.2f %9llu\n", id.c_str(),
                   static_cast<unsigned long long>(r.ticks()), r.ep_sel_rms(), r.ep_pos_rms(), r.ep_ori_rms(),
                   r.eh_rms(), r.min_normal_force(), static_cast<unsigned long long>(r.rejected()));
-      if (r.min_normal_force() < h_sg[m.name]) grasp_ok = false;
+      if (counted && r.ticks() > 0 && r.min_normal_force() < mr.h_sg) grasp_ok = false;
       if (out) {
-        out.precision(17);
         out << id << ".ep_pos_rms=" << r.ep_pos_rms() << "\n" << id << ".ep_ori_rms=" << r.ep_ori_rms() << "\n"
             << id << ".ep_sel_rms=" << r.ep_sel_rms() << "\n" << id << ".eh_rms=" << r.eh_rms() << "\n"
             << id << ".min_normal_force=" << r.min_normal_force() << "\n" << id << ".ticks=" << r.ticks() << "\n"
             << id << ".rejected=" << r.rejected() << "\n";
       }
     }
-    const auto w = worlds.find(m.name);
+    const auto w = worlds.find(name);
     if (w == worlds.end()) {
-      std::printf("%s: no summary from the world\n", m.name.c_str());
-      failed = true;
+      std::printf("%s: no summary from the world\n", name.c_str());
+      if (counted) failed = true;
       continue;
     }
     const msg::WorldSummary& ws = w->second;
     std::printf("%s: %llu ticks, object at (%.6f, %.6f), slips %llu, contact lost %llu, rejected commands %llu, "
-                "%s %llu\n",
-                m.name.c_str(), static_cast<unsigned long long>(ws.ticks()), ws.object_final()[0],
-                ws.object_final()[1], static_cast<unsigned long long>(ws.slip_events()),
-                static_cast<unsigned long long>(ws.contact_lost()),
-                static_cast<unsigned long long>(ws.rejected_commands()),
-                ws.realtime() ? "late arm-ticks" : "timeouts", static_cast<unsigned long long>(ws.late_commands()));
-    if (ws.failovers() > 0) {
-      std::printf("%s: %llu failover(s): the world switched robots after a gap of %.1f ms (worst %.1f ms)\n",
-                  m.name.c_str(), static_cast<unsigned long long>(ws.failovers()), ws.failover_last_ms(),
-                  ws.failover_max_ms());
+                "%s %llu, braked arm-ticks %llu\n",
+                name.c_str(), static_cast<unsigned long long>(ws.ticks()), ws.object_final()[0], ws.object_final()[1],
+                static_cast<unsigned long long>(ws.slip_events()), static_cast<unsigned long long>(ws.contact_lost()),
+                static_cast<unsigned long long>(ws.rejected_commands()), ws.realtime() ? "late arm-ticks" : "brakings",
+                static_cast<unsigned long long>(ws.late_commands()), static_cast<unsigned long long>(ws.braked_ticks()));
+    for (size_t i = 0; i < ws.switch_gap_ms().size(); ++i) {
+      std::printf("%s: %s after %.1f ms; over the next 300 ticks worst |e_p| %.3e m, lowest normal force %.2f N "
+                  "(h_sg %.2f N)\n",
+                  name.c_str(), ws.switch_failover()[i] ? "failover" : "takeover", ws.switch_gap_ms()[i],
+                  ws.switch_ep_max()[i], ws.switch_hn_min()[i], mr.h_sg);
     }
     if (ws.realtime()) {
       std::printf("%s: real time: sample->command latency p50 %.0f us, p99 %.0f us, max %.0f us; late arm-ticks %llu "
                   "of %llu (%.2f%%); world tick start late p99 %.0f us\n",
-                  m.name.c_str(), ws.latency_p50_us(), ws.latency_p99_us(), ws.latency_max_us(),
+                  name.c_str(), ws.latency_p50_us(), ws.latency_p99_us(), ws.latency_max_us(),
                   static_cast<unsigned long long>(ws.late_commands()), 2ULL * ws.ticks(),
                   ws.ticks() > 0 ? 50.0 * static_cast<double>(ws.late_commands()) / static_cast<double>(ws.ticks()) : 0.0,
                   ws.wake_late_p99_us());
     }
-    if (ws.slip_events() > 0 || ws.contact_lost() > 0) grasp_ok = false;
+    if (counted && (ws.slip_events() > 0 || ws.contact_lost() > 0)) grasp_ok = false;
     if (out) {
-      out << m.name << ".ticks=" << ws.ticks() << "\n" << m.name << ".slip_events=" << ws.slip_events() << "\n"
-          << m.name << ".contact_lost=" << ws.contact_lost() << "\n" << m.name
-          << ".rejected_commands=" << ws.rejected_commands() << "\n" << m.name
-          << ".late_commands=" << ws.late_commands() << "\n" << m.name << ".latency_p50_us=" << ws.latency_p50_us()
-          << "\n" << m.name << ".latency_p99_us=" << ws.latency_p99_us() << "\n" << m.name
-          << ".failovers=" << ws.failovers() << "\n" << m.name << ".failover_max_ms=" << ws.failover_max_ms() << "\n";
-      for (size_t i = 0; i < 6; ++i) out << m.name << ".q_final" << i << "=" << ws.q_final()[i] << "\n";
-      for (size_t i = 0; i < 3; ++i) out << m.name << ".object_final" << i << "=" << ws.object_final()[i] << "\n";
+      out << name << ".ticks=" << ws.ticks() << "\n" << name << ".slip_events=" << ws.slip_events() << "\n"
+          << name << ".contact_lost=" << ws.contact_lost() << "\n" << name
+          << ".rejected_commands=" << ws.rejected_commands() << "\n" << name
+          << ".late_commands=" << ws.late_commands() << "\n" << name << ".latency_p50_us=" << ws.latency_p50_us()
+          << "\n" << name << ".latency_p99_us=" << ws.latency_p99_us() << "\n" << name
+          << ".failovers=" << ws.failovers() << "\n" << name << ".failover_max_ms=" << ws.failover_max_ms() << "\n"
+          << name << ".braked_ticks=" << ws.braked_ticks() << "\n";
+      auto list = [&](const char* key, const auto& seq) {
+        out << name << "." << key << "=";
+        for (size_t i = 0; i < seq.size(); ++i) out << (i ? "," : "") << static_cast<double>(seq[i]);
+        out << "\n";
+      };
+      list("switch_gap_ms", ws.switch_gap_ms());
+      list("switch_failover", ws.switch_failover());
+      list("switch_ep_max", ws.switch_ep_max());
+      list("switch_hn_min", ws.switch_hn_min());
+      for (size_t i = 0; i < 6; ++i) out << name << ".q_final" << i << "=" << ws.q_final()[i] << "\n";
+      for (size_t i = 0; i < 3; ++i) out << name << ".object_final" << i << "=" << ws.object_final()[i] << "\n";
     }
   }
-  for (const auto& c : children) {
+  for (const auto& c : L.children_) {
     if (c.status != 0) {
       std::printf("process %s exited with code %d%s\n", c.label.c_str(), c.status,
-                  c.reported ? " (restarted, or its arm was served by another robot)" : "");
+                  c.expected ? " (unplugged, or its module stopped)" : "");
+    }
+  }
+  if (d.coordinator && have_coord) {
+    std::set<std::string> unique(last_coord.done().begin(), last_coord.done().end());
+    const size_t dup = last_coord.done().size() - unique.size();
+    std::printf("coordinator: %zu/%zu tasks done, %zu duplicate(s)\n", unique.size(), d.tasks.size(), dup);
+    if (out) out << "coordinator.tasks_done=" << unique.size() << "\ncoordinator.duplicates=" << dup << "\n";
+    for (size_t i = 0; i < last_coord.done().size() && out; ++i) {
+      out << "coordinator.task." << last_coord.done()[i] << "=" << last_coord.done_by()[i] << "\n";
     }
   }
   {
@@ -437,13 +908,13 @@ int up_command(const std::vector<std::string>& args) {
   // A process killed by a signal could not remove its shared-memory files: clean the segments and ports
   // that no live participant uses (best effort, with Fast DDS's own tool).
   bool killed = false;
-  for (const auto& c : children) killed = killed || c.status >= 128;
+  for (const auto& c : L.children_) killed = killed || c.status >= 128;
   if (killed && std::system("fastdds shm clean > /dev/null 2>&1") != 0) {
     std::printf("note: 'fastdds shm clean' failed; stale files may remain in /dev/shm\n");
   }
-  if (d.coordinator && !coordinator_done) failed = true;
+  if (d.coordinator && !L.coordinator_done_) failed = true;
   const bool ok = !failed && !g_stop && grasp_ok;
-  if (out && d.coordinator) out << "coordinator.done=" << (coordinator_done ? 1 : 0) << "\n";
+  if (out && d.coordinator) out << "coordinator.done=" << (L.coordinator_done_ ? 1 : 0) << "\n";
   std::printf("result: %s\n", ok ? "PASS (all processes finished, safe grasp kept)"
                                  : (g_stop ? "STOPPED" : "FAIL (see above)"));
   return ok ? 0 : 1;

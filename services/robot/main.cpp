@@ -183,7 +183,8 @@ int main(int argc, char** argv) {
       sensors.wait(wait_s);
     }
   }
-  torque_writer.reset();  // leave the arm first (graceful hand-over), then report
+  torques.wait_for_acks(0.1);  // the last command reaches the world
+  torque_writer.reset();       // then leave the arm at once (graceful hand-over), then report
   const sim::RobotMeter::Summary sm = meter.summary();
   msg::RobotSummary rs;
   rs.arm_id(my_arm);

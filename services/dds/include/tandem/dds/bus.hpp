@@ -55,6 +55,12 @@ class Writer {
   Writer(const Writer&) = delete;
   Writer& operator=(const Writer&) = delete;
   bool write(T& sample) { return writer_->write(&sample); }
+  /// Waits until every matched reader has acknowledged what was written (reliable topics), up to timeout_s.
+  bool wait_for_acks(double timeout_s) {
+    const auto sec = static_cast<int32_t>(timeout_s);
+    const auto nsec = static_cast<uint32_t>((timeout_s - sec) * 1e9);
+    return writer_->wait_for_acknowledgments(eprosima::fastrtps::Duration_t(sec, nsec)) == ReturnCode_t::RETCODE_OK;
+  }
   /// Manual liveliness: tells readers this writer is alive without writing a sample.
   void assert_liveliness() { writer_->assert_liveliness(); }
   int matched() const {

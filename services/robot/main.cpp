@@ -72,6 +72,7 @@ int main(int argc, char** argv) {
   struct SensorSlot {
     long tick = -1;
     model::ArmSensors in;
+    bool braked = false;
   };
   std::array<SensorSlot, 64> sring{};
   model::Vec3 prev_q = model::Vec3::Zero();
@@ -96,6 +97,7 @@ int main(int argc, char** argv) {
         slot.in.qd(i) = s.qd()[static_cast<size_t>(i)];
       }
       slot.in.h = model::Vec2(s.h()[0], s.h()[1]);
+      slot.braked = s.braked();
       slot.tick = static_cast<long>(s.tick());
       have_sensor = std::max(have_sensor, slot.tick);
     }
@@ -129,7 +131,14 @@ int main(int argc, char** argv) {
       in = due_in.in;
       ref = due.ref;
       const auto compute_start = std::chrono::steady_clock::now();
-      const model::ControlOutput out = ctl.step(in, ref);
+      // While the brakes hold the arm, the law's memory (super-twisting integral, force history) must not
+      // wind up on an error the arm cannot act on: it starts afresh every braked tick, so that the first
+      // tick after the release is a clean start.
+      if (due_in.braked) ctl.reset();
+      model::ControlOutput out = ctl.step(in, ref);
+      // Actuator limits: the command is saturated here as the drive would (the plant clips the same way).
+      const model::Vec3& lim = m.plant.arms[j].tau_max;
+      out.tau = out.tau.cwiseMax(-lim).cwiseMin(lim);
       meter.add(static_cast<double>(k) * m.period, ref, out);
       cmd.tick(static_cast<uint64_t>(k));
       for (int i = 0; i < 3; ++i) cmd.tau()[static_cast<size_t>(i)] = out.tau(i);

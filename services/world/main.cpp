@@ -4,7 +4,7 @@
 // that arrived before the deadline, and an arm without one keeps its previous torque (a late arm-tick).
 // Invalid commands (NaN/inf, over the torque limit, unknown arm, future tick) are rejected, counted and never
 // applied; commands for an earlier tick or taken after the deadline are dropped and counted as stale.
-// Brakes: an arm whose controller falls silent (50 ms in real time, 1 s of waiting in lockstep) is locked
+// Brakes: an arm whose controller falls silent (100 ms in real time, 1 s of waiting in lockstep) is locked
 // where it is (ModulePlant::set_brake) and its samples say braked, so the supervisor pauses the module; the
 // first valid command of a robot for that arm releases it. Every change of the robot an arm follows is
 // logged with its gap, and whether it was a failover (to a weaker robot) or a takeover (a stronger one).
@@ -110,7 +110,7 @@ int main(int argc, char** argv) {
   // An arm whose controller has gone quiet for this long is braked (real time: wall time without a command
   // while the world ticks on; lockstep: wall time the tick waited). Longer than a standby's failover (the
   // 20 ms liveliness lease plus a few ticks), so a failover never brakes.
-  const double brake_after_s = opt.realtime ? 0.05 : 1.0;
+  const double brake_after_s = opt.realtime ? 0.1 : 1.0;
   auto serving_text = [&] {
     std::string out;
     for (int j = 0; j < 2; ++j) {

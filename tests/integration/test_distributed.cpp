@@ -358,3 +358,93 @@ TEST_CASE("a role process with a bad configuration exits with code 2 and a clear
   CHECK(r.output.find("unknown arm 'middle'") != std::string::npos);
   CHECK(r.output.find("left, right") != std::string::npos);
 }
+
+namespace {
+// A copy of the paper's scenario that lasts 7 s instead of 5, so that a task paused for about a second still
+// ends within the run.
+std::string long_scenario() {
+  const std::string path = work_dir() + "/paper-7s.yaml";
+  (void)std::system(("sed 's/^  duration: 5.0 /  duration: 7.0 /' " + kSrc + "/config/scenarios/paper.yaml > " + path).c_str());
+  return path;
+}
+
+std::string read_file(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+}  // namespace
+
+TEST_CASE("unplug without a standby pauses the module with the arm braked, and a plugged robot resumes it", "[distributed]") {
+  const int domain = test_domain(10);
+  const std::string scenario = long_scenario();
+  const std::string deploy = work_dir() + "/unplug.yaml";
+  std::ofstream(deploy) << "name: unplug\ndomain_id: " << domain << "\ntimeout: 10\ntiming: realtime\nmodules:\n"
+                        << "  - {name: m1, scenario: " << scenario << ", case: SOSM}\n";
+  const std::string summary = work_dir() + "/unplug.summary", up_log = work_dir() + "/unplug.log";
+  const std::string t = kBin + "/tandem ";
+  const std::string cmd =
+      t + "up " + deploy + " --summary " + summary + " > " + up_log + " 2>&1 & up=$!; sleep 1.5; " +
+      t + "unplug " + deploy + " robot m1/left; echo unplug_rc=$?; " +
+      "for i in $(seq 100); do grep -q \"m1/left braked\" " + up_log + " && break; sleep 0.05; done; sleep 0.3; " +
+      t + "plug " + deploy + " robot m1/nose; echo bad_arm_rc=$?; " +
+      t + "unplug " + deploy + " robot m1/ghost; echo ghost_rc=$?; " +
+      t + "plug " + deploy + " robot m1/left; echo plug_rc=$?; " +
+      t + "plug " + deploy + " robot m1/left; echo twice_rc=$?; " +
+      "wait $up; echo up_rc=$?";
+  const Run r = run("bash -c '" + cmd + "'");
+  const std::string log = read_file(up_log);
+  INFO(r.output << "\n--- tandem up ---\n" << log);
+  CHECK(r.output.find("unplug_rc=0") != std::string::npos);
+  CHECK(r.output.find("no standby for m1/left; pausing m1 first") != std::string::npos);
+  // Bad requests are refused with the reason, and change nothing.
+  CHECK(r.output.find("bad_arm_rc=1") != std::string::npos);
+  CHECK(r.output.find("module m1 has no arm 'nose' (arms: left, right)") != std::string::npos);
+  CHECK(r.output.find("ghost_rc=1") != std::string::npos);
+  CHECK(r.output.find("plug_rc=0") != std::string::npos);
+  CHECK(r.output.find("twice_rc=1") != std::string::npos);
+  CHECK(r.output.find("the arm has a primary already") != std::string::npos);
+  CHECK(r.output.find("up_rc=0") != std::string::npos);
+  CHECK(log.find("m1 paused; m1/left leaves") != std::string::npos);
+  CHECK(log.find("m1/left released") != std::string::npos);
+  const auto kv = read_summary(summary);
+  CHECK(kv.at("m1.ticks") == 7000);
+  CHECK(kv.at("m1.braked_ticks") > 100);  // at least 0.1 s held by the brakes
+  // The object was held (no slip, never let go) and, the pause over, the task ended where it should.
+  CHECK(kv.at("m1.slip_events") == 0);
+  CHECK(kv.at("m1.contact_lost") == 0);
+  CHECK(kv.at("m1.object_final0") == Approx(0.2).margin(2e-3));
+  CHECK(kv.at("m1.object_final1") == Approx(0.8).margin(2e-3));
+  CHECK(kv.at("m1/right.min_normal_force") >= 19.62);
+  CHECK_FALSE(processes_left(domain));
+}
+
+TEST_CASE("unplug of a primary with a standby hands the arm over without braking", "[distributed]") {
+  const int domain = test_domain(11);
+  const std::string deploy = write_deployment("handover", domain, "SOSM", "realtime", 1);
+  const std::string summary = work_dir() + "/handover.summary", up_log = work_dir() + "/handover.log";
+  const std::string t = kBin + "/tandem ";
+  const std::string cmd = t + "up " + deploy + " --summary " + summary + " > " + up_log + " 2>&1 & up=$!; sleep 1.5; " +
+                          t + "unplug " + deploy + " robot m1/left; echo unplug_rc=$?; wait $up; echo up_rc=$?";
+  const Run r = run("bash -c '" + cmd + "'");
+  const std::string log = read_file(up_log);
+  INFO(r.output << "\n--- tandem up ---\n" << log);
+  CHECK(r.output.find("unplug_rc=0") != std::string::npos);
+  CHECK(r.output.find("another robot serves m1/left, handing over") != std::string::npos);
+  CHECK(r.output.find("up_rc=0") != std::string::npos);
+  CHECK(log.find("m1/left now follows m1/left@50 (was m1/left): failover") != std::string::npos);
+  const auto kv = read_summary(summary);
+  const auto text = read_summary_text(summary);
+  CHECK(kv.at("m1.braked_ticks") == 0);
+  CHECK(kv.at("m1.slip_events") == 0);
+  CHECK(kv.at("m1.contact_lost") == 0);
+  // The leaving robot deleted its writer first: the world follows the standby within a few ticks, not after
+  // the 20 ms liveliness lease.
+  const std::vector<double> gaps = parse_list(text.at("m1.switch_gap_ms"));
+  REQUIRE(gaps.size() == 1);
+  CHECK(gaps[0] < 15.0);
+  CHECK(parse_list(text.at("m1.switch_hn_min"))[0] >= 19.62);
+  CHECK(kv.at("m1/left@50.ticks") == 5000);
+  CHECK_FALSE(processes_left(domain));
+}

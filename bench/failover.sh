@@ -1,0 +1,78 @@
+#!/usr/bin/env bash
+# Failover benchmark: one module in real time with a hot standby per arm; the primary of the left arm is
+# SIGKILLed N times (default 100) while the coordinator keeps the object moving back and forth. After each
+# kill the standby takes over (a failover, measured by the world: last command of the dead primary -> first
+# applied command of the standby), the launcher restarts the killed robot as the primary, and it takes the arm
+# back (a takeover). Reports the failover-time distribution (p50, p99, max) and, over the 300 ticks after each
+# switch, the worst end-effector tracking error and the lowest normal force, against h_sg.
+# Usage: bench/failover.sh [kills] [domain]   (build first: bash scripts/build.sh)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+kills="${1:-100}"
+domain="${2:-$(( 150 + $$ % 50 ))}"
+bin=build/bin
+work=$(mktemp -d)
+up=""
+cleanup() {
+  [ -n "$up" ] && kill "$up" 2>/dev/null && wait "$up" 2>/dev/null
+  rm -rf "$work"
+}
+trap cleanup EXIT
+period=2.0   # seconds between kills: the restarted primary is back well within it
+tasks=$(awk -v k="$kills" -v p="$period" 'BEGIN { print int(k * p / 2.0) + 4 }')
+echo "machine: $(nproc) cores, $(lscpu | sed -n 's/^Model name: *//p'), kernel $(uname -r)"
+echo "kills: $kills every ${period} s, domain $domain, $tasks tasks of 2 s"
+{
+  echo "name: failover-bench"
+  echo "domain_id: $domain"
+  echo "transport: shm"
+  echo "timing: realtime"
+  echo "timeout: 10"
+  echo "coordinator:"
+  echo "  tasks:"
+  for i in $(seq "$tasks"); do
+    if [ $((i % 2)) -eq 1 ]; then to="[0.1, 0.8, 0.0]"; else to="[-0.1, 0.8, 0.0]"; fi
+    echo "    - {name: t$i, segments: [{to: $to, duration: 2.0}]}"
+  done
+  echo "modules:"
+  echo "  - {name: m1, scenario: $PWD/config/scenarios/paper.yaml, case: SOSM, standby: 1,"
+  echo "     restart: always, restart_as: primary, restart_limit: 1000, restart_window: 1, restart_backoff: 0.1}"
+} > "$work/failover.yaml"
+
+"$bin/tandem" up "$work/failover.yaml" --summary "$work/summary.txt" > "$work/up.log" 2>&1 &
+up=$!
+sleep 3
+for i in $(seq "$kills"); do
+  "$bin/tandem" kill "$work/failover.yaml" m1/left > /dev/null || echo "kill $i: not answered"
+  sleep "$period"
+  [ $((i % 10)) -eq 0 ] && echo "  $i/$kills kills" >&2
+done
+"$bin/tandem" down "$work/failover.yaml" > /dev/null
+wait "$up" || true
+up=""
+grep -E "^m1: |coordinator:" "$work/up.log" | grep -v "after\b" | head -5 || true
+h_sg=19.62   # eq. (16) for the paper's object (docs/results.md)
+list() { sed -n "s/^m1.$1=//p" "$work/summary.txt" | tr ',' '\n'; }
+paste <(list switch_gap_ms) <(list switch_failover) <(list switch_ep_max) <(list switch_hn_min) > "$work/switches.tsv"
+awk '$2 == 1' "$work/switches.tsv" > "$work/fo.tsv"
+awk '$2 == 0' "$work/switches.tsv" > "$work/to.tsv"
+n=$(wc -l < "$work/fo.tsv")
+echo "failovers=$n takeovers=$(wc -l < "$work/to.tsv")"
+if [ "$n" -gt 0 ]; then
+  cut -f1 "$work/fo.tsv" | sort -g > "$work/gaps"
+  pick() { sed -n "$1p" "$work/gaps"; }
+  i50=$(( (n + 1) / 2 )); i99=$(( (n * 99 + 99) / 100 )); [ "$i99" -gt "$n" ] && i99=$n
+  echo "failover_p50_ms=$(pick $i50)"
+  echo "failover_p99_ms=$(pick $i99)"
+  echo "failover_max_ms=$(pick "$n")"
+  echo "failover_worst_ep_m=$(cut -f3 "$work/fo.tsv" | sort -g | tail -1)"
+  echo "failover_lowest_normal_N=$(cut -f4 "$work/fo.tsv" | sort -g | head -1)"
+fi
+if [ -s "$work/to.tsv" ]; then
+  echo "takeover_worst_ep_m=$(cut -f3 "$work/to.tsv" | sort -g | tail -1)"
+  echo "takeover_lowest_normal_N=$(cut -f4 "$work/to.tsv" | sort -g | head -1)"
+fi
+echo "h_sg_N=$h_sg"
+echo "slip_events=$(sed -n 's/^m1.slip_events=//p' "$work/summary.txt")"
+echo "contact_lost=$(sed -n 's/^m1.contact_lost=//p' "$work/summary.txt")"
+echo "late_arm_ticks=$(sed -n 's/^m1.late_commands=//p' "$work/summary.txt") of $(( 2 * $(sed -n 's/^m1.ticks=//p' "$work/summary.txt") ))"

@@ -81,11 +81,21 @@ int status_command(const std::vector<std::string>& args) {
   bus::Participant part(d.domain_id, "tandem-status", runtime::transport_of(d));
   bus::Reader<msg::ProcessStatus, msg::ProcessStatusPubSubType> status(part, bus::kStatusTopic, bus::TopicKind::Status);
   LiveView view(d.name);
+  // Listen for at least 1.5 s, then until no new process has shown up for 0.5 s (discovery on a busy machine
+  // takes longer), at most 5 s.
   const auto t0 = std::chrono::steady_clock::now();
-  while (std::chrono::steady_clock::now() - t0 < std::chrono::milliseconds(1500)) {
+  auto last_new = t0;
+  while (true) {
+    const auto now = std::chrono::steady_clock::now();
+    if (now - t0 > std::chrono::seconds(5)) break;
+    if (now - t0 > std::chrono::milliseconds(1500) && view.size() > 0 && now - last_new > std::chrono::milliseconds(500)) break;
     status.wait(0.1);
     msg::ProcessStatus s;
-    while (status.take(s)) view.update(s);
+    while (status.take(s)) {
+      const size_t before = view.size();
+      view.update(s);
+      if (view.size() > before) last_new = std::chrono::steady_clock::now();
+    }
   }
   if (view.size() == 0) {
     std::printf("no process of %s on domain %d\n", d.name.empty() ? "any deployment" : d.name.c_str(), d.domain_id);

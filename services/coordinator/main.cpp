@@ -1,73 +1,200 @@
 // tandem-coordinator: the high-level supervisor over many modules (the paper's future work). It keeps the
-// deployment's task queue, hands the next task to an idle module, and balances wear: among idle modules it
-// picks the one whose robots have travelled least (sum of joint travel, from their status), ties broken by
-// fewer tasks done. It ends (exit 0) when every task is done; the launcher then stops the deployment.
+// deployment's task queue and hands the next task to a free module, balancing wear: the module whose robots
+// have travelled least (sum of joint travel, from their status), ties broken by fewer tasks done. Modules
+// come and go: any module of the deployment that reports its task state is used; one not heard for 1.5 s is
+// lost and its task goes back to the front of the queue; one that leaves is removed (task_queue.hpp).
+//
+// The primary publishes the queue's state (CoordinatorState) after every change and every 100 ms, always
+// before the assignment it records. A standby (--standby) assigns nothing: it keeps the latest state and the
+// modules' latest reports, and when the primary falls silent (0.5 s; 3 s if it never heard one: then from the
+// whole queue) it takes over: it rebuilds the queue from that state, checks what is in flight against the
+// modules' reports (done, or sent again with the same id, which a supervisor ignores if it has it already)
+// and carries on as the primary. With several standbys only the first by id among the live ones takes over.
+//
+// Exit: 0 every task done (the primary prints what each module did; a standby that sees it exits too) or
+// stopped by SIGINT/SIGTERM, 1 a task was counted twice, 2 bad arguments or deployment, 4 no task finished
+// for --timeout seconds (a standby counts from its takeover).
 #include <tandemPubSubTypes.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <deque>
 #include <map>
+#include <optional>
 #include <string>
 #include <thread>
+#include <vector>
 
+#include "task_queue.hpp"
 #include "tandem/runtime/deployment.hpp"
 #include "tandem/runtime/role.hpp"
 #include "tandem/runtime/status.hpp"
 
 using namespace tandem;
 namespace bus = tandem::dds;
+using coordinator::TaskQueue;
 
 namespace {
-struct ModuleInfo {
-  uint64_t assigned = 0;      // task id handed out and not yet done (0: idle)
-  bool seen = false;          // its supervisor has reported
-  uint64_t done = 0;
-  std::vector<std::string> done_names;
-};
-}  // namespace
 
-int main(int argc, char** argv) {
+constexpr double kTakeoverS = 0.5;    // a standby takes over when the primary's state stops this long
+constexpr double kFirstStateS = 3.0;  // ... or when it has heard none this long from its start
+constexpr double kHeartbeatS = 0.1;   // state and status are published at least this often
+
+struct Options {
   std::string file;
   int domain = -1;
   double timeout = 30.0;
-  for (int i = 1; i + 1 < argc; i += 2) {
+  std::string id = "coordinator";
+  bool standby = false;
+};
+
+void usage(std::FILE* f) {
+  std::fprintf(f,
+               "usage: tandem-coordinator --deployment-file FILE --domain ID [--timeout S] [--id NAME] [--standby]\n"
+               "Started by 'tandem up' for deployments with a coordinator section. --timeout: give up after S\n"
+               "seconds with no task finished (default 30); --id: process id in status (default coordinator);\n"
+               "--standby: assign nothing until the primary falls silent, then take over its queue.\n"
+               "Exit: 0 every task done or stopped, 1 a task done twice, 2 bad arguments or deployment, 4 no\n"
+               "progress.\n");
+}
+
+/// Parses the command line; on error prints the problem and the usage and returns false with `exit_code`
+/// 2 (0 for --help).
+bool parse_options(int argc, char** argv, Options& o, int& exit_code) {
+  exit_code = 2;
+  for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    if (a == "--deployment-file") file = argv[i + 1];
-    if (a == "--domain" && !runtime::parse_domain(argv[i + 1], domain)) domain = -2;
-    if (a == "--timeout") timeout = std::atof(argv[i + 1]);
+    if (a == "--help" || a == "-h") {
+      usage(stdout);
+      exit_code = 0;
+      return false;
+    }
+    if (a == "--standby") {
+      o.standby = true;
+      continue;
+    }
+    if (a != "--deployment-file" && a != "--domain" && a != "--timeout" && a != "--id") {
+      std::fprintf(stderr,
+                   "tandem-coordinator: unknown option '%s'; accepted: --deployment-file, --domain, --timeout, "
+                   "--id, --standby, --help\n",
+                   a.c_str());
+      usage(stderr);
+      return false;
+    }
+    if (i + 1 >= argc) {
+      std::fprintf(stderr, "tandem-coordinator: '%s' needs a value\n", a.c_str());
+      usage(stderr);
+      return false;
+    }
+    const std::string v = argv[++i];
+    if (a == "--deployment-file") {
+      o.file = v;
+    } else if (a == "--domain") {
+      if (!runtime::parse_domain(v, o.domain)) {
+        std::fprintf(stderr, "tandem-coordinator: --domain must be an integer in [0, 232], got '%s'\n", v.c_str());
+        return false;
+      }
+    } else if (a == "--timeout") {
+      char* end = nullptr;
+      o.timeout = std::strtod(v.c_str(), &end);
+      if (v.empty() || *end != '\0' || !std::isfinite(o.timeout) || o.timeout <= 0.0 || o.timeout > 86400.0) {
+        std::fprintf(stderr, "tandem-coordinator: --timeout must be a number of seconds in (0, 86400], got '%s'\n",
+                     v.c_str());
+        return false;
+      }
+    } else {
+      o.id = v;
+      if (o.id.empty()) {
+        std::fprintf(stderr, "tandem-coordinator: --id must be a non-empty process id\n");
+        return false;
+      }
+    }
   }
-  if (domain == -2) {
-    std::fprintf(stderr, "tandem-coordinator: --domain must be an integer in [0, 232]\n");
-    return 2;
+  if (o.file.empty() || o.domain < 0) {
+    std::fprintf(stderr, "tandem-coordinator: --deployment-file and --domain are required\n");
+    usage(stderr);
+    return false;
   }
-  if (file.empty() || domain < 0) {
-    std::fprintf(stderr, "usage: tandem-coordinator --deployment-file FILE --domain ID [--timeout S]\n"
-                         "Started by 'tandem up' for deployments with a coordinator section.\n");
-    return 2;
-  }
+  return true;
+}
+
+msg::CoordinatorState to_msg(const std::string& deployment, const coordinator::Snapshot& s) {
+  msg::CoordinatorState m;
+  m.deployment(deployment);
+  m.next_task_id(s.next_task_id);
+  m.done(s.done);
+  m.done_by(s.done_by);
+  m.running(s.running);
+  m.running_on(s.running_on);
+  m.running_id(s.running_id);
+  return m;
+}
+
+coordinator::Snapshot from_msg(const msg::CoordinatorState& m) {
+  coordinator::Snapshot s;
+  s.next_task_id = m.next_task_id();
+  s.done = m.done();
+  s.done_by = m.done_by();
+  s.running = m.running();
+  s.running_on = m.running_on();
+  s.running_id = m.running_id();
+  return s;
+}
+
+std::string fixed(double v, int decimals) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
+  return buf;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options opt;
+  int code = 0;
+  if (!parse_options(argc, argv, opt, code)) return code;
   runtime::install_stop_handlers();
   runtime::Deployment d;
   try {
-    d = runtime::load_deployment(file);
+    d = runtime::load_deployment(opt.file);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "tandem-coordinator: %s\n", e.what());
     return 2;
   }
-  bus::Participant part(domain, "coordinator/" + d.name, runtime::transport_of(d));
+  if (!d.coordinator) {
+    std::fprintf(stderr, "tandem-coordinator: %s has no coordinator section (no tasks to hand out)\n",
+                 opt.file.c_str());
+    return 2;
+  }
+  // Log lines name the process when it is not the default one (a standby or a restarted coordinator).
+  const std::string who = opt.id == "coordinator" ? "coordinator" : "coordinator " + opt.id;
+  auto say = [&who](const std::string& line) {
+    std::printf("%s: %s\n", who.c_str(), line.c_str());
+    std::fflush(stdout);  // the launcher interleaves the output of many processes
+  };
+
+  bus::Participant part(opt.domain, opt.id + "/" + d.name, runtime::transport_of(d));
   bus::Reader<msg::TaskState, msg::TaskStatePubSubType> states(part, bus::kTaskStateTopic, bus::TopicKind::Task);
   bus::Reader<msg::ProcessStatus, msg::ProcessStatusPubSubType> status_in(part, bus::kStatusTopic,
                                                                           bus::TopicKind::Status);
+  // The primary's state, read while this process is a standby.
+  bus::Reader<msg::CoordinatorState, msg::CoordinatorStatePubSubType> state_in(part, bus::kCoordinatorStateTopic,
+                                                                               bus::TopicKind::Task);
+  bus::Writer<msg::CoordinatorState, msg::CoordinatorStatePubSubType> state_out(part, bus::kCoordinatorStateTopic,
+                                                                                bus::TopicKind::Task);
   bus::Writer<msg::TaskAssignment, msg::TaskAssignmentPubSubType> assign(part, bus::kTaskAssignmentTopic,
                                                                          bus::TopicKind::Task);
-  runtime::StatusPublisher status(part, "coordinator", "coordinator", "");
+  runtime::StatusPublisher status(part, opt.id, "coordinator", "");
   status.msg().deployment(d.name);
+  status.msg().serving(opt.standby ? "standby" : "primary");
   status.set(runtime::Lifecycle::Active, "task queue of " + std::to_string(d.tasks.size()));
 
-  std::map<std::string, ModuleInfo> modules;
-  for (const auto& m : d.modules) modules[m.name] = ModuleInfo{};
-  std::map<std::string, double> wear;  // per robot process id
+  std::vector<std::string> names;
+  for (const auto& t : d.tasks) names.push_back(t.name);
+  TaskQueue queue(names, d.balance == "round_robin" ? coordinator::Balance::RoundRobin : coordinator::Balance::Wear);
+  std::map<std::string, double> wear;   // robot process id -> joint travel [rad]
+  std::map<std::string, double> peers;  // other active coordinators of the deployment -> when last heard
   auto module_wear = [&wear](const std::string& module) {  // joint travel of a module's robots
     double w = 0.0;
     for (const auto& [id, v] : wear) {
@@ -75,84 +202,164 @@ int main(int argc, char** argv) {
     }
     return w;
   };
-  std::deque<size_t> pending;
-  for (size_t i = 0; i < d.tasks.size(); ++i) pending.push_back(i);
-  std::map<uint64_t, size_t> task_of_id;
-  uint64_t next_id = 1;
-  size_t completed = 0;
-  auto last_progress = std::chrono::steady_clock::now();
 
-  while (!runtime::g_stop && completed < d.tasks.size()) {
+  const auto t0 = std::chrono::steady_clock::now();
+  auto now = [t0] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
+  bool primary = !opt.standby;
+  std::optional<coordinator::Snapshot> last_state;  // standby: the primary's latest
+  double last_state_at = 0.0;
+  uint64_t bad_states = 0;  // CoordinatorStates with lists of unequal lengths
+  uint64_t published = 0;   // revision of the queue last published
+  double last_beat = -1.0, last_progress = 0.0;
+  size_t progress_mark = 0;
+
+  auto detail = [&] {
+    std::string s;
+    if (primary) {
+      s = std::to_string(queue.done_count()) + "/" + std::to_string(queue.task_count()) + " tasks done, " +
+          std::to_string(queue.running_count()) + " running, " + std::to_string(queue.pending_count()) +
+          " pending; " + std::to_string(queue.module_count()) + " module(s), " + std::to_string(queue.lost_count()) +
+          " lost";
+    } else {
+      s = last_state ? "standby, primary at " + std::to_string(queue.count_done(*last_state)) + "/" +
+                           std::to_string(queue.task_count()) + " tasks done"
+                     : "standby, no primary heard yet";
+    }
+    if (queue.rejected() > 0) s += "; " + std::to_string(queue.rejected()) + " invalid task state(s) ignored";
+    if (bad_states > 0) s += "; " + std::to_string(bad_states) + " malformed coordinator state(s) ignored";
+    return s;
+  };
+  auto heartbeat = [&](double t) {
+    status.msg().detail(detail());
+    status.publish();
+    last_beat = t;
+  };
+  auto publish_state = [&](double t) {
+    msg::CoordinatorState m = to_msg(d.name, queue.snapshot());
+    state_out.write(m);
+    published = queue.revision();
+    heartbeat(t);
+  };
+  auto send = [&](const coordinator::Assignment& a) {
+    msg::TaskAssignment m;
+    m.module_id(a.module);
+    m.task_id(a.id);
+    m.task_name(d.tasks[a.task].name);
+    m.waypoints(d.tasks[a.task].waypoints);
+    assign.write(m);
+  };
+  // Among the live coordinators, a standby takes over only if none before it by id is active.
+  auto first_in_line = [&](double t) {
+    for (const auto& [id, heard] : peers) {
+      if (id < opt.id && t - heard <= kTakeoverS) return false;
+    }
+    return true;
+  };
+
+  while (!runtime::g_stop) {
+    const double t = now();
     msg::ProcessStatus ps;
     while (status_in.take(ps)) {
-      if (ps.deployment() == d.name && ps.role() == "robot") wear[ps.process_id()] = ps.wear();
+      if (ps.deployment() != d.name) continue;
+      if (ps.role() == "robot") wear[ps.process_id()] = ps.wear();
+      if (ps.role() == "coordinator" && ps.process_id() != opt.id) {
+        if (ps.state() == static_cast<uint8_t>(runtime::Lifecycle::Active)) {
+          peers[ps.process_id()] = t;
+        } else {
+          peers.erase(ps.process_id());
+        }
+      }
     }
     msg::TaskState ts;
     while (states.take(ts)) {
-      auto it = modules.find(ts.module_id());
-      if (it == modules.end()) continue;
-      ModuleInfo& mi = it->second;
-      mi.seen = true;
-      if (ts.state() == 2 && mi.assigned != 0 && ts.task_id() == mi.assigned) {
-        mi.done_names.push_back(d.tasks[task_of_id[mi.assigned]].name);
-        ++mi.done;
-        ++completed;
-        mi.assigned = 0;
-        last_progress = std::chrono::steady_clock::now();
-        std::printf("coordinator: %s finished task %s (%zu/%zu done)\n", ts.module_id().c_str(),
-                    mi.done_names.back().c_str(), completed, d.tasks.size());
+      if (ts.deployment() != d.name) continue;
+      const auto events = queue.report({ts.module_id(), ts.task_id(), ts.state()}, t);
+      for (const auto& e : events) {
+        if (primary) say(queue.describe(e));  // a standby only keeps the latest reports
       }
     }
-    // Hand out pending tasks to idle modules, least worn first.
-    while (!pending.empty()) {
-      std::string best;
-      double best_wear = 0.0;
-      uint64_t best_done = 0;
-      for (const auto& [name, mi] : modules) {
-        if (!mi.seen || mi.assigned != 0) continue;
-        const double w = module_wear(name);
-        // wear: least joint travel first; round_robin: fewest tasks first. Ties: fewer tasks, then name.
-        const bool better = d.balance == "round_robin" ? mi.done < best_done
-                                                       : (w < best_wear || (w == best_wear && mi.done < best_done));
-        if (best.empty() || better) {
-          best = name;
-          best_wear = w;
-          best_done = mi.done;
+
+    if (!primary) {
+      msg::CoordinatorState cs;
+      while (state_in.take(cs)) {
+        if (cs.deployment() != d.name) continue;
+        coordinator::Snapshot s = from_msg(cs);
+        if (!s.well_formed()) {
+          ++bad_states;
+          continue;
         }
+        last_state = std::move(s);
+        last_state_at = t;
       }
-      if (best.empty()) break;
-      const size_t t = pending.front();
-      pending.pop_front();
-      msg::TaskAssignment a;
-      a.module_id(best);
-      a.task_id(next_id);
-      a.task_name(d.tasks[t].name);
-      a.waypoints(d.tasks[t].waypoints);
-      assign.write(a);
-      task_of_id[next_id] = t;
-      modules[best].assigned = next_id++;
-      std::printf("coordinator: task %s -> %s (wear %.3f rad)\n", d.tasks[t].name.c_str(), best.c_str(), best_wear);
-      status.msg().detail(std::to_string(completed) + "/" + std::to_string(d.tasks.size()) + " tasks done");
-      status.publish();
+      if (last_state && queue.count_done(*last_state) == queue.task_count()) {
+        say("the primary reports every task done; the standby exits");
+        status.set(runtime::Lifecycle::Finalized, "every task done (by the primary)");
+        std::this_thread::sleep_for(std::chrono::milliseconds(100));
+        return 0;
+      }
+      const double silent = t - last_state_at;  // since the start if no state was heard
+      if (silent <= (last_state ? kTakeoverS : kFirstStateS) || !first_in_line(t)) {
+        if (t - last_beat >= kHeartbeatS) heartbeat(t);
+        states.wait(0.02);
+        continue;
+      }
+      // Take over: the primary's queue, checked against what the modules report.
+      if (last_state) queue.restore(*last_state, t);
+      say("primary silent for " + fixed(silent * 1e3, 0) + " ms; taking over with " +
+          std::to_string(queue.done_count()) + " done, " + std::to_string(queue.running_count()) + " running, " +
+          std::to_string(queue.pending_count()) + " pending");
+      const TaskQueue::Reconciled r = queue.reconcile(t);
+      for (const auto& e : r.events) say(queue.describe(e));
+      primary = true;
+      status.msg().serving("primary");
+      publish_state(t);  // what is in flight, before any assignment
+      for (const auto& a : r.resend) {
+        send(a);
+        say("sending task " + d.tasks[a.task].name + " to " + a.module + " again (id " + std::to_string(a.id) + ")");
+      }
+      last_progress = t;
+      progress_mark = queue.done_count();
     }
-    if (std::chrono::duration<double>(std::chrono::steady_clock::now() - last_progress).count() > timeout) {
-      std::fprintf(stderr, "tandem-coordinator: no task finished for %.0f s; giving up\n", timeout);
+
+    for (const auto& e : queue.expire(t)) say(queue.describe(e));
+    while (const auto a = queue.assign_next(module_wear)) {
+      publish_state(t);  // the state with the task in flight first: a standby that takes over knows of it
+      send(*a);
+      say("task " + d.tasks[a->task].name + " -> " + a->module + " (id " + std::to_string(a->id) + ", wear " +
+          fixed(a->wear, 3) + " rad)");
+    }
+    if (queue.revision() != published || t - last_beat >= kHeartbeatS) publish_state(t);
+    if (queue.done_count() != progress_mark) {
+      progress_mark = queue.done_count();
+      last_progress = t;
+    }
+    if (queue.complete()) break;
+    if (t - last_progress > opt.timeout) {
+      std::fprintf(stderr, "tandem-coordinator: no task finished for %.0f s; giving up\n", opt.timeout);
       status.set(runtime::Lifecycle::Error, "no progress");
       return 4;
     }
     states.wait(0.02);
   }
-  std::printf("coordinator: %zu/%zu tasks done\n", completed, d.tasks.size());
-  for (const auto& [name, mi] : modules) {
-    const double w = module_wear(name);
-    std::string list;
-    for (const auto& n : mi.done_names) list += (list.empty() ? "" : ", ") + n;
-    std::printf("coordinator: %s did %llu task(s) [%s], joint travel %.3f rad\n", name.c_str(),
-                static_cast<unsigned long long>(mi.done), list.c_str(), w);
+
+  if (runtime::g_stop) {
+    if (primary) publish_state(now());
+    status.set(runtime::Lifecycle::Finalized, "stopped");
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    return 0;
   }
-  status.msg().detail(std::to_string(completed) + "/" + std::to_string(d.tasks.size()) + " tasks done");
-  status.set(runtime::Lifecycle::Finalized, std::to_string(completed) + "/" + std::to_string(d.tasks.size()) +
-                                                " tasks done");
+  publish_state(now());  // every task done: standbys see it and exit
+  for (const auto& [module, tasks] : queue.done_by_module()) {
+    std::string list;
+    for (const auto& n : tasks) list += (list.empty() ? "" : ", ") + n;
+    say(module + " did " + std::to_string(tasks.size()) + " task(s) [" + list + "], joint travel " +
+        fixed(module_wear(module), 3) + " rad");
+  }
+  const std::string total = std::to_string(queue.done_count()) + "/" + std::to_string(queue.task_count()) +
+                            " tasks done, " + std::to_string(queue.duplicates()) + " duplicates";
+  std::printf("coordinator: %s\n", total.c_str());
+  std::fflush(stdout);
+  status.set(runtime::Lifecycle::Finalized, total);
   std::this_thread::sleep_for(std::chrono::milliseconds(200));
-  return completed == d.tasks.size() ? 0 : 1;
+  return queue.duplicates() == 0 ? 0 : 1;
 }

@@ -192,7 +192,8 @@ int main(int argc, char** argv) {
       sensors.wait(wait_s);
     }
   }
-  torques.wait_for_acks(0.1);  // the last command reaches the world
+  torques.unregister(cmd);     // give the arm up: the world follows the next strongest robot at once
+  torques.wait_for_acks(0.1);  // the last command and the unregistration reach the world
   torque_writer.reset();       // then leave the arm at once (graceful hand-over), then report
   const sim::RobotMeter::Summary sm = meter.summary();
   msg::RobotSummary rs;

@@ -27,6 +27,7 @@ namespace {
 
 constexpr double kPauseRamp = 0.3;   // requested pause / resume [s]
 constexpr double kBrakeRamp = 0.02;  // an arm braked: stop the path now [s]
+constexpr long kReleaseSettleTicks = 200;  // both arms controlled again for this long before resuming
 
 enum class TaskStateCode : uint8_t { Idle = 0, Running = 1, Done = 2, Paused = 3, Draining = 4, Left = 5 };
 
@@ -120,6 +121,7 @@ int main(int argc, char** argv) {
   TaskPlan plan(m, opt.continuous);
   bool pause_requested = false, draining = false;
   std::array<bool, 2> braked{false, false};
+  long last_braked_tick = -1;
   std::array<long, 2> last{-1, -1};
   msg::TaskState ts;
   ts.module_id(opt.module);
@@ -187,11 +189,15 @@ int main(int argc, char** argv) {
       const int j = ctx.arm_index(s.arm_id());
       if (j < 0) continue;  // another module's arm
       braked[static_cast<size_t>(j)] = s.braked();
+      if (braked[0] || braked[1]) last_braked_tick = static_cast<long>(s.tick());
       // Pause while an arm is braked or a pause is asked for; the change applies from the first tick not
       // yet published, so a published reference never changes.
       const long next = std::max(last[0], last[1]) + 1;
       if (braked[0] || braked[1]) {
         plan.set_rate(next, 0.0, kBrakeRamp);
+      } else if (last_braked_tick >= 0 && static_cast<long>(s.tick()) - last_braked_tick < kReleaseSettleTicks) {
+        // Just released: the new controller settles on the still reference first (no resume into a brake
+        // that engages again).
       } else {
         plan.set_rate(next, pause_requested ? 0.0 : 1.0, kPauseRamp);
       }

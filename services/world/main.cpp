@@ -70,6 +70,7 @@ int main(int argc, char** argv) {
     std::chrono::steady_clock::time_point last_at{};  // when it was applied
     bool braked = false;
     bool release = false;  // lockstep: a robot answered while braked: wait for it again from the next tick
+    std::chrono::steady_clock::time_point heard{};  // last valid command of any tick: a controller is alive
   };
   std::array<ArmLink, 2> link{};
   unsigned long long failovers = 0;
@@ -243,6 +244,8 @@ int main(int argc, char** argv) {
         ::clock_gettime(CLOCK_MONOTONIC, &now);
         if (to_ns(now) > to_ns(deadline)) {  // taken after the deadline: too late for this tick
           ++stale;
+          const int jl = ctx.arm_index(cmd.arm_id());
+          if (jl >= 0) link[jl].heard = std::chrono::steady_clock::now();  // late, but its controller lives
           break;
         }
       }
@@ -260,6 +263,7 @@ int main(int argc, char** argv) {
         ++rejected;
         continue;
       }
+      link[j].heard = std::chrono::steady_clock::now();
       if (cmd.tick() != static_cast<uint64_t>(k)) {
         // An older tick is a late answer or a liveliness repeat: dropped. From a braked arm's robot it means
         // a controller is back: lockstep waits for it again from the next tick.
@@ -317,6 +321,7 @@ int main(int argc, char** argv) {
       }
       L.last_tick = k;
       L.last_at = now_fo;
+      L.heard = now_fo;
       if (opt.realtime) {
         timespec now{};
         ::clock_gettime(CLOCK_MONOTONIC, &now);
@@ -334,10 +339,10 @@ int main(int argc, char** argv) {
         continue;
       }
       if (opt.realtime) {
-        // A late or missing command: the arm keeps its previous torque for this tick (counted); an arm whose
-        // controller stays silent is braked.
+        // A late or missing command: the arm keeps its previous torque for this tick (counted). An arm from
+        // which no command at all (late ones included) came for brake_after_s has no live controller: braked.
         ++late;
-        const double quiet = std::chrono::duration<double>(std::chrono::steady_clock::now() - link[j].last_at).count();
+        const double quiet = std::chrono::duration<double>(std::chrono::steady_clock::now() - link[j].heard).count();
         if (link[j].last_tick >= 0 && quiet > brake_after_s) set_brake(j, true, "no live controller");
       } else if (link[j].last_tick < 0) {
         ++timeouts;

@@ -1,0 +1,296 @@
+#include "task_queue.hpp"
+
+#include <algorithm>
+#include <cstdio>
+#include <iterator>
+#include <set>
+#include <tuple>
+#include <utility>
+
+namespace tandem::coordinator {
+
+bool Snapshot::well_formed() const {
+  return done.size() == done_by.size() && running.size() == running_on.size() &&
+         running.size() == running_id.size();
+}
+
+TaskQueue::TaskQueue(std::vector<std::string> tasks, Balance balance) : names_(std::move(tasks)), balance_(balance) {
+  for (size_t t = 0; t < names_.size(); ++t) pending_.push_back(t);
+}
+
+// The module is idle after the task it reports (left: it finished its task before leaving).
+bool TaskQueue::finished_state(uint8_t state) {
+  return state == static_cast<uint8_t>(ModuleState::Idle) || state == static_cast<uint8_t>(ModuleState::Done) ||
+         state == static_cast<uint8_t>(ModuleState::Left);
+}
+
+std::optional<size_t> TaskQueue::find_task(const std::string& name) const {
+  const auto it = std::find(names_.begin(), names_.end(), name);
+  if (it == names_.end()) return std::nullopt;
+  return static_cast<size_t>(it - names_.begin());
+}
+
+size_t TaskQueue::tasks_of(const std::string& module) const {
+  return static_cast<size_t>(
+      std::count_if(done_.begin(), done_.end(), [&](const Done& d) { return d.module == module; }));
+}
+
+void TaskQueue::finish(const std::string& name, Module& m, std::vector<Event>& events) {
+  done_.push_back({m.running_task, name});
+  events.push_back({EventKind::Finished, name, names_[m.running_task], m.running_id, done_count()});
+  m.running_id = 0;
+  ++revision_;
+}
+
+void TaskQueue::requeue(Module& m) {
+  pending_.push_front(m.running_task);
+  m.running_id = 0;
+  ++revision_;
+}
+
+std::vector<Event> TaskQueue::report(const ModuleReport& r, double now) {
+  std::vector<Event> events;
+  if (r.module.empty() || r.state > static_cast<uint8_t>(ModuleState::Left)) {
+    ++rejected_;
+    return events;
+  }
+  if (r.task_id >= next_id_) {  // never hand out an id a supervisor already had (it would ignore it)
+    next_id_ = r.task_id + 1;
+    ++revision_;
+  }
+  auto it = modules_.find(r.module);
+  if (r.state == static_cast<uint8_t>(ModuleState::Left)) {
+    left_[r.module] = r.task_id;
+    if (it == modules_.end()) return events;
+    Module& m = it->second;
+    if (m.running_id != 0 && r.task_id == m.running_id) finish(r.module, m, events);
+    Event e{EventKind::Left, r.module, "", 0, 0};
+    if (m.running_id != 0) {
+      e.task = names_[m.running_task];
+      e.id = m.running_id;
+      requeue(m);
+    }
+    events.push_back(e);
+    modules_.erase(it);
+    return events;
+  }
+  left_.erase(r.module);
+  if (it == modules_.end()) {
+    it = modules_.emplace(r.module, Module{}).first;
+    events.push_back({EventKind::Joined, r.module, "", 0, 0});
+  }
+  Module& m = it->second;
+  if (m.lost) {
+    m.lost = false;
+    events.push_back({EventKind::Rejoined, r.module, "", 0, 0});
+  }
+  m.heard = true;
+  m.last_heard = now;
+  m.state = r.state;
+  m.reported = r.task_id;
+  if (!finished_state(r.state)) return events;
+  if (m.running_id != 0 && r.task_id == m.running_id) {
+    finish(r.module, m, events);
+  } else if (const auto a = abandoned_.find(r.task_id); a != abandoned_.end() && a->second.second == r.module) {
+    events.push_back({EventKind::LateDoneIgnored, r.module, names_[a->second.first], r.task_id, 0});
+    abandoned_.erase(a);  // say it once
+  }
+  return events;
+}
+
+std::vector<Event> TaskQueue::expire(double now) {
+  std::vector<Event> events;
+  for (auto& [name, m] : modules_) {
+    if (m.lost || now - m.last_heard <= kModuleLostS) continue;
+    m.lost = true;
+    Event e{EventKind::Lost, name, "", 0, 0};
+    if (m.running_id != 0) {
+      e.task = names_[m.running_task];
+      e.id = m.running_id;
+      abandoned_[m.running_id] = {m.running_task, name};
+      requeue(m);
+    }
+    events.push_back(e);
+  }
+  return events;
+}
+
+std::optional<Assignment> TaskQueue::assign_next(const std::function<double(const std::string&)>& wear) {
+  if (pending_.empty()) return std::nullopt;
+  const std::string* best = nullptr;
+  double best_wear = 0.0;
+  size_t best_tasks = 0;
+  for (const auto& [name, m] : modules_) {  // by name: ties go to the first
+    const bool free = m.heard && !m.lost && m.running_id == 0 &&
+                      (m.state == static_cast<uint8_t>(ModuleState::Idle) ||
+                       m.state == static_cast<uint8_t>(ModuleState::Done));
+    if (!free) continue;
+    const double w = wear(name);
+    const size_t n = tasks_of(name);
+    const bool better = balance_ == Balance::RoundRobin ? n < best_tasks
+                                                        : (w < best_wear || (w == best_wear && n < best_tasks));
+    if (best == nullptr || better) {
+      best = &name;
+      best_wear = w;
+      best_tasks = n;
+    }
+  }
+  if (best == nullptr) return std::nullopt;
+  Module& m = modules_.at(*best);
+  m.running_task = pending_.front();
+  pending_.pop_front();
+  m.running_id = next_id_++;
+  ++revision_;
+  return Assignment{*best, m.running_id, m.running_task, best_wear};
+}
+
+void TaskQueue::restore(const Snapshot& s, double now) {
+  done_.clear();
+  pending_.clear();
+  abandoned_.clear();
+  for (auto& entry : modules_) entry.second.running_id = 0;
+  std::vector<bool> placed(names_.size(), false);
+  for (size_t i = 0; i < std::min(s.done.size(), s.done_by.size()); ++i) {
+    const auto t = find_task(s.done[i]);
+    if (!t) continue;
+    done_.push_back({*t, s.done_by[i]});
+    placed[*t] = true;
+  }
+  const size_t n_running = std::min({s.running.size(), s.running_on.size(), s.running_id.size()});
+  for (size_t i = 0; i < n_running; ++i) {
+    const auto t = find_task(s.running[i]);
+    if (!t || placed[*t] || s.running_id[i] == 0) continue;
+    auto it = modules_.find(s.running_on[i]);
+    if (it == modules_.end()) {
+      // Not heard by this standby: a module that left (reconcile() looks at what it reported last) or one that
+      // has not reported yet (it is lost if it stays silent).
+      Module m;
+      m.last_heard = now;
+      if (const auto l = left_.find(s.running_on[i]); l != left_.end()) {
+        m.heard = true;
+        m.state = static_cast<uint8_t>(ModuleState::Left);
+        m.reported = l->second;
+      }
+      it = modules_.emplace(s.running_on[i], m).first;
+    }
+    if (it->second.running_id != 0) continue;  // a second task on one module: it stays pending
+    it->second.running_id = s.running_id[i];
+    it->second.running_task = *t;
+    next_id_ = std::max(next_id_, s.running_id[i] + 1);
+    placed[*t] = true;
+  }
+  for (size_t t = 0; t < names_.size(); ++t) {
+    if (!placed[t]) pending_.push_back(t);
+  }
+  next_id_ = std::max(next_id_, s.next_task_id);
+  ++revision_;
+}
+
+TaskQueue::Reconciled TaskQueue::reconcile(double now) {
+  Reconciled out;
+  out.events = expire(now);
+  for (auto it = modules_.begin(); it != modules_.end();) {
+    const std::string& name = it->first;
+    Module& m = it->second;
+    const bool left = m.heard && m.state == static_cast<uint8_t>(ModuleState::Left);
+    if (m.running_id != 0) {
+      if (m.heard && m.reported == m.running_id && finished_state(m.state)) {
+        finish(name, m, out.events);
+      } else if (left || (m.heard && m.reported > m.running_id)) {
+        out.events.push_back({EventKind::Requeued, name, names_[m.running_task], m.running_id, 0});
+        requeue(m);
+      } else if (!m.heard || m.reported < m.running_id) {
+        out.resend.push_back({name, m.running_id, m.running_task, 0.0});
+      }  // else the module runs it (running, paused or draining)
+    }
+    it = left ? modules_.erase(it) : std::next(it);
+  }
+  return out;
+}
+
+Snapshot TaskQueue::snapshot() const {
+  Snapshot s;
+  s.next_task_id = next_id_;
+  for (const auto& d : done_) {
+    s.done.push_back(names_[d.task]);
+    s.done_by.push_back(d.module);
+  }
+  std::vector<std::tuple<uint64_t, size_t, std::string>> running;
+  for (const auto& [name, m] : modules_) {
+    if (m.running_id != 0) running.emplace_back(m.running_id, m.running_task, name);
+  }
+  std::sort(running.begin(), running.end());
+  for (const auto& [id, task, module] : running) {
+    s.running.push_back(names_[task]);
+    s.running_on.push_back(module);
+    s.running_id.push_back(id);
+  }
+  return s;
+}
+
+std::string TaskQueue::describe(const Event& e) const {
+  const std::string task = e.task.empty() ? "" : "task " + e.task + " (id " + std::to_string(e.id) + ")";
+  const std::string back = e.task.empty() ? "" : "; " + task + " back to the front of the queue";
+  char lost_after[32];
+  std::snprintf(lost_after, sizeof lost_after, "%.1f s", kModuleLostS);
+  switch (e.kind) {
+    case EventKind::Joined:
+      return "module " + e.module + " joined";
+    case EventKind::Rejoined:
+      return e.module + " is heard again; it takes new tasks only";
+    case EventKind::Finished:
+      return e.module + " finished " + task + "; " + std::to_string(e.done) + "/" + std::to_string(names_.size()) +
+             " done";
+    case EventKind::LateDoneIgnored:
+      return e.module + " reports " + task + " done, but it was re-assigned when " + e.module +
+             " was lost: ignored";
+    case EventKind::Lost:
+      return e.module + " lost (not heard for " + lost_after + ")" + back;
+    case EventKind::Left:
+      return e.module + " left" + back;
+    case EventKind::Requeued:
+      return e.module + " no longer runs " + task + "; it goes back to the front of the queue";
+  }
+  return "";
+}
+
+size_t TaskQueue::count_done(const Snapshot& s) const {
+  std::set<size_t> tasks;
+  for (const auto& name : s.done) {
+    if (const auto t = find_task(name)) tasks.insert(*t);
+  }
+  return tasks.size();
+}
+
+size_t TaskQueue::done_count() const {
+  std::set<size_t> tasks;
+  for (const auto& d : done_) tasks.insert(d.task);
+  return tasks.size();
+}
+
+size_t TaskQueue::duplicates() const { return done_.size() - done_count(); }
+
+size_t TaskQueue::running_count() const {
+  return static_cast<size_t>(
+      std::count_if(modules_.begin(), modules_.end(), [](const auto& e) { return e.second.running_id != 0; }));
+}
+
+std::vector<std::string> TaskQueue::pending() const {
+  std::vector<std::string> out;
+  for (size_t t : pending_) out.push_back(names_[t]);
+  return out;
+}
+
+size_t TaskQueue::lost_count() const {
+  return static_cast<size_t>(
+      std::count_if(modules_.begin(), modules_.end(), [](const auto& e) { return e.second.lost; }));
+}
+
+std::map<std::string, std::vector<std::string>> TaskQueue::done_by_module() const {
+  std::map<std::string, std::vector<std::string>> out;
+  for (const auto& entry : modules_) out[entry.first];
+  for (const auto& d : done_) out[d.module].push_back(names_[d.task]);
+  return out;
+}
+
+}  // namespace tandem::coordinator

@@ -1,0 +1,369 @@
+// Unit tests of the coordinator's bookkeeping (services/coordinator/task_queue.hpp): balance, modules that
+// are lost, leave or come back, the rebuild of a standby that takes over, and that no task is counted twice,
+// also against simulated supervisors that fall silent and a primary that dies mid-run.
+#include <catch2/catch.hpp>
+
+#include "test_support.hpp"
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include "task_queue.hpp"
+
+namespace {
+
+using tandem::coordinator::Assignment;
+using tandem::coordinator::Balance;
+using tandem::coordinator::EventKind;
+using tandem::coordinator::kModuleLostS;
+using tandem::coordinator::ModuleReport;
+using tandem::coordinator::Snapshot;
+using tandem::coordinator::TaskQueue;
+using tandem::test::Lcg;
+
+constexpr uint8_t kIdle = 0, kRunning = 1, kDone = 2, kPaused = 3, kDraining = 4, kLeft = 5;
+
+std::vector<std::string> task_names(int n) {
+  std::vector<std::string> out;
+  for (int i = 0; i < n; ++i) out.push_back("t" + std::to_string(i));
+  return out;
+}
+
+double no_wear(const std::string& /*module*/) { return 0.0; }
+
+bool has(const std::vector<tandem::coordinator::Event>& events, EventKind kind) {
+  for (const auto& e : events) {
+    if (e.kind == kind) return true;
+  }
+  return false;
+}
+
+/// Every task done exactly once, in the queue and in its published state.
+void check_done_once(const TaskQueue& q) {
+  CHECK(q.complete());
+  CHECK(q.duplicates() == 0);
+  const Snapshot s = q.snapshot();
+  CHECK(s.done.size() == q.task_count());
+  std::map<std::string, int> times;
+  for (const auto& n : s.done) ++times[n];
+  for (const auto& [name, n] : times) {
+    INFO(name);
+    CHECK(n == 1);
+  }
+}
+
+}  // namespace
+
+TEST_CASE("tasks go to the least worn free module, ties to fewer tasks then name", "[coordinator]") {
+  TaskQueue q(task_names(4), Balance::Wear);
+  for (const char* m : {"m3", "m1", "m2"}) q.report({m, 0, kIdle}, 0.0);
+  std::map<std::string, double> wear{{"m1", 2.0}, {"m2", 1.0}, {"m3", 1.0}};
+  auto wear_of = [&wear](const std::string& m) { return wear[m]; };
+
+  auto a = q.assign_next(wear_of);
+  REQUIRE(a);
+  CHECK(a->module == "m2");  // m2 and m3 wear least: the name decides
+  CHECK(a->id == 1);
+  CHECK(q.task_name(a->task) == "t0");
+  CHECK(a->wear == 1.0);
+  a = q.assign_next(wear_of);
+  REQUIRE(a);
+  CHECK(a->module == "m3");
+  CHECK(a->id == 2);
+  a = q.assign_next(wear_of);
+  REQUIRE(a);
+  CHECK(a->module == "m1");
+  CHECK_FALSE(q.assign_next(wear_of));  // nobody is free
+  CHECK(q.running_count() == 3);
+  CHECK(q.pending() == std::vector<std::string>{"t3"});
+
+  // m2 and m3 finish; then m2 wears less than m3 and gets the last task.
+  CHECK(has(q.report({"m2", 1, kDone}, 0.1), EventKind::Finished));
+  q.report({"m3", 2, kDone}, 0.1);
+  CHECK(q.done_count() == 2);
+  q.report({"m2", 5, kDone}, 0.2);  // not its task: nothing is counted (ids never go back, though)
+  CHECK(q.done_count() == 2);
+  wear["m2"] = 0.5;
+  a = q.assign_next(wear_of);
+  REQUIRE(a);
+  CHECK(a->module == "m2");  // less wear wins over fewer tasks
+  CHECK(a->id == 6);         // above every id a module reported
+}
+
+TEST_CASE("round robin gives the next task to the module with the fewest tasks", "[coordinator]") {
+  TaskQueue q(task_names(6), Balance::RoundRobin);
+  q.report({"a", 0, kIdle}, 0.0);
+  q.report({"b", 0, kIdle}, 0.0);
+  auto heavy = [](const std::string& m) { return m == "a" ? 0.0 : 10.0; };  // ignored by round robin
+  auto x = q.assign_next(heavy);
+  REQUIRE(x);
+  CHECK(x->module == "a");
+  q.report({"a", x->id, kDone}, 0.1);
+  x = q.assign_next(heavy);
+  REQUIRE(x);
+  CHECK(x->module == "b");  // a has done one task, b none
+}
+
+TEST_CASE("only idle or done modules with nothing in flight get tasks", "[coordinator]") {
+  TaskQueue q(task_names(3), Balance::Wear);
+  q.report({"paused", 0, kPaused}, 0.0);
+  q.report({"draining", 0, kDraining}, 0.0);
+  q.report({"busy", 0, kRunning}, 0.0);
+  CHECK_FALSE(q.assign_next(no_wear));
+  q.report({"free", 0, kIdle}, 0.0);
+  const auto a = q.assign_next(no_wear);
+  REQUIRE(a);
+  CHECK(a->module == "free");
+  // A paused module keeps its task: it finishes it when it resumes.
+  q.report({"free", a->id, kPaused}, 0.5);
+  q.report({"free", a->id, kDone}, 1.0);
+  CHECK(q.done_count() == 1);
+  CHECK(q.module_count() == 4);
+}
+
+TEST_CASE("a lost module's task goes back to the front of the queue", "[coordinator]") {
+  TaskQueue q(task_names(4), Balance::Wear);
+  q.report({"m1", 0, kIdle}, 0.0);
+  q.report({"m2", 0, kIdle}, 0.0);
+  const auto a1 = q.assign_next(no_wear);  // t0 -> m1
+  const auto a2 = q.assign_next(no_wear);  // t1 -> m2
+  REQUIRE(a1);
+  REQUIRE(a2);
+  CHECK(q.pending() == std::vector<std::string>{"t2", "t3"});
+
+  q.report({"m1", a1->id, kRunning}, 1.0);  // m2 falls silent after t = 0
+  CHECK(q.expire(kModuleLostS).empty());
+  const auto events = q.expire(kModuleLostS + 0.01);
+  REQUIRE(events.size() == 1);
+  CHECK(events[0].kind == EventKind::Lost);
+  CHECK(events[0].module == "m2");
+  CHECK(events[0].task == "t1");
+  CHECK(q.pending() == std::vector<std::string>{"t1", "t2", "t3"});
+  CHECK(q.lost_count() == 1);
+  CHECK(q.running_count() == 1);
+
+  // The next free module takes it, with a new id.
+  q.report({"m1", a1->id, kDone}, 1.6);
+  const auto again = q.assign_next(no_wear);
+  REQUIRE(again);
+  CHECK(again->module == "m1");
+  CHECK(q.task_name(again->task) == "t1");
+  CHECK(again->id > a2->id);
+}
+
+TEST_CASE("a late done of a re-assigned task is ignored and the task is counted once", "[coordinator]") {
+  TaskQueue q(task_names(2), Balance::Wear);
+  q.report({"m1", 0, kIdle}, 0.0);
+  const auto a = q.assign_next(no_wear);  // t0 -> m1, id 1
+  REQUIRE(a);
+  q.expire(2.0);                        // m1 is lost: t0 back in the queue
+  q.report({"m2", 0, kIdle}, 2.0);
+  const auto b = q.assign_next(no_wear);  // t0 -> m2, id 2
+  REQUIRE(b);
+  CHECK(b->module == "m2");
+  CHECK(q.task_name(b->task) == "t0");
+
+  // m1 comes back and reports t0 (id 1) done: ignored, once; it is usable again, for new tasks.
+  auto events = q.report({"m1", a->id, kDone}, 2.5);
+  CHECK(has(events, EventKind::Rejoined));
+  CHECK(has(events, EventKind::LateDoneIgnored));
+  CHECK_FALSE(has(events, EventKind::Finished));
+  CHECK(q.done_count() == 0);
+  CHECK_FALSE(has(q.report({"m1", a->id, kDone}, 2.6), EventKind::LateDoneIgnored));
+  const auto c = q.assign_next(no_wear);  // t1 -> m1
+  REQUIRE(c);
+  CHECK(c->module == "m1");
+  CHECK(q.task_name(c->task) == "t1");
+
+  q.report({"m2", b->id, kDone}, 3.0);
+  q.report({"m1", c->id, kDone}, 3.0);
+  check_done_once(q);
+  CHECK(q.done_by_module().at("m2") == std::vector<std::string>{"t0"});
+  CHECK(q.done_by_module().at("m1") == std::vector<std::string>{"t1"});
+}
+
+TEST_CASE("a module that leaves is removed, its unfinished task back at the front", "[coordinator]") {
+  TaskQueue q(task_names(3), Balance::Wear);
+  q.report({"m1", 0, kIdle}, 0.0);
+  q.report({"m2", 0, kIdle}, 0.0);
+  const auto a1 = q.assign_next(no_wear);
+  const auto a2 = q.assign_next(no_wear);
+  REQUIRE(a1);
+  REQUIRE(a2);
+  // m1 drains: it finishes its task and leaves (it reports "left" with that id: counted done).
+  auto events = q.report({"m1", a1->id, kLeft}, 0.5);
+  CHECK(has(events, EventKind::Finished));
+  CHECK(has(events, EventKind::Left));
+  // m2 leaves before taking its task (its report still names an older id): the task goes back.
+  events = q.report({"m2", 0, kLeft}, 0.5);
+  REQUIRE(events.size() == 1);
+  CHECK(events[0].task == q.task_name(a2->task));
+  CHECK(q.module_count() == 0);
+  CHECK(q.pending().front() == q.task_name(a2->task));
+  CHECK(q.done_count() == 1);
+}
+
+TEST_CASE("task states with an unknown state or no module are rejected and counted", "[coordinator]") {
+  TaskQueue q(task_names(1), Balance::Wear);
+  CHECK(q.report({"m1", 0, 6}, 0.0).empty());
+  CHECK(q.report({"", 0, kIdle}, 0.0).empty());
+  CHECK(q.rejected() == 2);
+  CHECK(q.module_count() == 0);
+  CHECK_FALSE(q.assign_next(no_wear));
+}
+
+TEST_CASE("a standby rebuilds the queue from the last state and reconciles it with the modules", "[coordinator]") {
+  // The primary's last state: t0 done by m1; t1 on m1 (id 3), t2 on m2 (id 4), t3 on m3 (id 5), t4 on m4 (id 6).
+  Snapshot s;
+  s.next_task_id = 7;
+  s.done = {"t0"};
+  s.done_by = {"m1"};
+  s.running = {"t1", "t2", "t3", "t4"};
+  s.running_on = {"m1", "m2", "m3", "m4"};
+  s.running_id = {3, 4, 5, 6};
+  REQUIRE(s.well_formed());
+
+  TaskQueue standby(task_names(7), Balance::Wear);
+  CHECK(standby.count_done(s) == 1);
+  // The modules' latest reports, as the standby kept them.
+  standby.report({"m1", 3, kDone}, 1.0);     // finished t1 after the last state
+  standby.report({"m2", 2, kDone}, 1.0);     // has not taken t2 yet: send it again
+  standby.report({"m3", 5, kRunning}, 1.0);  // runs t3
+  standby.report({"m5", 0, kIdle}, 1.0);     // plugged later
+  // m4 never reported to the standby.
+  standby.restore(s, 1.2);
+  CHECK(standby.done_count() == 1);
+  CHECK(standby.running_count() == 4);
+  CHECK(standby.pending() == std::vector<std::string>{"t5", "t6"});
+
+  const TaskQueue::Reconciled r = standby.reconcile(1.2);
+  CHECK(has(r.events, EventKind::Finished));
+  CHECK(standby.done_count() == 2);
+  REQUIRE(r.resend.size() == 2);  // t2 to m2, and t4 to m4 (never heard), with their ids
+  CHECK(r.resend[0].module == "m2");
+  CHECK(r.resend[0].id == 4);
+  CHECK(standby.task_name(r.resend[0].task) == "t2");
+  CHECK(r.resend[1].module == "m4");
+  CHECK(r.resend[1].id == 6);
+  CHECK(standby.running_count() == 3);
+
+  // New work goes on with fresh ids: m1 (done, free) and m5.
+  const auto a = standby.assign_next(no_wear);
+  const auto b = standby.assign_next(no_wear);
+  REQUIRE(a);
+  REQUIRE(b);
+  CHECK(a->id == 7);
+  CHECK(b->id == 8);
+  CHECK_FALSE(standby.assign_next(no_wear));
+
+  // m4 stays silent: lost, t4 back at the front; the others report on, finish, and one of them does t4.
+  standby.report({"m2", 4, kRunning}, 2.7);
+  standby.report({"m3", 5, kRunning}, 2.7);
+  standby.report({a->module, a->id, kRunning}, 2.7);
+  standby.report({b->module, b->id, kRunning}, 2.7);
+  const auto lost = standby.expire(1.2 + kModuleLostS + 0.1);
+  REQUIRE(lost.size() == 1);
+  CHECK(lost[0].module == "m4");
+  CHECK(standby.pending().front() == "t4");
+  const double t = 3.0;
+  standby.report({"m2", 4, kDone}, t);
+  standby.report({"m3", 5, kDone}, t);
+  standby.report({a->module, a->id, kDone}, t);
+  standby.report({b->module, b->id, kDone}, t);
+  while (const auto c = standby.assign_next(no_wear)) standby.report({c->module, c->id, kDone}, t);
+  check_done_once(standby);
+}
+
+TEST_CASE("a takeover puts back tasks of modules that left, are lost or moved on", "[coordinator]") {
+  Snapshot s;
+  s.next_task_id = 4;
+  s.running = {"t0", "t1", "t2"};
+  s.running_on = {"gone", "silent", "ahead"};
+  s.running_id = {1, 2, 3};
+  TaskQueue q(task_names(4), Balance::Wear);
+  q.report({"gone", 0, kLeft}, 0.0);     // left without taking t0
+  q.report({"silent", 2, kRunning}, 0.0);  // last heard long ago
+  q.report({"ahead", 9, kRunning}, 5.0);   // runs a task the state does not know
+  q.restore(s, 5.0);
+  const TaskQueue::Reconciled r = q.reconcile(5.0);
+  CHECK(r.resend.empty());
+  CHECK(q.running_count() == 0);
+  CHECK(q.done_count() == 0);
+  CHECK(q.pending().size() == 4);
+  CHECK(q.module_count() == 2);  // "gone" is removed
+  CHECK(q.snapshot().next_task_id == 10);
+}
+
+TEST_CASE("a standby that never heard a state starts from the whole queue", "[coordinator]") {
+  TaskQueue q(task_names(3), Balance::Wear);
+  q.report({"m1", 0, kIdle}, 0.0);
+  const TaskQueue::Reconciled r = q.reconcile(0.5);
+  CHECK(r.events.empty());
+  CHECK(r.resend.empty());
+  CHECK(q.pending() == std::vector<std::string>{"t0", "t1", "t2"});
+}
+
+TEST_CASE("no task is counted twice with lost modules, late reports and a takeover", "[coordinator]") {
+  // Simulated supervisors as in services/supervisor: a module takes an assignment with a newer id when it is
+  // free, runs it for a while and reports it done; reports every 0.1 s unless it is silent for a while.
+  struct Sim {
+    uint64_t task_id = 0;
+    bool running = false;
+    int steps_left = 0;
+    double silent_until = -1.0;
+  };
+  int lost = 0, late_done_ignored = 0;
+  auto count = [&](const std::vector<tandem::coordinator::Event>& events) {
+    for (const auto& e : events) {
+      lost += e.kind == EventKind::Lost ? 1 : 0;
+      late_done_ignored += e.kind == EventKind::LateDoneIgnored ? 1 : 0;
+    }
+  };
+  for (uint64_t seed = 1; seed <= 20; ++seed) {
+    INFO("seed " << seed);
+    Lcg rng(seed);
+    const int n_tasks = 40;
+    TaskQueue primary(task_names(n_tasks), Balance::Wear);
+    TaskQueue standby(task_names(n_tasks), Balance::Wear);
+    TaskQueue* q = &primary;
+    bool taken_over = false;
+    std::map<std::string, Sim> sims{{"m1", {}}, {"m2", {}}, {"m3", {}}, {"m4", {}}};
+    std::map<std::string, Assignment> inbox;  // latest assignment per module (keep-last 1)
+    Snapshot last;
+    const double takeover_at = rng.uniform(0.5, 3.0);
+    double t = 0.0;
+    for (int step = 0; step < 4000 && !q->complete(); ++step, t += 0.1) {
+      for (auto& [name, sim] : sims) {
+        if (t < sim.silent_until) continue;
+        if (auto it = inbox.find(name); it != inbox.end() && it->second.id > sim.task_id && !sim.running) {
+          sim.task_id = it->second.id;
+          sim.running = true;
+          sim.steps_left = static_cast<int>(rng.uniform(2.0, 12.0));
+        }
+        if (sim.running && --sim.steps_left <= 0) sim.running = false;
+        if (rng.uniform(0.0, 1.0) < 0.01) sim.silent_until = t + rng.uniform(0.5, 3.0);  // may be lost
+        const ModuleReport rep{name, sim.task_id, sim.running ? kRunning : (sim.task_id > 0 ? kDone : kIdle)};
+        if (!taken_over) standby.report(rep, t);  // the standby keeps the latest reports
+        count(q->report(rep, t));
+      }
+      if (!taken_over && t >= takeover_at) {  // the primary dies: the standby takes over from its last state
+        standby.restore(last, t);
+        const TaskQueue::Reconciled r = standby.reconcile(t);
+        for (const auto& a : r.resend) inbox[a.module] = a;
+        q = &standby;
+        taken_over = true;
+      }
+      count(q->expire(t));
+      while (const auto a = q->assign_next(no_wear)) {
+        last = q->snapshot();  // published before the assignment
+        inbox[a->module] = *a;
+      }
+      last = q->snapshot();
+    }
+    CHECK(taken_over);
+    check_done_once(*q);
+  }
+  CHECK(lost > 0);  // the runs did exercise lost modules and their late reports
+  CHECK(late_done_ignored > 0);
+}

@@ -439,6 +439,13 @@ class Launcher {
         }
         start_robot(c.module, c.arm.substr(c.arm.find('/') + 1), strength, " (restart)");
       } else {
+        // No coordinator left: the queue's state lived only in their writers (transient-local), so hand the
+        // newcomer the last state this launcher heard; it takes over from it.
+        if (live_coordinators() == 0 && have_coord_state_ && coord_state_out_ != nullptr) {
+          coord_state_out_->write(last_coord_state_);
+          std::printf("tandem up: republished the coordinator's last state (%zu task(s) done) for its successor\n",
+                      last_coord_state_.done().size());
+        }
         start_coordinator("coordinator@r" + std::to_string(++coordinator_restarts_), true, " (restart)");
       }
     }
@@ -632,6 +639,9 @@ class Launcher {
   std::vector<PendingUnplug> pending_unplugs_;
   std::map<std::string, msg::TaskState> task_states_;
   bus::Writer<msg::ControlRequest, msg::ControlRequestPubSubType>* control_out_ = nullptr;
+  bus::Writer<msg::CoordinatorState, msg::CoordinatorStatePubSubType>* coord_state_out_ = nullptr;
+  msg::CoordinatorState last_coord_state_;  ///< the latest queue state heard from a coordinator
+  bool have_coord_state_ = false;
   bool stopping_ = false, escalated_ = false, failed_ = false, coordinator_done_ = false;
   Clock::time_point stop_started_{};
   int coordinator_restarts_ = 0;
@@ -736,6 +746,9 @@ int up_command(const std::vector<std::string>& args) {
   bus::Reader<msg::CoordinatorState, msg::CoordinatorStatePubSubType> coord_state(part, bus::kCoordinatorStateTopic,
                                                                                   bus::TopicKind::Task);
   L.control_out_ = &control_out;
+  bus::Writer<msg::CoordinatorState, msg::CoordinatorStatePubSubType> coord_state_out(part, bus::kCoordinatorStateTopic,
+                                                                                    bus::TopicKind::Task);
+  L.coord_state_out_ = &coord_state_out;
   runtime::StatusPublisher launcher_status(part, "launcher", "launcher", "");
   launcher_status.msg().deployment(d.name);
   launcher_status.set(runtime::Lifecycle::Active, "");
@@ -762,9 +775,14 @@ int up_command(const std::vector<std::string>& args) {
     while (task_states.take(ts)) L.on_task_state(ts);
     msg::CoordinatorState cs;
     while (coord_state.take(cs)) {
-      if (cs.deployment() == d.name) {
+      // The most advanced state (the launcher's own republished copy comes back too).
+      if (cs.deployment() == d.name &&
+          (!have_coord || cs.next_task_id() > last_coord.next_task_id() ||
+           (cs.next_task_id() == last_coord.next_task_id() && cs.done().size() >= last_coord.done().size()))) {
         last_coord = cs;
         have_coord = true;
+        L.last_coord_state_ = cs;
+        L.have_coord_state_ = true;
       }
     }
   };

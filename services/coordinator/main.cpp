@@ -26,10 +26,10 @@
 #include <thread>
 #include <vector>
 
-#include "task_queue.hpp"
 #include "tandem/runtime/deployment.hpp"
 #include "tandem/runtime/role.hpp"
 #include "tandem/runtime/status.hpp"
+#include "task_queue.hpp"
 
 using namespace tandem;
 namespace bus = tandem::dds;
@@ -50,13 +50,14 @@ struct Options {
 };
 
 void usage(std::FILE* f) {
-  std::fprintf(f,
-               "usage: tandem-coordinator --deployment-file FILE --domain ID [--timeout S] [--id NAME] [--standby]\n"
-               "Started by 'tandem up' for deployments with a coordinator section. --timeout: give up after S\n"
-               "seconds with no task finished (default 30); --id: process id in status (default coordinator);\n"
-               "--standby: assign nothing until the primary falls silent, then take over its queue.\n"
-               "Exit: 0 every task done or stopped, 1 a task done twice, 2 bad arguments or deployment, 4 no\n"
-               "progress.\n");
+  std::fprintf(
+      f,
+      "usage: tandem-coordinator --deployment-file FILE --domain ID [--timeout S] [--id NAME] [--standby]\n"
+      "Started by 'tandem up' for deployments with a coordinator section. --timeout: give up after S\n"
+      "seconds with no task finished (default 30); --id: process id in status (default coordinator);\n"
+      "--standby: assign nothing until the primary falls silent, then take over its queue.\n"
+      "Exit: 0 every task done or stopped, 1 a task done twice, 2 bad arguments or deployment, 4 no\n"
+      "progress.\n");
 }
 
 /// Parses the command line; on error prints the problem and the usage and returns false with `exit_code`
@@ -75,10 +76,11 @@ bool parse_options(int argc, char** argv, Options& o, int& exit_code) {
       continue;
     }
     if (a != "--deployment-file" && a != "--domain" && a != "--timeout" && a != "--id") {
-      std::fprintf(stderr,
-                   "tandem-coordinator: unknown option '%s'; accepted: --deployment-file, --domain, --timeout, "
-                   "--id, --standby, --help\n",
-                   a.c_str());
+      std::fprintf(
+          stderr,
+          "tandem-coordinator: unknown option '%s'; accepted: --deployment-file, --domain, --timeout, "
+          "--id, --standby, --help\n",
+          a.c_str());
       usage(stderr);
       return false;
     }
@@ -92,14 +94,16 @@ bool parse_options(int argc, char** argv, Options& o, int& exit_code) {
       o.file = v;
     } else if (a == "--domain") {
       if (!runtime::parse_domain(v, o.domain)) {
-        std::fprintf(stderr, "tandem-coordinator: --domain must be an integer in [0, 232], got '%s'\n", v.c_str());
+        std::fprintf(stderr, "tandem-coordinator: --domain must be an integer in [0, 232], got '%s'\n",
+                     v.c_str());
         return false;
       }
     } else if (a == "--timeout") {
       char* end = nullptr;
       o.timeout = std::strtod(v.c_str(), &end);
       if (v.empty() || *end != '\0' || !std::isfinite(o.timeout) || o.timeout <= 0.0 || o.timeout > 86400.0) {
-        std::fprintf(stderr, "tandem-coordinator: --timeout must be a number of seconds in (0, 86400], got '%s'\n",
+        std::fprintf(stderr,
+                     "tandem-coordinator: --timeout must be a number of seconds in (0, 86400], got '%s'\n",
                      v.c_str());
         return false;
       }
@@ -175,14 +179,15 @@ int main(int argc, char** argv) {
   };
 
   bus::Participant part(opt.domain, opt.id + "/" + d.name, runtime::transport_of(d));
-  bus::Reader<msg::TaskState, msg::TaskStatePubSubType> states(part, bus::kTaskStateTopic, bus::TopicKind::Task);
+  bus::Reader<msg::TaskState, msg::TaskStatePubSubType> states(part, bus::kTaskStateTopic,
+                                                               bus::TopicKind::Task);
   bus::Reader<msg::ProcessStatus, msg::ProcessStatusPubSubType> status_in(part, bus::kStatusTopic,
                                                                           bus::TopicKind::Status);
   // The primary's state, read while this process is a standby.
-  bus::Reader<msg::CoordinatorState, msg::CoordinatorStatePubSubType> state_in(part, bus::kCoordinatorStateTopic,
-                                                                               bus::TopicKind::Task);
-  bus::Writer<msg::CoordinatorState, msg::CoordinatorStatePubSubType> state_out(part, bus::kCoordinatorStateTopic,
-                                                                                bus::TopicKind::Task);
+  bus::Reader<msg::CoordinatorState, msg::CoordinatorStatePubSubType> state_in(
+      part, bus::kCoordinatorStateTopic, bus::TopicKind::Task);
+  bus::Writer<msg::CoordinatorState, msg::CoordinatorStatePubSubType> state_out(
+      part, bus::kCoordinatorStateTopic, bus::TopicKind::Task);
   bus::Writer<msg::TaskAssignment, msg::TaskAssignmentPubSubType> assign(part, bus::kTaskAssignmentTopic,
                                                                          bus::TopicKind::Task);
   runtime::StatusPublisher status(part, opt.id, "coordinator", "");
@@ -192,7 +197,8 @@ int main(int argc, char** argv) {
 
   std::vector<std::string> names;
   for (const auto& t : d.tasks) names.push_back(t.name);
-  TaskQueue queue(names, d.balance == "round_robin" ? coordinator::Balance::RoundRobin : coordinator::Balance::Wear);
+  TaskQueue queue(names,
+                  d.balance == "round_robin" ? coordinator::Balance::RoundRobin : coordinator::Balance::Wear);
   std::map<std::string, double> wear;   // robot process id -> joint travel [rad]
   std::map<std::string, double> peers;  // other active coordinators of the deployment -> when last heard
   auto module_wear = [&wear](const std::string& module) {  // joint travel of a module's robots
@@ -218,8 +224,8 @@ int main(int argc, char** argv) {
     if (primary) {
       s = std::to_string(queue.done_count()) + "/" + std::to_string(queue.task_count()) + " tasks done, " +
           std::to_string(queue.running_count()) + " running, " + std::to_string(queue.pending_count()) +
-          " pending; " + std::to_string(queue.module_count()) + " module(s), " + std::to_string(queue.lost_count()) +
-          " lost";
+          " pending; " + std::to_string(queue.module_count()) + " module(s), " +
+          std::to_string(queue.lost_count()) + " lost";
     } else {
       s = last_state ? "standby, primary at " + std::to_string(queue.count_done(*last_state)) + "/" +
                            std::to_string(queue.task_count()) + " tasks done"
@@ -288,6 +294,12 @@ int main(int argc, char** argv) {
           ++bad_states;
           continue;
         }
+        // Keep the most advanced state: a restarted coordinator may also hear an older copy (the launcher
+        // republishes the last state it saw when no coordinator is left).
+        if (last_state && (s.next_task_id < last_state->next_task_id ||
+                           (s.next_task_id == last_state->next_task_id && s.done.size() < last_state->done.size()))) {
+          continue;
+        }
         last_state = std::move(s);
         last_state_at = t;
       }
@@ -306,8 +318,8 @@ int main(int argc, char** argv) {
       // Take over: the primary's queue, checked against what the modules report.
       if (last_state) queue.restore(*last_state, t);
       say("primary silent for " + fixed(silent * 1e3, 0) + " ms; taking over with " +
-          std::to_string(queue.done_count()) + " done, " + std::to_string(queue.running_count()) + " running, " +
-          std::to_string(queue.pending_count()) + " pending");
+          std::to_string(queue.done_count()) + " done, " + std::to_string(queue.running_count()) +
+          " running, " + std::to_string(queue.pending_count()) + " pending");
       const TaskQueue::Reconciled r = queue.reconcile(t);
       for (const auto& e : r.events) say(queue.describe(e));
       primary = true;
@@ -315,7 +327,8 @@ int main(int argc, char** argv) {
       publish_state(t);  // what is in flight, before any assignment
       for (const auto& a : r.resend) {
         send(a);
-        say("sending task " + d.tasks[a.task].name + " to " + a.module + " again (id " + std::to_string(a.id) + ")");
+        say("sending task " + d.tasks[a.task].name + " to " + a.module + " again (id " +
+            std::to_string(a.id) + ")");
       }
       last_progress = t;
       progress_mark = queue.done_count();

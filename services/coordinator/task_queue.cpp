@@ -14,14 +14,15 @@ bool Snapshot::well_formed() const {
          running.size() == running_id.size();
 }
 
-TaskQueue::TaskQueue(std::vector<std::string> tasks, Balance balance) : names_(std::move(tasks)), balance_(balance) {
+TaskQueue::TaskQueue(std::vector<std::string> tasks, Balance balance)
+    : names_(std::move(tasks)), balance_(balance) {
   for (size_t t = 0; t < names_.size(); ++t) pending_.push_back(t);
 }
 
 // The module is idle after the task it reports (left: it finished its task before leaving).
 bool TaskQueue::finished_state(uint8_t state) {
-  return state == static_cast<uint8_t>(ModuleState::Idle) || state == static_cast<uint8_t>(ModuleState::Done) ||
-         state == static_cast<uint8_t>(ModuleState::Left);
+  return state == static_cast<uint8_t>(ModuleState::Idle) ||
+         state == static_cast<uint8_t>(ModuleState::Done) || state == static_cast<uint8_t>(ModuleState::Left);
 }
 
 std::optional<size_t> TaskQueue::find_task(const std::string& name) const {
@@ -91,7 +92,8 @@ std::vector<Event> TaskQueue::report(const ModuleReport& r, double now) {
   if (!finished_state(r.state)) return events;
   if (m.running_id != 0 && r.task_id == m.running_id) {
     finish(r.module, m, events);
-  } else if (const auto a = abandoned_.find(r.task_id); a != abandoned_.end() && a->second.second == r.module) {
+  } else if (const auto a = abandoned_.find(r.task_id);
+             a != abandoned_.end() && a->second.second == r.module) {
     events.push_back({EventKind::LateDoneIgnored, r.module, names_[a->second.first], r.task_id, 0});
     abandoned_.erase(a);  // say it once
   }
@@ -127,8 +129,9 @@ std::optional<Assignment> TaskQueue::assign_next(const std::function<double(cons
     if (!free) continue;
     const double w = wear(name);
     const size_t n = tasks_of(name);
-    const bool better = balance_ == Balance::RoundRobin ? n < best_tasks
-                                                        : (w < best_wear || (w == best_wear && n < best_tasks));
+    const bool better = balance_ == Balance::RoundRobin
+                            ? n < best_tasks
+                            : (w < best_wear || (w == best_wear && n < best_tasks));
     if (best == nullptr || better) {
       best = &name;
       best_wear = w;
@@ -162,8 +165,8 @@ void TaskQueue::restore(const Snapshot& s, double now) {
     if (!t || placed[*t] || s.running_id[i] == 0) continue;
     auto it = modules_.find(s.running_on[i]);
     if (it == modules_.end()) {
-      // Not heard by this standby: a module that left (reconcile() looks at what it reported last) or one that
-      // has not reported yet (it is lost if it stays silent).
+      // Not heard by this standby: a module that left (reconcile() looks at what it reported last) or one
+      // that has not reported yet (it is lost if it stays silent).
       Module m;
       m.last_heard = now;
       if (const auto l = left_.find(s.running_on[i]); l != left_.end()) {
@@ -239,8 +242,8 @@ std::string TaskQueue::describe(const Event& e) const {
     case EventKind::Rejoined:
       return e.module + " is heard again; it takes new tasks only";
     case EventKind::Finished:
-      return e.module + " finished " + task + "; " + std::to_string(e.done) + "/" + std::to_string(names_.size()) +
-             " done";
+      return e.module + " finished " + task + "; " + std::to_string(e.done) + "/" +
+             std::to_string(names_.size()) + " done";
     case EventKind::LateDoneIgnored:
       return e.module + " reports " + task + " done, but it was re-assigned when " + e.module +
              " was lost: ignored";
@@ -271,8 +274,8 @@ size_t TaskQueue::done_count() const {
 size_t TaskQueue::duplicates() const { return done_.size() - done_count(); }
 
 size_t TaskQueue::running_count() const {
-  return static_cast<size_t>(
-      std::count_if(modules_.begin(), modules_.end(), [](const auto& e) { return e.second.running_id != 0; }));
+  return static_cast<size_t>(std::count_if(modules_.begin(), modules_.end(),
+                                           [](const auto& e) { return e.second.running_id != 0; }));
 }
 
 std::vector<std::string> TaskQueue::pending() const {

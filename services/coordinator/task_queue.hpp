@@ -112,14 +112,14 @@ class TaskQueue {
   Snapshot snapshot() const;
   /// Increases on every change of the queue (done, running, pending, next id).
   uint64_t revision() const { return revision_; }
-  /// One line for the log, e.g. "m2 lost (not heard for 1.5 s); task out-1 (id 4) back to the front of the queue".
+  /// One line for the log, e.g. "m2 left; task out-1 (id 4) back to the front of the queue".
   std::string describe(const Event& e) const;
   /// Distinct tasks of this deployment that `s` lists as done.
   size_t count_done(const Snapshot& s) const;
   size_t task_count() const { return names_.size(); }
   const std::string& task_name(size_t task) const { return names_[task]; }
-  size_t done_count() const;      ///< distinct tasks done
-  size_t duplicates() const;      ///< entries of the done list beyond the first of each task
+  size_t done_count() const;  ///< distinct tasks done
+  size_t duplicates() const;  ///< entries of the done list beyond the first of each task
   bool complete() const { return done_count() == names_.size(); }
   size_t running_count() const;
   size_t pending_count() const { return pending_.size(); }
@@ -132,9 +132,9 @@ class TaskQueue {
 
  private:
   struct Module {
-    uint8_t state = 0;       // last reported state
-    uint64_t reported = 0;   // last reported task id
-    bool heard = false;      // has reported (false: known only from a restored state)
+    uint8_t state = 0;      // last reported state
+    uint64_t reported = 0;  // last reported task id
+    bool heard = false;     // has reported (false: known only from a restored state)
     double last_heard = 0.0;
     bool lost = false;
     uint64_t running_id = 0;  // task id in flight (0: none)
@@ -154,7 +154,8 @@ class TaskQueue {
   Balance balance_;
   std::map<std::string, Module> modules_;
   std::map<std::string, uint64_t> left_;  // modules that left -> the last task id they reported
-  std::map<uint64_t, std::pair<size_t, std::string>> abandoned_;  // id taken from a lost module -> task, module
+  std::map<uint64_t, std::pair<size_t, std::string>>
+      abandoned_;  // id taken from a lost module -> task, module
   std::deque<size_t> pending_;
   std::vector<Done> done_;
   uint64_t next_id_ = 1;

@@ -157,7 +157,7 @@ TEST_CASE("a late done of a re-assigned task is ignored and the task is counted 
   q.report({"m1", 0, kIdle}, 0.0);
   const auto a = q.assign_next(no_wear);  // t0 -> m1, id 1
   REQUIRE(a);
-  q.expire(2.0);                        // m1 is lost: t0 back in the queue
+  q.expire(2.0);  // m1 is lost: t0 back in the queue
   q.report({"m2", 0, kIdle}, 2.0);
   const auto b = q.assign_next(no_wear);  // t0 -> m2, id 2
   REQUIRE(b);
@@ -213,8 +213,10 @@ TEST_CASE("task states with an unknown state or no module are rejected and count
   CHECK_FALSE(q.assign_next(no_wear));
 }
 
-TEST_CASE("a standby rebuilds the queue from the last state and reconciles it with the modules", "[coordinator]") {
-  // The primary's last state: t0 done by m1; t1 on m1 (id 3), t2 on m2 (id 4), t3 on m3 (id 5), t4 on m4 (id 6).
+TEST_CASE("a standby rebuilds the queue from the last state and reconciles it with the modules",
+          "[coordinator]") {
+  // The primary's last state: t0 done by m1; in flight t1 on m1 (id 3), t2 on m2 (id 4), t3 on m3 (id 5) and
+  // t4 on m4 (id 6).
   Snapshot s;
   s.next_task_id = 7;
   s.done = {"t0"};
@@ -282,7 +284,7 @@ TEST_CASE("a takeover puts back tasks of modules that left, are lost or moved on
   s.running_on = {"gone", "silent", "ahead"};
   s.running_id = {1, 2, 3};
   TaskQueue q(task_names(4), Balance::Wear);
-  q.report({"gone", 0, kLeft}, 0.0);     // left without taking t0
+  q.report({"gone", 0, kLeft}, 0.0);       // left without taking t0
   q.report({"silent", 2, kRunning}, 0.0);  // last heard long ago
   q.report({"ahead", 9, kRunning}, 5.0);   // runs a task the state does not know
   q.restore(s, 5.0);

@@ -118,21 +118,27 @@ int send_request(const char* verb, const Deployment& d, const std::string& targe
   bus::Participant part(d.domain_id, std::string("tandem-") + verb, runtime::transport_of(d));
   bus::Writer<msg::ControlRequest, msg::ControlRequestPubSubType> control(part, bus::kControlTopic, bus::TopicKind::Control);
   bus::Reader<msg::ProcessStatus, msg::ProcessStatusPubSubType> status(part, bus::kStatusTopic, bus::TopicKind::Status);
+  // Wait until this deployment's launcher is heard (its status), so the request does not go out before the
+  // launcher's reader has matched (supervisors read the same topic, so a match alone proves nothing).
   const auto t0 = std::chrono::steady_clock::now();
-  while (control.matched() < 1 && std::chrono::steady_clock::now() - t0 < std::chrono::seconds(3)) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  bool launcher_seen = false;
+  while (!launcher_seen && std::chrono::steady_clock::now() - t0 < std::chrono::seconds(4)) {
+    status.wait(0.05);
+    msg::ProcessStatus s;
+    while (status.take(s)) launcher_seen = launcher_seen || (s.deployment() == d.name && s.role() == "launcher");
   }
-  if (control.matched() < 1) {
-    std::fprintf(stderr, "tandem %s: no launcher on domain %d answered\n", verb, d.domain_id);
+  if (!launcher_seen || control.matched() < 1) {
+    std::fprintf(stderr, "tandem %s: no launcher of %s on domain %d answered\n", verb, d.name.c_str(), d.domain_id);
     return 1;
   }
-  std::this_thread::sleep_for(std::chrono::milliseconds(100));  // let every launcher and supervisor match
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));
   msg::ControlRequest req;
   req.deployment(d.name);
   req.command(verb);
   req.target(target);
   req.option(option);
-  // A sequence number unique enough to tell this request's answer from an earlier one.
+  // A sequence number unique enough to tell this request's answer from an earlier one; the launcher carries
+  // a request out once, however often it arrives (it is re-sent until answered).
   const auto seq = static_cast<unsigned long long>(
       std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch()).count());
   req.seq(seq);
@@ -144,7 +150,12 @@ int send_request(const char* verb, const Deployment& d, const std::string& targe
   }
   const std::string prefix = "reply " + std::to_string(seq) + " ";
   const auto t1 = std::chrono::steady_clock::now();
+  auto sent = t1;
   while (std::chrono::steady_clock::now() - t1 < std::chrono::seconds(5)) {
+    if (std::chrono::steady_clock::now() - sent > std::chrono::milliseconds(500)) {
+      control.write(req);
+      sent = std::chrono::steady_clock::now();
+    }
     status.wait(0.05);
     msg::ProcessStatus s;
     while (status.take(s)) {

@@ -216,6 +216,8 @@ class Launcher {
 
   void handle(const msg::ControlRequest& req) {
     if (req.deployment() != d_.name) return;
+    // Requests are re-sent until answered: carry each out once.
+    if (req.seq() != 0 && !handled_seqs_.insert(req.seq()).second) return;
     const std::string& cmd = req.command();
     current_seq_ = req.seq();
     if (cmd == "down") {
@@ -646,6 +648,7 @@ class Launcher {
   Clock::time_point stop_started_{};
   int coordinator_restarts_ = 0;
   unsigned long long seq_ = 0;
+  std::set<unsigned long long> handled_seqs_;
   std::string reply_;  ///< the outcome of the latest live command
   bool reply_ok_ = false;
   unsigned long long reply_seq_ = 0, current_seq_ = 0;

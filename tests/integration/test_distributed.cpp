@@ -322,7 +322,8 @@ TEST_CASE("a robot is restarted after a crash, and given up on after the intensi
   const std::string kill = kBin + "/tandem kill " + deploy + " ";
   const std::string cmd = kBin + "/tandem up " + deploy + " > " + up_log + " 2>&1 & up=$!; sleep 0.7; " + kill +
                           "m1/left; for i in $(seq 200); do grep -q \"(restart)\" " + up_log +
-                          " && break; sleep 0.05; done; sleep 0.3; " + kill + "m1/left@50; wait $up; echo up_rc=$?";
+                          " && break; sleep 0.05; done; for i in $(seq 200); do grep -q \"m1/left released\" " + up_log +
+                          " && break; sleep 0.05; done; " + kill + "m1/left@50; wait $up; echo up_rc=$?";
   const Run r = run("bash -c '" + cmd + "'");
   std::ifstream log(up_log);
   std::stringstream ss;
@@ -360,11 +361,11 @@ TEST_CASE("a role process with a bad configuration exits with code 2 and a clear
 }
 
 namespace {
-// A copy of the paper's scenario that lasts 7 s instead of 5, so that a task paused for about a second still
+// A copy of the paper's scenario that lasts 8 s instead of 5, so that a task paused for a few seconds still
 // ends within the run.
 std::string long_scenario() {
-  const std::string path = work_dir() + "/paper-7s.yaml";
-  (void)std::system(("sed 's/^  duration: 5.0 /  duration: 7.0 /' " + kSrc + "/config/scenarios/paper.yaml > " + path).c_str());
+  const std::string path = work_dir() + "/paper-8s.yaml";
+  (void)std::system(("sed 's/^  duration: 5.0 /  duration: 8.0 /' " + kSrc + "/config/scenarios/paper.yaml > " + path).c_str());
   return path;
 }
 
@@ -388,9 +389,9 @@ TEST_CASE("unplug without a standby pauses the module with the arm braked, and a
       t + "up " + deploy + " --summary " + summary + " > " + up_log + " 2>&1 & up=$!; sleep 1.5; " +
       t + "unplug " + deploy + " robot m1/left; echo unplug_rc=$?; " +
       "for i in $(seq 100); do grep -q \"m1/left braked\" " + up_log + " && break; sleep 0.05; done; sleep 0.3; " +
+      t + "plug " + deploy + " robot m1/left; echo plug_rc=$?; " +
       t + "plug " + deploy + " robot m1/nose; echo bad_arm_rc=$?; " +
       t + "unplug " + deploy + " robot m1/ghost; echo ghost_rc=$?; " +
-      t + "plug " + deploy + " robot m1/left; echo plug_rc=$?; " +
       t + "plug " + deploy + " robot m1/left; echo twice_rc=$?; " +
       "wait $up; echo up_rc=$?";
   const Run r = run("bash -c '" + cmd + "'");
@@ -409,7 +410,7 @@ TEST_CASE("unplug without a standby pauses the module with the arm braked, and a
   CHECK(log.find("m1 paused; m1/left leaves") != std::string::npos);
   CHECK(log.find("m1/left released") != std::string::npos);
   const auto kv = read_summary(summary);
-  CHECK(kv.at("m1.ticks") == 7000);
+  CHECK(kv.at("m1.ticks") == 8000);
   CHECK(kv.at("m1.braked_ticks") > 100);  // at least 0.1 s held by the brakes
   // The object was held (no slip, never let go) and, the pause over, the task ended where it should.
   CHECK(kv.at("m1.slip_events") == 0);
@@ -446,5 +447,60 @@ TEST_CASE("unplug of a primary with a standby hands the arm over without braking
   CHECK(gaps[0] < 15.0);
   CHECK(parse_list(text.at("m1.switch_hn_min"))[0] >= 19.62);
   CHECK(kv.at("m1/left@50.ticks") == 5000);
+  CHECK_FALSE(processes_left(domain));
+}
+
+TEST_CASE("four modules: the coordinator is killed, one module killed and one unplugged, and every task is done once", "[distributed]") {
+  const int domain = test_domain(12);
+  const std::string path = work_dir() + "/live4.yaml";
+  {
+    std::ofstream f(path);
+    f << "name: live4\ndomain_id: " << domain << "\ntransport: shm\ntiming: lockstep\ntimeout: 20\n"
+      << "coordinator:\n  standby: 1\n  tasks:\n";
+    for (int i = 0; i < 8; ++i) {
+      f << "    - {name: out-" << i << ", segments: [{to: [0.0, 0.8, 0.0], duration: 1.0}]}\n"
+        << "    - {name: back-" << i << ", segments: [{to: [-0.2, 0.8, 0.0], duration: 1.0}]}\n";
+    }
+    f << "modules:\n";
+    for (int m = 1; m <= 4; ++m) {
+      f << "  - {name: m" << m << ", scenario: " << kSrc << "/config/scenarios/paper.yaml, case: SOSM}\n";
+    }
+  }
+  const std::string summary = work_dir() + "/live4.summary", up_log = work_dir() + "/live4.log";
+  const std::string t = kBin + "/tandem ";
+  const std::string cmd = t + "up " + path + " --summary " + summary + " > " + up_log + " 2>&1 & up=$!; " +
+                          "for i in $(seq 200); do grep -q \"task .* -> m2\" " + up_log + " && break; sleep 0.05; done; " +
+                          t + "kill " + path + " coordinator; echo kill_coord_rc=$?; " +
+                          t + "kill " + path + " m2; echo kill_module_rc=$?; " +
+                          t + "unplug " + path + " module m3; echo unplug_rc=$?; " +
+                          t + "unplug " + path + " module m9; echo unplug_bad_rc=$?; " +
+                          "wait $up; echo up_rc=$?";
+  const Run r = run("bash -c '" + cmd + "'");
+  const std::string log = read_file(up_log);
+  INFO(r.output << "\n--- tandem up ---\n" << log);
+  CHECK(r.output.find("kill_coord_rc=0") != std::string::npos);
+  CHECK(r.output.find("kill_module_rc=0") != std::string::npos);
+  CHECK(r.output.find("unplug_rc=0") != std::string::npos);
+  CHECK(r.output.find("unplug_bad_rc=1") != std::string::npos);
+  CHECK(r.output.find("up_rc=0") != std::string::npos);
+  CHECK(log.find("taking over with") != std::string::npos);  // the standby coordinator carried on
+  CHECK(log.find("module m2 failed") != std::string::npos);
+  CHECK(log.find("module m3 drained") != std::string::npos);
+  const auto kv = read_summary(summary);
+  const auto text = read_summary_text(summary);
+  // No task lost, none done twice, although the coordinator and a module with a task died.
+  CHECK(kv.at("coordinator.tasks_done") == 16);
+  CHECK(kv.at("coordinator.duplicates") == 0);
+  CHECK(text.at("m2.end") == "failed");
+  CHECK(text.at("m3.end") == "unplugged");
+  for (const char* m : {"m1", "m4"}) {
+    INFO(m);
+    CHECK(text.at(std::string(m) + ".end") == "ran");
+    CHECK(kv.at(std::string(m) + ".slip_events") == 0);
+    CHECK(kv.at(std::string(m) + ".contact_lost") == 0);
+  }
+  // The drained module finished its task before it left: its object rests at a task's end point.
+  const double x3 = kv.at("m3.object_final0");
+  CHECK((std::abs(x3) < 1e-3 || std::abs(x3 + 0.2) < 1e-3));
   CHECK_FALSE(processes_left(domain));
 }

@@ -21,12 +21,6 @@ void apply(Q& q, TopicKind kind) {
     q.history().depth = 32;
     q.durability().kind = fdds::VOLATILE_DURABILITY_QOS;
   }
-  if (kind == TopicKind::Sensors || kind == TopicKind::References || kind == TopicKind::Torques) {
-    // A per-tick write must never hold the tick up: if a reader (a process being torn down, a stalled one)
-    // keeps the writer from taking a buffer, give up after 2 ms rather than the default 100 ms. Lockstep
-    // republishes a tick's samples that did not get through; real time goes on with the next tick.
-    q.reliability().max_blocking_time = eprosima::fastrtps::Duration_t(0, 2000000u);
-  }
   // Keyed topics carry one instance per arm, process or module: the default limit of 10 instances would
   // silently drop the 11th process of a large deployment.
   if (kind == TopicKind::Torques) {

@@ -313,11 +313,31 @@ TEST_CASE("SIGKILL of a primary robot: its hot standby takes over and nothing ch
   CHECK_FALSE(processes_left(domain));
 }
 
+namespace {
+// A copy of the paper's scenario that lasts 8 s instead of 5, so that a task paused for a few seconds still
+// ends within the run.
+std::string long_scenario() {
+  const std::string path = work_dir() + "/paper-8s.yaml";
+  (void)std::system(("sed 's/^  duration: 5.0 /  duration: 8.0 /' " + kSrc + "/config/scenarios/paper.yaml > " + path).c_str());
+  return path;
+}
+
+std::string read_file(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+}  // namespace
+
 TEST_CASE("a robot is restarted after a crash, and given up on after the intensity limit", "[distributed]") {
   const int domain = test_domain(7);
   // Real time: the run lasts at least its 5 s of simulated time, so both kills land mid-run.
-  const std::string deploy = write_deployment("restarts", domain, "SOSM", "realtime", 0,
-                                              "    restart: on-failure\n    restart_limit: 1\n    restart_window: 60\n");
+  // Real time, 8 s: long enough for the restarted robot to start, be discovered and answer (1-4 s here).
+  const std::string deploy = work_dir() + "/restarts.yaml";
+  std::ofstream(deploy) << "name: restarts\ndomain_id: " << domain << "\ntimeout: 10\ntiming: realtime\nmodules:\n"
+                        << "  - {name: m1, scenario: " << long_scenario() << ", case: SOSM, restart: on-failure,"
+                        << " restart_limit: 1, restart_window: 60}\n";
   const std::string up_log = work_dir() + "/restarts.log";
   const std::string kill = kBin + "/tandem kill " + deploy + " ";
   const std::string cmd = kBin + "/tandem up " + deploy + " > " + up_log + " 2>&1 & up=$!; sleep 0.7; " + kill +
@@ -360,22 +380,6 @@ TEST_CASE("a role process with a bad configuration exits with code 2 and a clear
   CHECK(r.output.find("left, right") != std::string::npos);
 }
 
-namespace {
-// A copy of the paper's scenario that lasts 8 s instead of 5, so that a task paused for a few seconds still
-// ends within the run.
-std::string long_scenario() {
-  const std::string path = work_dir() + "/paper-8s.yaml";
-  (void)std::system(("sed 's/^  duration: 5.0 /  duration: 8.0 /' " + kSrc + "/config/scenarios/paper.yaml > " + path).c_str());
-  return path;
-}
-
-std::string read_file(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-}  // namespace
 
 TEST_CASE("unplug without a standby pauses the module with the arm braked, and a plugged robot resumes it", "[distributed]") {
   const int domain = test_domain(10);

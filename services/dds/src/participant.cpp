@@ -13,6 +13,11 @@ Participant::Participant(int domain_id, const std::string& name, Transport trans
   fdds::DomainParticipantQos qos = fdds::PARTICIPANT_QOS_DEFAULT;
   qos.name(name);
   qos.transport().use_builtin_transports = false;
+  // A process that joins a running deployment (a plugged or restarted robot) must be found fast: announce it
+  // ten times, 20 ms apart, instead of Fast DDS's five times 100 ms apart.
+  auto& announce = qos.wire_protocol().builtin.discovery_config.initial_announcements;
+  announce.count = 10;
+  announce.period = eprosima::fastrtps::Duration_t(0, 20000000u);
   if (transport == Transport::SharedMemory) {
     // Data over shared memory; discovery still needs a UDP locator, so keep UDPv4 beside it.
     qos.transport().user_transports.push_back(

@@ -314,11 +314,11 @@ TEST_CASE("SIGKILL of a primary robot: its hot standby takes over and nothing ch
 }
 
 namespace {
-// A copy of the paper's scenario that lasts 8 s instead of 5, so that a task paused for a few seconds still
+// A copy of the paper's scenario that lasts 9 s instead of 5, so that a task paused for a few seconds still
 // ends within the run.
 std::string long_scenario() {
-  const std::string path = work_dir() + "/paper-8s.yaml";
-  (void)std::system(("sed 's/^  duration: 5.0 /  duration: 8.0 /' " + kSrc + "/config/scenarios/paper.yaml > " + path).c_str());
+  const std::string path = work_dir() + "/paper-9s.yaml";
+  (void)std::system(("sed 's/^  duration: 5.0 /  duration: 9.0 /' " + kSrc + "/config/scenarios/paper.yaml > " + path).c_str());
   return path;
 }
 
@@ -333,7 +333,7 @@ std::string read_file(const std::string& path) {
 TEST_CASE("a robot is restarted after a crash, and given up on after the intensity limit", "[distributed]") {
   const int domain = test_domain(7);
   // Real time: the run lasts at least its 5 s of simulated time, so both kills land mid-run.
-  // Real time, 8 s: long enough for the restarted robot to start, be discovered and answer (1-4 s here).
+  // Real time, 9 s: long enough for the restarted robot to start, be discovered and answer (1-4 s here).
   const std::string deploy = work_dir() + "/restarts.yaml";
   std::ofstream(deploy) << "name: restarts\ndomain_id: " << domain << "\ntimeout: 10\ntiming: realtime\nmodules:\n"
                         << "  - {name: m1, scenario: " << long_scenario() << ", case: SOSM, restart: on-failure,"
@@ -390,12 +390,12 @@ TEST_CASE("unplug without a standby pauses the module with the arm braked, and a
   const std::string summary = work_dir() + "/unplug.summary", up_log = work_dir() + "/unplug.log";
   const std::string t = kBin + "/tandem ";
   const std::string cmd =
-      t + "up " + deploy + " --summary " + summary + " > " + up_log + " 2>&1 & up=$!; sleep 1.5; " +
+      t + "up " + deploy + " --summary " + summary + " > " + up_log + " 2>&1 & up=$!; sleep 0.5; " +
+      t + "plug " + deploy + " robot m1/nose; echo bad_arm_rc=$?; " +
+      t + "unplug " + deploy + " robot m1/ghost; echo ghost_rc=$?; " +
       t + "unplug " + deploy + " robot m1/left; echo unplug_rc=$?; " +
       "for i in $(seq 100); do grep -q \"m1/left braked\" " + up_log + " && break; sleep 0.05; done; sleep 0.3; " +
       t + "plug " + deploy + " robot m1/left; echo plug_rc=$?; " +
-      t + "plug " + deploy + " robot m1/nose; echo bad_arm_rc=$?; " +
-      t + "unplug " + deploy + " robot m1/ghost; echo ghost_rc=$?; " +
       t + "plug " + deploy + " robot m1/left; echo twice_rc=$?; " +
       "wait $up; echo up_rc=$?";
   const Run r = run("bash -c '" + cmd + "'");
@@ -414,7 +414,7 @@ TEST_CASE("unplug without a standby pauses the module with the arm braked, and a
   CHECK(log.find("m1 paused; m1/left leaves") != std::string::npos);
   CHECK(log.find("m1/left released") != std::string::npos);
   const auto kv = read_summary(summary);
-  CHECK(kv.at("m1.ticks") == 8000);
+  CHECK(kv.at("m1.ticks") == 9000);
   CHECK(kv.at("m1.braked_ticks") > 100);  // at least 0.1 s held by the brakes
   // The object was held (no slip, never let go) and, the pause over, the task ended where it should.
   CHECK(kv.at("m1.slip_events") == 0);

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "tandem/sim/embedded.hpp"
+#include "tandem/runtime/deployment.hpp"
 #include "tandem/sim/scenario_yaml.hpp"
 
 namespace {
@@ -507,4 +508,38 @@ TEST_CASE("four modules: the coordinator is killed, one module killed and one un
   const double x3 = kv.at("m3.object_final0");
   CHECK((std::abs(x3) < 1e-3 || std::abs(x3 + 0.2) < 1e-3));
   CHECK_FALSE(processes_left(domain));
+}
+
+TEST_CASE("every shipped deployment file loads, and bad live-replacement keys are refused by name", "[deployment]") {
+  for (const char* f : {"one-module", "one-module-realtime", "four-modules", "live-modules"}) {
+    INFO(f);
+    const auto d = tandem::runtime::load_deployment(kSrc + "/deploy/" + f + ".yaml");
+    CHECK_FALSE(d.modules.empty());
+  }
+  const auto live = tandem::runtime::load_deployment(kSrc + "/deploy/live-modules.yaml");
+  CHECK(live.coordinator_standby == 1);
+  CHECK(live.coordinator_restart == "on-failure");
+  REQUIRE(tandem::runtime::find_module(live, "m3") != nullptr);
+  CHECK_FALSE(tandem::runtime::find_module(live, "m3")->autostart);
+  CHECK(tandem::runtime::find_module(live, "m1")->standby == 1);
+  CHECK(tandem::runtime::find_module(live, "nope") == nullptr);
+  auto refused = [](const std::string& body, const std::string& expect) {
+    const std::string path = work_dir() + "/bad-deploy.yaml";
+    std::ofstream(path) << "name: bad\ndomain_id: 5\n" << body;
+    try {
+      (void)tandem::runtime::load_deployment(path);
+      FAIL("accepted: " << body);
+    } catch (const std::exception& e) {
+      INFO(e.what());
+      CHECK(std::string(e.what()).find(expect) != std::string::npos);
+    }
+  };
+  const std::string mod = "modules:\n  - {name: m1, scenario: " + kSrc + "/config/scenarios/paper.yaml, case: SOSM";
+  refused(mod + ", restart_as: leader}\n", "restart_as");
+  refused(mod + ", autostart: maybe}\n", "autostart");
+  refused(mod + "}\ncoordinator:\n  standby: 9\n  tasks:\n    - {name: a, segments: [{to: [0.0, 0.8, 0.0], duration: 1.0}]}\n",
+          "standby");
+  refused(mod + "}\ncoordinator:\n  tasks:\n    - {name: a, segments: [{to: [0.0, 0.8, 0.0], duration: 1.0}]}\n"
+                "    - {name: a, segments: [{to: [-0.2, 0.8, 0.0], duration: 1.0}]}\n",
+          "task names must be unique");
 }

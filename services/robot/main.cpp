@@ -122,6 +122,16 @@ int main(int argc, char** argv) {
     // The next tick to compute; a robot more than a ring behind (real time) skips to the newest sample.
     long next = done + 1;
     if (have_sensor - next >= static_cast<long>(sring.size())) next = have_sensor;
+    // A robot that joined late may lack the input of a tick for good: samples and references come in tick
+    // order over reliable topics, so if the newest sample's tick is complete (sample and reference) while
+    // `next` is not, `next`'s will never come (it went out before this robot matched): go to the newest.
+    // (A robot that has been there from the start always has every tick, so a shadow stays exact.)
+    if (have_sensor > next && sring[static_cast<size_t>(have_sensor) % sring.size()].tick == have_sensor &&
+        ring[static_cast<size_t>(have_sensor) % ring.size()].tick == have_sensor &&
+        (sring[static_cast<size_t>(std::max(next, 0L)) % sring.size()].tick != next ||
+         ring[static_cast<size_t>(std::max(next, 0L)) % ring.size()].tick != next)) {
+      next = have_sensor;
+    }
     const SensorSlot& due_in = sring[static_cast<size_t>(std::max(next, 0L)) % sring.size()];
     const Slot& due = ring[static_cast<size_t>(std::max(next, 0L)) % ring.size()];
     const bool sensor_ready = due_in.tick == next;

@@ -27,7 +27,7 @@ period=1.0   # seconds after the takeover before the next kill: the restarted pr
 transport="${TRANSPORT:-udp}"
 timing="${TIMING:-lockstep}"
 # Enough 2 s tasks to outlast the kills (a kill costs the period plus about a second for the command).
-tasks=$(awk -v k="$kills" 'BEGIN { print int(k * 3) + 10 }')
+tasks=$(awk -v k="$kills" 'BEGIN { print int(k * 10) + 10 }')
 echo "machine: $(nproc) cores, $(lscpu | sed -n 's/^Model name: *//p'), kernel $(uname -r)"
 echo "kills: $kills every ${period} s, domain $domain, $tasks tasks of 2 s, $timing timing over $transport"
 {

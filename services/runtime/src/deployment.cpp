@@ -1,5 +1,6 @@
 #include "tandem/runtime/deployment.hpp"
 
+#include <algorithm>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -104,7 +105,11 @@ Deployment load_deployment(const std::string& path) {
       std::vector<Eigen::Vector3d> poses{sc.start};
       for (const auto& t : d.tasks) {
         for (size_t w = 0; w + 3 < t.waypoints.size() + 0; w += 4) {
-          poses.emplace_back(t.waypoints[w], t.waypoints[w + 1], t.waypoints[w + 2]);
+          const Eigen::Vector3d p(t.waypoints[w], t.waypoints[w + 1], t.waypoints[w + 2]);
+          // Each distinct waypoint once: the check is quadratic in their number (long queues repeat a few).
+          if (std::none_of(poses.begin(), poses.end(), [&](const Eigen::Vector3d& q) { return q == p; })) {
+            poses.push_back(p);
+          }
         }
       }
       for (const auto& a : poses) {

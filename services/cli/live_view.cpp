@@ -1,5 +1,7 @@
 #include "live_view.hpp"
 
+#include <algorithm>
+
 #include "tandem/runtime/status.hpp"
 
 namespace tandem::cli {
@@ -13,6 +15,31 @@ const char* standing(const std::map<std::string, msg::ProcessStatus>& all, const
   return serving.find("=" + robot.process_id() + ",") != std::string::npos ? "  SERVING" : "  standby";
 }
 }  // namespace
+
+bool LiveView::has_launcher() const {
+  for (const auto& [id, s] : processes_) {
+    if (s.role() == "launcher") return true;
+  }
+  return false;
+}
+
+std::vector<std::string> LiveView::missing() const {
+  std::vector<std::string> out;
+  for (const auto& [id, s] : processes_) {
+    if (s.role() != "launcher") continue;
+    // The launcher's `serving` lists the labels of the processes it runs, comma-separated.
+    size_t from = 0;
+    const std::string& list = s.serving();
+    while (from < list.size()) {
+      size_t to = list.find(',', from);
+      if (to == std::string::npos) to = list.size();
+      const std::string label = list.substr(from, to - from);
+      if (!label.empty() && processes_.count(label) == 0) out.push_back(label);
+      from = to + 1;
+    }
+  }
+  return out;
+}
 
 void LiveView::print(std::FILE* f) const {
   for (const auto& [id, s] : processes_) {
@@ -30,6 +57,10 @@ void LiveView::print(std::FILE* f) const {
                    s.latency_p99_us(), s.wear(),
                    static_cast<unsigned long long>(s.late()), static_cast<long long>(s.pid()),
                    standing(processes_, s), s.detail().empty() ? "" : "  ", s.detail().c_str());
+    } else if (s.role() == "launcher") {
+      const size_t n = s.serving().empty() ? 0 : 1 + static_cast<size_t>(std::count(s.serving().begin(), s.serving().end(), ','));
+      std::fprintf(f, "  %-18s %-11s pid %lld  runs %zu process(es)%s%s\n", id.c_str(), state,
+                   static_cast<long long>(s.pid()), n, s.detail().empty() ? "" : "  ", s.detail().c_str());
     } else {
       std::fprintf(f, "  %-18s %-11s pid %lld%s%s%s%s\n", id.c_str(), state, static_cast<long long>(s.pid()),
                    s.serving().empty() ? "" : "  ", s.serving().c_str(), s.detail().empty() ? "" : "  ",

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <map>
 #include <string>
+#include <vector>
 
 namespace tandem::cli {
 
@@ -19,6 +20,10 @@ class LiveView {
   }
   void print(std::FILE* f) const;
   size_t size() const { return processes_.size(); }
+  /// Whether the deployment's launcher has been heard (it lists the processes it runs).
+  bool has_launcher() const;
+  /// The processes the launcher says it runs that have not been heard from yet.
+  std::vector<std::string> missing() const;
 
  private:
   std::string deployment_;

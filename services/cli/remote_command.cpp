@@ -81,14 +81,20 @@ int status_command(const std::vector<std::string>& args) {
   bus::Participant part(d.domain_id, "tandem-status", runtime::transport_of(d));
   bus::Reader<msg::ProcessStatus, msg::ProcessStatusPubSubType> status(part, bus::kStatusTopic, bus::TopicKind::Status);
   LiveView view(d.name);
-  // Listen for at least 1.5 s, then until no new process has shown up for 0.5 s (discovery on a busy machine
-  // takes longer), at most 5 s.
+  // The launcher lists the processes it runs: listen until every one of them has been heard (discovery on a
+  // busy machine takes a while), at most 10 s. Without a launcher (a deployment started otherwise, or
+  // every deployment on the domain): at least 1.5 s, then until nobody new has shown up for 0.5 s.
   const auto t0 = std::chrono::steady_clock::now();
   auto last_new = t0;
   while (true) {
     const auto now = std::chrono::steady_clock::now();
-    if (now - t0 > std::chrono::seconds(5)) break;
-    if (now - t0 > std::chrono::milliseconds(1500) && view.size() > 0 && now - last_new > std::chrono::milliseconds(500)) break;
+    if (now - t0 > std::chrono::seconds(10)) break;
+    if (view.has_launcher() && !d.name.empty()) {
+      if (view.missing().empty()) break;
+    } else if (now - t0 > std::chrono::milliseconds(1500) && view.size() > 0 &&
+               now - last_new > std::chrono::milliseconds(500)) {
+      break;
+    }
     status.wait(0.1);
     msg::ProcessStatus s;
     while (status.take(s)) {
@@ -103,14 +109,17 @@ int status_command(const std::vector<std::string>& args) {
   }
   std::printf("%s on domain %d:\n", d.name.empty() ? "deployments" : d.name.c_str(), d.domain_id);
   view.print(stdout);
+  for (const auto& label : view.missing()) {
+    std::printf("  %-18s not heard from within 10 s (started by the launcher; still starting, or stuck)\n",
+                label.c_str());
+  }
   return 0;
 }
 
 namespace {
-// Sends a request to the deployment's launcher. With `wait_reply`, waits up to 5 s for the launcher's answer
+// Sends a request to the deployment's launcher, re-sent until answered; waits up to 5 s for the launcher's answer
 // (its status detail "reply <seq> ok|error: text"), prints it, and returns 0 for ok, 1 for an error.
-int send_request(const char* verb, const Deployment& d, const std::string& target, const std::string& option,
-                 bool wait_reply) {
+int send_request(const char* verb, const Deployment& d, const std::string& target, const std::string& option) {
   if (d.name.empty()) {
     std::fprintf(stderr, "tandem %s: name the deployment (--name NAME or a deployment file)\n", verb);
     return 2;
@@ -143,11 +152,6 @@ int send_request(const char* verb, const Deployment& d, const std::string& targe
       std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch()).count());
   req.seq(seq);
   control.write(req);
-  if (!wait_reply) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(300));  // let it be delivered
-    std::printf("asked %s on domain %d to stop\n", d.name.c_str(), d.domain_id);
-    return 0;
-  }
   const std::string prefix = "reply " + std::to_string(seq) + " ";
   const auto t1 = std::chrono::steady_clock::now();
   auto sent = t1;
@@ -191,7 +195,7 @@ std::vector<std::string> take_target_args(std::vector<std::string>& args) {
 int down_command(const std::vector<std::string>& args) {
   Deployment d;
   if (!parse_target("down", args, d)) return 2;
-  return send_request("down", d, "", "", false);
+  return send_request("down", d, "", "");
 }
 
 int kill_command(const std::vector<std::string>& args_in) {
@@ -204,7 +208,7 @@ int kill_command(const std::vector<std::string>& args_in) {
   }
   Deployment d;
   if (!parse_target("kill", target_args, d)) return 2;
-  return send_request("kill", d, args[0], "", true);
+  return send_request("kill", d, args[0], "");
 }
 
 namespace {
@@ -251,7 +255,7 @@ int plug_or_unplug(const char* verb, const std::vector<std::string>& args_in) {
   }
   Deployment d;
   if (!parse_target(verb, target_args, d)) return 2;
-  return send_request(verb, d, args[0] + " " + name, option, true);
+  return send_request(verb, d, args[0] + " " + name, option);
 }
 }  // namespace
 

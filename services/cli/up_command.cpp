@@ -9,6 +9,7 @@
 // carried out here: docs/failure-model.md.
 #include "up_command.hpp"
 
+#include <sched.h>
 #include <signal.h>
 #include <sys/prctl.h>
 #include <sys/wait.h>
@@ -84,7 +85,22 @@ std::string self_dir() {
   return p.substr(0, p.rfind('/'));
 }
 
-pid_t spawn(const std::string& exe, const std::vector<std::string>& args) {
+/// Whether this process may use SCHED_FIFO at `priority` (tried on the launcher's own thread, then undone).
+bool fifo_permitted(int priority, std::string& why) {
+  sched_param sp{};
+  sp.sched_priority = priority;
+  if (::sched_setscheduler(0, SCHED_FIFO, &sp) != 0) {
+    why = std::strerror(errno);
+    return false;
+  }
+  sp.sched_priority = 0;
+  (void)::sched_setscheduler(0, SCHED_OTHER, &sp);
+  return true;
+}
+
+/// Starts `exe` with `args`; with rt_priority > 0 the child runs SCHED_FIFO at that priority, and so do the
+/// threads it creates (Fast DDS's receive and event threads inherit it: the whole tick path is real time).
+pid_t spawn(const std::string& exe, const std::vector<std::string>& args, int rt_priority = 0) {
   // Everything the child needs is built before fork: after fork only async-signal-safe calls.
   std::vector<char*> argv;
   argv.push_back(const_cast<char*>(exe.c_str()));
@@ -101,6 +117,11 @@ pid_t spawn(const std::string& exe, const std::vector<std::string>& args) {
   ::signal(SIGTERM, SIG_DFL);
   ::prctl(PR_SET_PDEATHSIG, SIGTERM);  // never outlive the launcher
   if (::getppid() != launcher) ::_exit(127);
+  if (rt_priority > 0) {
+    sched_param sp{};
+    sp.sched_priority = rt_priority;
+    (void)::sched_setscheduler(0, SCHED_FIFO, &sp);  // checked by fifo_permitted() before any start
+  }
   ::execv(exe.c_str(), argv.data());
   static const char msg[] = "tandem up: cannot exec a role process\n";
   (void)!::write(2, msg, sizeof msg - 1);
@@ -221,7 +242,7 @@ class Launcher {
     const std::string& cmd = req.command();
     current_seq_ = req.seq();
     if (cmd == "down") {
-      if (!stopping_) std::printf("tandem up: 'down' requested over DDS; stopping %d process(es)\n", running());
+      if (!stopping_) say(true, "'down' requested over DDS; stopping %d process(es)\n", running());
       g_stop = true;
     } else if (cmd == "kill") {
       kill_target(req.target());
@@ -652,6 +673,8 @@ class Launcher {
   std::string reply_;  ///< the outcome of the latest live command
   bool reply_ok_ = false;
   unsigned long long reply_seq_ = 0, current_seq_ = 0;
+  /// SCHED_FIFO priority for the per-tick processes (0: normal scheduling); set once before any start.
+  int rt_priority_ = 0;
 
  private:
   std::vector<std::string> common_args(const runtime::ModuleDeployment& m) const {
@@ -663,7 +686,7 @@ class Launcher {
     return a;
   }
   void launch(Child& c, const char* note = "") {
-    c.pid = spawn(c.exe, c.args);
+    c.pid = spawn(c.exe, c.args, c.role == "coordinator" ? 0 : rt_priority_);
     c.running = true;
     std::printf("  started %-22s pid %d%s\n", c.label.c_str(), c.pid, note);
     children_.push_back(c);
@@ -756,8 +779,20 @@ int up_command(const std::vector<std::string>& args) {
   launcher_status.msg().deployment(d.name);
   launcher_status.set(runtime::Lifecycle::Active, "");
   LiveView view(d.name);
-  std::printf("tandem up %s: %zu module(s), domain %d, %s, %s timing\n", d.name.c_str(), d.modules.size(),
-              d.domain_id, d.transport.c_str(), d.timing.c_str());
+  if (d.timing == "realtime" && d.realtime_priority > 0) {
+    std::string why;
+    if (fifo_permitted(d.realtime_priority, why)) {
+      L.rt_priority_ = d.realtime_priority;
+    } else {
+      std::printf("tandem up: note: real-time priority %d not permitted here (%s); the per-tick processes run "
+                  "with normal scheduling and may miss more ticks (run as root, or grant CAP_SYS_NICE or an "
+                  "RLIMIT_RTPRIO; 'realtime_priority: 0' silences this)\n",
+                  d.realtime_priority, why.c_str());
+    }
+  }
+  std::printf("tandem up %s: %zu module(s), domain %d, %s, %s timing%s\n", d.name.c_str(), d.modules.size(),
+              d.domain_id, d.transport.c_str(), d.timing.c_str(),
+              L.rt_priority_ > 0 ? (", SCHED_FIFO " + std::to_string(L.rt_priority_)).c_str() : "");
   for (const auto& m : d.modules) {
     if (m.autostart) L.start_module(m.name);
   }
@@ -789,9 +824,22 @@ int up_command(const std::vector<std::string>& args) {
       }
     }
   };
+  std::string running_labels;
   while (L.busy()) {
     L.poll();
     L.escalate();
+    {
+      // The launcher's status lists what it runs, so that `tandem status` knows whom to wait for.
+      std::string labels;
+      for (const auto& c : L.children_) {
+        if (c.running) labels += (labels.empty() ? "" : ",") + c.label;
+      }
+      if (labels != running_labels) {
+        running_labels = labels;
+        launcher_status.msg().serving(labels);
+        launcher_status.publish();
+      }
+    }
     collect();
     msg::ProcessStatus ps;
     while (status.take(ps)) view.update(ps);
@@ -877,11 +925,11 @@ int up_command(const std::vector<std::string>& args) {
     }
     if (ws.realtime()) {
       std::printf("%s: real time: sample->command latency p50 %.0f us, p99 %.0f us, max %.0f us; late arm-ticks %llu "
-                  "of %llu (%.2f%%); world tick start late p99 %.0f us\n",
+                  "of %llu (%.2f%%); world tick start late p99 %.0f us, world overruns %llu\n",
                   name.c_str(), ws.latency_p50_us(), ws.latency_p99_us(), ws.latency_max_us(),
                   static_cast<unsigned long long>(ws.late_commands()), 2ULL * ws.ticks(),
                   ws.ticks() > 0 ? 50.0 * static_cast<double>(ws.late_commands()) / static_cast<double>(ws.ticks()) : 0.0,
-                  ws.wake_late_p99_us());
+                  ws.wake_late_p99_us(), static_cast<unsigned long long>(ws.overruns()));
     }
     if (counted && (ws.slip_events() > 0 || ws.contact_lost() > 0)) grasp_ok = false;
     if (out) {
@@ -891,7 +939,7 @@ int up_command(const std::vector<std::string>& args) {
           << ".late_commands=" << ws.late_commands() << "\n" << name << ".latency_p50_us=" << ws.latency_p50_us()
           << "\n" << name << ".latency_p99_us=" << ws.latency_p99_us() << "\n" << name
           << ".failovers=" << ws.failovers() << "\n" << name << ".failover_max_ms=" << ws.failover_max_ms() << "\n"
-          << name << ".braked_ticks=" << ws.braked_ticks() << "\n";
+          << name << ".braked_ticks=" << ws.braked_ticks() << "\n" << name << ".overruns=" << ws.overruns() << "\n";
       auto list = [&](const char* key, const auto& seq) {
         out << name << "." << key << "=";
         for (size_t i = 0; i < seq.size(); ++i) out << (i ? "," : "") << static_cast<double>(seq[i]);

@@ -226,7 +226,7 @@ TEST_CASE("tandem status and tandem down work from another process over DDS", "[
     CHECK(r.output.find(std::string("  ") + p) != std::string::npos);
   }
   CHECK(r.output.find(" active ") != std::string::npos);
-  CHECK(r.output.find("asked remote on domain") != std::string::npos);
+  CHECK(r.output.find("remote: 'down' requested over DDS") != std::string::npos);  // the launcher's answer
   CHECK(r.output.find("up_rc=1") != std::string::npos);  // stopped before the task was done
   CHECK(ss.str().find("'down' requested over DDS") != std::string::npos);
   CHECK(ss.str().find("result: STOPPED") != std::string::npos);

@@ -34,6 +34,7 @@ Deployment load_deployment(const std::string& path) {
   top.choice("transport", d.transport, {"shm", "udp"});
   top.choice("timing", d.timing, {"lockstep", "realtime"});
   top.num("timeout", d.timeout, 0.1, 3600.0);
+  top.integer("realtime_priority", d.realtime_priority, 0, 98);
   YAML::Node mods = top.sequence("modules", true);
   std::set<std::string> names;
   for (size_t i = 0; i < mods.size(); ++i) {

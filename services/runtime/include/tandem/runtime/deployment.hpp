@@ -39,6 +39,11 @@ struct Deployment {
   std::string transport = "shm";  ///< shm | udp
   std::string timing = "lockstep";
   double timeout = 10.0;
+  /// Real-time timing: SCHED_FIFO priority of the per-tick processes (world, supervisor, robots), so that
+  /// the rest of the machine (discovery of a joining process, the launcher, a compiler) cannot delay a
+  /// tick; 0 = normal scheduling. Ignored in lockstep. Falls back to normal scheduling, with a note, where
+  /// the system does not permit it (needs root or CAP_SYS_NICE / RLIMIT_RTPRIO).
+  int realtime_priority = 20;
   std::vector<ModuleDeployment> modules;
   bool coordinator = false;        ///< a coordinator hands out `tasks`; modules run until it is done
   std::vector<TaskSpec> tasks;

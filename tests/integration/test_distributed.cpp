@@ -215,8 +215,10 @@ TEST_CASE("tandem status and tandem down work from another process over DDS", "[
   const std::string deploy = write_deployment("remote", domain, "SOSM", "realtime");
   const std::string up_log = work_dir() + "/remote.log";
   // Start the deployment in the background; ask for its status, then stop it with `tandem down`.
+  // Also: the scheduling class of the running world (FF = SCHED_FIFO, TS = normal).
   const std::string cmd = kBin + "/tandem up " + deploy + " > " + up_log + " 2>&1 & up=$!; sleep 1; " + kBin +
-                          "/tandem status " + deploy + "; " + kBin + "/tandem down " + deploy + "; wait $up; echo up_rc=$?";
+                          "/tandem status " + deploy + "; cls=$(ps -o cls= -p $(pgrep -f \"tandem-worl[d] .*--domain " +
+                          std::to_string(domain) + " \")); echo world_cls=${cls// /}; " + kBin + "/tandem down " + deploy + "; wait $up; echo up_rc=$?";
   const Run r = run("bash -c '" + cmd + "'");
   std::ifstream log(up_log);
   std::stringstream ss;
@@ -228,6 +230,13 @@ TEST_CASE("tandem status and tandem down work from another process over DDS", "[
   CHECK(r.output.find(" active ") != std::string::npos);
   CHECK(r.output.find("remote: 'down' requested over DDS") != std::string::npos);  // the launcher's answer
   CHECK(r.output.find("up_rc=1") != std::string::npos);  // stopped before the task was done
+  // Real time: the per-tick processes run SCHED_FIFO, or the launcher said why not.
+  if (ss.str().find("SCHED_FIFO 20") != std::string::npos) {
+    CHECK(r.output.find("world_cls=FF") != std::string::npos);
+  } else {
+    CHECK(ss.str().find("real-time priority 20 not permitted here") != std::string::npos);
+    CHECK(r.output.find("world_cls=TS") != std::string::npos);
+  }
   CHECK(ss.str().find("'down' requested over DDS") != std::string::npos);
   CHECK(ss.str().find("result: STOPPED") != std::string::npos);
   CHECK(ss.str().find("finalized") != std::string::npos);
@@ -536,6 +545,7 @@ TEST_CASE("every shipped deployment file loads, and bad live-replacement keys ar
   };
   const std::string mod = "modules:\n  - {name: m1, scenario: " + kSrc + "/config/scenarios/paper.yaml, case: SOSM";
   refused(mod + ", restart_as: leader}\n", "restart_as");
+  refused("realtime_priority: 99\n" + mod + "}\n", "realtime_priority");
   refused(mod + ", autostart: maybe}\n", "autostart");
   refused(mod + "}\ncoordinator:\n  standby: 9\n  tasks:\n    - {name: a, segments: [{to: [0.0, 0.8, 0.0], duration: 1.0}]}\n",
           "standby");

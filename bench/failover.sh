@@ -68,7 +68,7 @@ done
 "$bin/tandem" down "$work/failover.yaml" > /dev/null 2>&1 || true
 wait "$up" || true
 up=""
-grep -E "^m1: [0-9]+ ticks|^m1: real time|tasks done|^result" "$work/up.log" || true
+grep -E "^m1: [0-9]+ ticks|^m1: real time|^coordinator: |^result" "$work/up.log" || true
 h_sg=19.62   # eq. (16) for the paper's object (docs/results.md)
 list() { sed -n "s/^m1.$1=//p" "$work/summary.txt" | tr ',' '\n'; }
 paste <(list switch_gap_ms) <(list switch_failover) <(list switch_ep_max) <(list switch_hn_min) > "$work/switches.tsv"

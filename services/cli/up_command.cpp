@@ -162,14 +162,15 @@ class Launcher {
     const auto& m = mr.cfg;
     mr.started = true;
     mr.end.clear();
-    for (const char* role : {"world", "supervisor"}) {
-      Child c;
-      c.label = m.name + "/" + role;
-      c.role = role;
-      c.module = m.name;
-      c.exe = dir_ + "/tandem-" + role;
-      c.args = common_args(m);
-      launch(c);
+    Child w;
+    w.label = m.name + "/world";
+    w.role = "world";
+    w.module = m.name;
+    w.exe = dir_ + "/tandem-world";
+    w.args = common_args(m);
+    launch(w);
+    for (int i = 0; i <= m.supervisor_standby; ++i) {
+      start_supervisor(m.name, i == 0 ? runtime::RoleOptions::kPrimaryStrength : 60 - 10 * i, "");
     }
     for (const auto& robot : mr.robots) {
       for (int i = 0; i <= m.standby; ++i) {
@@ -211,6 +212,21 @@ class Launcher {
     c.args.insert(c.args.end(), {"--arm", robot, "--strength", std::to_string(strength)});
     launch(c, note);
     return c.pid > 0;
+  }
+
+  /// Starts a supervisor for `module`: the primary (strength 100) or a standby (lower).
+  void start_supervisor(const std::string& module, int strength, const char* note) {
+    const ModuleRun& mr = modules_.at(module);
+    Child c;
+    c.arm = module + "/supervisor";  // the slot it serves, as an arm for robots (standby strengths, live count)
+    c.label = c.arm + (strength == runtime::RoleOptions::kPrimaryStrength ? "" : "@" + std::to_string(strength));
+    c.role = "supervisor";
+    c.module = module;
+    c.strength = strength;
+    c.exe = dir_ + "/tandem-supervisor";
+    c.args = common_args(mr.cfg);
+    c.args.insert(c.args.end(), {"--strength", std::to_string(strength)});
+    launch(c, note);
   }
 
   /// Strength for a new standby of `arm`: below every live robot of the arm (50 if none), 0 if none is left.
@@ -444,6 +460,19 @@ class Launcher {
       ::kill(c->pid, SIGTERM);
       it = pending_unplugs_.erase(it);
     }
+    for (auto it = world_done_.begin(); it != world_done_.end();) {
+      if (Clock::now() - it->second < std::chrono::seconds(2)) {
+        ++it;
+        continue;
+      }
+      for (auto& c : children_) {
+        if (c.module != it->first || !c.running) continue;
+        std::printf("tandem up: %s is still waiting after its module's task ended; stopping it\n", c.label.c_str());
+        c.expected = true;
+        ::kill(c.pid, SIGTERM);
+      }
+      it = world_done_.erase(it);
+    }
     for (auto it = pending_restarts_.begin(); it != pending_restarts_.end();) {
       if (stopping_ || Clock::now() < it->when) {
         ++it;
@@ -461,6 +490,16 @@ class Launcher {
           continue;
         }
         start_robot(c.module, c.arm.substr(c.arm.find('/') + 1), strength, " (restart)");
+      } else if (c.role == "supervisor") {
+        // A restarted supervisor is a standby: it adopts the serving one's plan (a supervisor restarted with
+        // none serving would not know the plan; the module has failed then, see on_exit).
+        const int strength = standby_strength(c.arm);
+        if (live_robots(c.arm) == 0 || strength < 1) {
+          std::printf("tandem up: not restarting %s: %s\n", c.label.c_str(),
+                      strength < 1 ? "no strength left below the live supervisors" : "no supervisor serves the module");
+          continue;
+        }
+        start_supervisor(c.module, strength, " (restart)");
       } else {
         // No coordinator left: the queue's state lived only in their writers (transient-local), so hand the
         // newcomer the last state this launcher heard; it takes over from it.
@@ -520,8 +559,21 @@ class Launcher {
       fail(c.label + " exited with code " + std::to_string(c.status));
       return;
     }
+    if (c.role == "supervisor" && !(c.status == 0 && !d_.coordinator) && live_robots(c.arm) > 0) {
+      // Hot standby: another supervisor of the module carries on with the same plan (tier 1).
+      const bool restarting = schedule_restart(c, mr.cfg.restart, mr.cfg.restart_limit, mr.cfg.restart_window,
+                                               mr.cfg.restart_backoff);
+      std::printf("tandem up: %s exited with code %d; a standby supervisor carries on%s\n", c.label.c_str(), c.status,
+                  restarting ? " (the exited one comes back as a standby)" : "");
+      return;
+    }
     // World or supervisor.
-    if (c.status == 0 && !d_.coordinator) return;  // the module's task is over
+    if (c.status == 0 && !d_.coordinator) {
+      // The module's task is over. Its processes end by themselves, but for one that joined late (a restarted
+      // standby) and waits for ticks that will not come: stopped after a grace for the summaries.
+      if (c.role == "world") world_done_[c.module] = Clock::now();
+      return;
+    }
     if (d_.coordinator) {
       std::printf("tandem up: module %s failed (%s exited with code %d); stopping its processes, the others go on\n",
                   c.module.c_str(), c.label.c_str(), c.status);
@@ -536,7 +588,7 @@ class Launcher {
   bool schedule_restart(const Child& c, const std::string& policy, int limit, double window, double backoff) {
     const bool wanted = policy == "always" || (policy == "on-failure" && c.status != 0);
     if (!wanted) return false;
-    const std::string key = c.role == "robot" ? c.arm : "coordinator";
+    const std::string key = c.arm.empty() ? "coordinator" : c.arm;  // an arm, a module's supervisor slot
     const auto now = Clock::now();
     auto& hist = restart_history_[key];
     hist.erase(std::remove_if(hist.begin(), hist.end(),
@@ -660,6 +712,7 @@ class Launcher {
     Clock::time_point since;
   };
   std::vector<PendingUnplug> pending_unplugs_;
+  std::map<std::string, Clock::time_point> world_done_;  ///< modules whose world finished its task, and when
   std::map<std::string, msg::TaskState> task_states_;
   bus::Writer<msg::ControlRequest, msg::ControlRequestPubSubType>* control_out_ = nullptr;
   bus::Writer<msg::CoordinatorState, msg::CoordinatorStatePubSubType>* coord_state_out_ = nullptr;

@@ -66,6 +66,7 @@ int main(int argc, char** argv) {
   model::ArmReference ref;
   struct Slot {
     long tick = -1;
+    int32_t strength = 0;  // of the supervisor that sent it
     model::ArmReference ref;
   };
   std::array<Slot, 64> ring{};
@@ -109,8 +110,12 @@ int main(int argc, char** argv) {
         ++rejected;
         continue;
       }
-      // References arrive up to a tick ahead, and a standby may lag: keep a ring indexed by tick.
+      // References arrive up to a tick ahead, and a standby may lag: keep a ring indexed by tick. With
+      // standby supervisors every tick comes more than once: the strongest supervisor's copy stands (they
+      // are equal while the standby follows the active one's plan; a weaker one is there if it died).
       Slot& slot = ring[r.tick() % ring.size()];
+      if (slot.tick == static_cast<long>(r.tick()) && r.strength() < slot.strength) continue;
+      slot.strength = r.strength();
       for (int i = 0; i < 3; ++i) {
         slot.ref.x(i) = r.x()[static_cast<size_t>(i)];
         slot.ref.xd(i) = r.xd()[static_cast<size_t>(i)];

@@ -9,12 +9,23 @@
 // pause ramps the object smoothly to rest (0.3 s); a braked arm stops the path at once (20 ms ramp).
 // Drain ("drain"): the module finishes its task, takes no new one, reports "left" and exits.
 // The module's task state goes to the coordinator and the launcher on every change and every 100 ms.
+//
+// Hot standby (--strength below 100): a standby supervisor reads the same samples and publishes the same
+// references, marked with its strength; a robot keeps, per tick, the copy of the strongest supervisor, so
+// when the active one dies the robots go on with the standby's references with no gap. The standby makes the
+// same decisions from the same inputs, and adopts the active supervisor's plan whenever it comes
+// (SupervisorPlan: task, start tick, time-scale retargets, pause and drain flags), so its references are the
+// same to the bit, and within a tick or two if the active one died before its latest plan arrived. When no
+// reference of a stronger supervisor has come for kTakeOverAfter (and kTakeOverTicks) while samples flow, it
+// takes over the duties: task state, tasks from the coordinator, pause/resume/drain, publishing its plan.
+// Should the stronger one show up again (it was only stalled), it steps back.
 #include <tandemPubSubTypes.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <thread>
 
 #include "tandem/runtime/role.hpp"
@@ -28,6 +39,14 @@ namespace {
 constexpr double kPauseRamp = 0.3;   // requested pause / resume [s]
 constexpr double kBrakeRamp = 0.02;  // an arm braked: stop the path now [s]
 constexpr long kReleaseSettleTicks = 200;  // both arms controlled again for this long before resuming
+// A standby takes over when no reference of a stronger supervisor has come for this long while it publishes
+// its own (samples flow). Longer than a scheduler stall of the active one is likely to be (it steps back
+// if that is what it was); the robots do not wait for it: they already have the standby's references.
+constexpr auto kTakeOverAfter = std::chrono::milliseconds(50);
+constexpr long kTakeOverTicks = 20;
+// Without ever having heard a stronger supervisor (it died before this one matched), this long: longer than
+// discovery takes on a busy machine, so that a standby does not take a primary it has not found yet for dead.
+constexpr auto kTakeOverAlone = std::chrono::milliseconds(3000);
 
 enum class TaskStateCode : uint8_t { Idle = 0, Running = 1, Done = 2, Paused = 3, Draining = 4, Left = 5 };
 
@@ -50,17 +69,49 @@ class TaskPlan {
   }
   /// Starts a task at tick `start` from the current rest pose.
   void assign(uint64_t id, const std::vector<double>& waypoints, long start) {
-    std::vector<model::ObjectPath::Segment> segs;
-    for (size_t i = 0; i + 3 < waypoints.size(); i += 4) {
-      segs.push_back({model::Vec3(waypoints[i], waypoints[i + 1], waypoints[i + 2]), waypoints[i + 3]});
-    }
-    path_ = model::ObjectPath(rest_, 0.0, segs);
-    end_pose_ = segs.empty() ? rest_ : segs.back().to;
+    build_path(rest_, waypoints);
     task_id_ = id;
     start_ = start;
     tau_start_ = scale_.at(time(start)).tau;
     running_ = true;
+    ++version_;
   }
+  /// The plan as a standby needs it (the latest 64 retargets of the time scale).
+  void export_to(msg::SupervisorPlan& p) const {
+    p.version(version_);
+    p.task_id(task_id_);
+    p.tasks_done(done_);
+    p.running(running_);
+    p.start_tick(start_);
+    p.tau_start(tau_start_);
+    for (int i = 0; i < 3; ++i) {
+      p.rest()[static_cast<size_t>(i)] = rest_(i);
+      p.path_start()[static_cast<size_t>(i)] = path_start_(i);
+    }
+    p.waypoints(waypoints_);
+    p.breaks(scale_.export_breaks(64));
+  }
+  /// Adopts an active supervisor's plan; false (nothing changed) if it is malformed.
+  bool import_from(const msg::SupervisorPlan& p) {
+    const std::vector<double>& w = p.waypoints();
+    if (w.size() % 4 != 0 || !runtime::all_finite(w) || !runtime::all_finite(p.rest()) ||
+        !runtime::all_finite(p.path_start()) || !std::isfinite(p.tau_start())) {
+      return false;
+    }
+    model::TimeScale scale;
+    if (!scale.restore(p.breaks())) return false;
+    scale_ = scale;
+    rest_ = model::Vec3(p.rest()[0], p.rest()[1], p.rest()[2]);
+    build_path(model::Vec3(p.path_start()[0], p.path_start()[1], p.path_start()[2]), w);
+    task_id_ = p.task_id();
+    done_ = p.tasks_done();
+    running_ = p.running();
+    start_ = static_cast<long>(p.start_tick());
+    tau_start_ = p.tau_start();
+    version_ = p.version();
+    return true;
+  }
+  uint64_t version() const { return version_; }
   /// True once every tick of the running task has been published (then the object rests at its end).
   bool finish_if_done(long published_min) {
     if (!running_ || published_min < start_ ||
@@ -70,13 +121,17 @@ class TaskPlan {
     running_ = false;
     rest_ = end_pose_;
     ++done_;
+    ++version_;
     return true;
   }
   /// Scenario mode: the path's motion is over by tick k.
   bool motion_over(long k) const { return scale_.at(time(k)).tau >= m_.path.motion_end(); }
   /// From tick `from` (the first one not yet published) the path runs at `rate` (0 paused, 1 normal).
   void set_rate(long from, double rate, double ramp) {
-    if (scale_.target() != rate) scale_.retarget(time(from), rate, ramp);
+    if (scale_.target() != rate) {
+      scale_.retarget(time(from), rate, ramp);
+      ++version_;
+    }
   }
   double target_rate() const { return scale_.target(); }
   bool paused_at(long k) const { return scale_.target() == 0.0 && scale_.settled(time(k)); }
@@ -86,12 +141,23 @@ class TaskPlan {
 
  private:
   double time(long k) const { return static_cast<double>(k) * m_.period; }
+  void build_path(const model::Vec3& from, const std::vector<double>& waypoints) {
+    std::vector<model::ObjectPath::Segment> segs;
+    for (size_t i = 0; i + 3 < waypoints.size(); i += 4) {
+      segs.push_back({model::Vec3(waypoints[i], waypoints[i + 1], waypoints[i + 2]), waypoints[i + 3]});
+    }
+    path_ = model::ObjectPath(from, 0.0, segs);
+    path_start_ = from;
+    waypoints_ = waypoints;
+    end_pose_ = segs.empty() ? from : segs.back().to;
+  }
   const sim::ModuleSetup& m_;
   bool continuous_;
   model::TimeScale scale_;
-  model::Vec3 rest_ = model::Vec3::Zero(), end_pose_ = model::Vec3::Zero();
+  model::Vec3 rest_ = model::Vec3::Zero(), end_pose_ = model::Vec3::Zero(), path_start_ = model::Vec3::Zero();
   model::ObjectPath path_;
-  uint64_t task_id_ = 0, done_ = 0;
+  std::vector<double> waypoints_;
+  uint64_t task_id_ = 0, done_ = 0, version_ = 0;
   long start_ = 0;
   double tau_start_ = 0.0;
   bool running_ = false;
@@ -105,6 +171,8 @@ int main(int argc, char** argv) {
   int code = 0;
   if (!runtime::start_role("supervisor", argc, argv, false, opt, ctx, code)) return code;
   const sim::ModuleSetup& m = ctx.module;
+  const bool started_as_standby = opt.strength != runtime::RoleOptions::kPrimaryStrength;
+  const std::string self_id = opt.module + "/supervisor" + (started_as_standby ? "@" + std::to_string(opt.strength) : "");
   bus::Participant part(opt.domain, "supervisor/" + opt.module, opt.transport);
   bus::Reader<msg::ArmSensors, msg::ArmSensorsPubSubType> sensors(part, bus::module_topic(bus::kSensorsTopic, opt.module), bus::TopicKind::Sensors);
   bus::Writer<msg::ArmReference, msg::ArmReferencePubSubType> refs(part, bus::module_topic(bus::kReferencesTopic, opt.module),
@@ -114,8 +182,19 @@ int main(int argc, char** argv) {
   bus::Writer<msg::TaskState, msg::TaskStatePubSubType> task_state(part, bus::kTaskStateTopic, bus::TopicKind::Task);
   bus::Reader<msg::ControlRequest, msg::ControlRequestPubSubType> control(part, bus::kControlTopic,
                                                                          bus::TopicKind::Control);
-  runtime::StatusPublisher status(part, opt.module + "/supervisor", "supervisor", opt.module);
+  bus::Writer<msg::SupervisorPlan, msg::SupervisorPlanPubSubType> plan_out(part, bus::kSupervisorPlanTopic,
+                                                                           bus::TopicKind::Task);
+  // Only a standby listens to the other supervisors (their references: who is alive; their plan).
+  std::optional<bus::Reader<msg::ArmReference, msg::ArmReferencePubSubType>> refs_in;
+  std::optional<bus::Reader<msg::SupervisorPlan, msg::SupervisorPlanPubSubType>> plan_in;
+  if (started_as_standby) {
+    refs_in.emplace(part, bus::module_topic(bus::kReferencesTopic, opt.module), bus::TopicKind::References);
+    plan_in.emplace(part, bus::kSupervisorPlanTopic, bus::TopicKind::Task);
+  }
+  runtime::StatusPublisher status(part, self_id, "supervisor", opt.module);
   status.msg().deployment(opt.deployment);
+  bool active = !started_as_standby;
+  status.msg().serving(active ? "primary" : "standby");
   status.set(runtime::Lifecycle::Active, opt.continuous ? "waiting for a task" : "publishing references");
 
   TaskPlan plan(m, opt.continuous);
@@ -138,8 +217,34 @@ int main(int argc, char** argv) {
     if (busy) return TaskStateCode::Running;
     return plan.done() > 0 ? TaskStateCode::Done : TaskStateCode::Idle;
   };
+  // The active supervisor's plan, for its standbys: on every change of the plan or of its flags.
+  msg::SupervisorPlan plan_msg;
+  plan_msg.module_id(opt.module);
+  plan_msg.deployment(opt.deployment);
+  plan_msg.supervisor_id(self_id);
+  plan_msg.strength(opt.strength);
+  uint64_t plan_sent_version = ~0ULL;
+  bool plan_sent_pause = false, plan_sent_drain = false;
+  uint8_t plan_sent_state = 255;
+  auto publish_plan = [&](TaskStateCode st) {
+    if (plan.version() == plan_sent_version && pause_requested == plan_sent_pause && draining == plan_sent_drain &&
+        static_cast<uint8_t>(st) == plan_sent_state) {
+      return;
+    }
+    plan.export_to(plan_msg);
+    plan_msg.pause_requested(pause_requested);
+    plan_msg.draining(draining);
+    plan_msg.state(static_cast<uint8_t>(st));
+    plan_out.write(plan_msg);
+    plan_sent_version = plan.version();
+    plan_sent_pause = pause_requested;
+    plan_sent_drain = draining;
+    plan_sent_state = static_cast<uint8_t>(st);
+  };
   auto publish_state = [&](bool force) {
+    if (!active) return;  // a standby's duties start when it takes over
     const TaskStateCode st = current_state();
+    publish_plan(st);
     const auto now = std::chrono::steady_clock::now();
     if (!force && st == reported && now - last_state_sent < std::chrono::milliseconds(100)) return;
     ts.task_id(plan.task_id());
@@ -162,9 +267,25 @@ int main(int argc, char** argv) {
 
   msg::ArmSensors s;
   msg::ArmReference r;
+  r.supervisor_id(self_id);
+  r.strength(opt.strength);
+  msg::ArmReference heard;
+  msg::SupervisorPlan adopted;
   msg::TaskAssignment a;
   msg::ControlRequest req;
-  auto last_input = std::chrono::steady_clock::now();
+  const auto t_start = std::chrono::steady_clock::now();
+  auto last_input = t_start;
+  auto last_stronger = t_start;  // a standby: the latest reference of a stronger supervisor
+  long stronger_tick = -1;       // and the newest tick it published
+  bool heard_stronger = false;
+  std::optional<msg::SupervisorPlan> latest_plan;  // the stronger one's latest plan (adopted while standing by)
+  auto last_published = t_start - std::chrono::hours(1);
+  auto start_task = [&](const msg::TaskAssignment& t) {
+    const long start = std::max(last[0], last[1]) + 1;  // never change a published reference
+    plan.assign(t.task_id(), t.waypoints(), start);
+    status.msg().detail("task " + t.task_name());
+    publish_state(true);
+  };
   while (!runtime::g_stop && (last[0] + 1 < m.steps || last[1] + 1 < m.steps)) {
     bool got = false;
     while (control.take(req)) {
@@ -173,16 +294,78 @@ int main(int argc, char** argv) {
       if (req.command() == "resume") pause_requested = false;
       if (req.command() == "drain") draining = true;
       if (req.command() == "pause" || req.command() == "resume" || req.command() == "drain") {
-        std::printf("tandem-supervisor %s: %s requested\n", opt.module.c_str(), req.command().c_str());
+        std::printf("tandem-supervisor %s: %s requested\n", self_id.c_str(), req.command().c_str());
         std::fflush(stdout);
       }
     }
     while (opt.continuous && assignments.take(a)) {
+      // A standby starts the task too, at the tick the active one will most likely choose: should the
+      // active one die before its plan arrives, the standby's path differs by a tick or two at most.
       if (a.module_id() != opt.module || a.task_id() <= plan.task_id() || plan.running() || draining) continue;
-      const long start = std::max(last[0], last[1]) + 1;  // never change a published reference
-      plan.assign(a.task_id(), a.waypoints(), start);
-      status.msg().detail("task " + a.task_name());
-      publish_state(true);
+      start_task(a);
+    }
+    if (started_as_standby) {
+      const auto now = std::chrono::steady_clock::now();
+      while (refs_in->take(heard)) {
+        if (heard.strength() > opt.strength) {
+          last_stronger = now;
+          stronger_tick = std::max(stronger_tick, static_cast<long>(heard.tick()));
+          heard_stronger = true;
+        }
+      }
+      while (plan_in->take(adopted)) {
+        if (adopted.module_id() != opt.module || adopted.strength() <= opt.strength) continue;
+        latest_plan = adopted;
+        if (active) continue;  // kept for when it steps back
+        // Never back to an older task than this one already started or finished on its own.
+        if (adopted.task_id() < plan.task_id() ||
+            (adopted.task_id() == plan.task_id() && adopted.tasks_done() < plan.done())) {
+          continue;
+        }
+        if (!plan.import_from(adopted)) {
+          std::fprintf(stderr, "tandem-supervisor %s: a malformed plan from %s was ignored\n", self_id.c_str(),
+                       adopted.supervisor_id().c_str());
+          continue;
+        }
+        pause_requested = adopted.pause_requested();
+        draining = adopted.draining();
+        if (adopted.state() == static_cast<uint8_t>(TaskStateCode::Left)) {
+          std::printf("tandem-supervisor %s: %s drained the module; leaving with it\n", self_id.c_str(),
+                      adopted.supervisor_id().c_str());
+          status.set(runtime::Lifecycle::Finalized, "drained");
+          std::this_thread::sleep_for(std::chrono::milliseconds(100));
+          return 0;
+        }
+      }
+      // Quiet: the ticks go on (this one has published kTakeOverTicks past the stronger one's newest) and
+      // nothing has come from the stronger one for kTakeOverAfter. Ticks, not time alone: in lockstep a
+      // world that waits re-publishes the same tick every 50 ms, and both supervisors answer it.
+      const long mine = std::max(last[0], last[1]);
+      const bool flowing = now - last_published < kTakeOverAfter;
+      const bool quiet = heard_stronger ? (now - last_stronger > kTakeOverAfter && mine - stronger_tick > kTakeOverTicks)
+                                        : (now - t_start > kTakeOverAlone && mine > kTakeOverTicks);
+      if (!active && flowing && quiet) {
+        active = true;
+        std::printf("tandem-supervisor %s: taking over (no reference from a stronger supervisor for %.0f ms) with "
+                    "plan version %llu: task %llu %s, %llu done\n",
+                    self_id.c_str(), std::chrono::duration<double, std::milli>(now - last_stronger).count(),
+                    static_cast<unsigned long long>(plan.version()), static_cast<unsigned long long>(plan.task_id()),
+                    plan.running() ? "running" : "not running", static_cast<unsigned long long>(plan.done()));
+        std::fflush(stdout);
+        status.msg().serving("primary");
+        reported = TaskStateCode::Idle;
+        publish_state(true);
+      } else if (active && !quiet) {
+        active = false;  // the stronger one was only stalled: it decides again, and this one follows its plan
+        if (latest_plan && plan.import_from(*latest_plan)) {
+          pause_requested = latest_plan->pause_requested();
+          draining = latest_plan->draining();
+        }
+        std::printf("tandem-supervisor %s: a stronger supervisor is back; standing by again\n", self_id.c_str());
+        std::fflush(stdout);
+        status.msg().serving("standby");
+        status.publish();
+      }
     }
     while (sensors.take(s)) {
       got = true;
@@ -191,7 +374,8 @@ int main(int argc, char** argv) {
       braked[static_cast<size_t>(j)] = s.braked();
       if (braked[0] || braked[1]) last_braked_tick = static_cast<long>(s.tick());
       // Pause while an arm is braked or a pause is asked for; the change applies from the first tick not
-      // yet published, so a published reference never changes.
+      // yet published, so a published reference never changes. (A standby decides the same from the same
+      // samples; the active one's plan, when it comes, overrides.)
       const long next = std::max(last[0], last[1]) + 1;
       if (braked[0] || braked[1]) {
         plan.set_rate(next, 0.0, kBrakeRamp);
@@ -220,10 +404,11 @@ int main(int argc, char** argv) {
         refs.write(r);
         last[static_cast<size_t>(j)] = std::max(last[static_cast<size_t>(j)], kk);
       }
+      last_published = std::chrono::steady_clock::now();
       if (opt.continuous && plan.finish_if_done(std::min(last[0], last[1]))) publish_state(true);
     }
     publish_state(false);
-    if (reported == TaskStateCode::Left) {
+    if (active && reported == TaskStateCode::Left) {
       std::printf("tandem-supervisor %s: drained; the module leaves\n", opt.module.c_str());
       status.set(runtime::Lifecycle::Finalized, "drained");
       std::this_thread::sleep_for(std::chrono::milliseconds(300));  // let the state reach the coordinator
@@ -237,7 +422,7 @@ int main(int argc, char** argv) {
       status.set(runtime::Lifecycle::Error, "no sensor samples");
       return 4;
     }
-    sensors.wait(0.01);
+    sensors.wait(started_as_standby ? 0.005 : 0.01);
   }
   status.set(runtime::Lifecycle::Finalized, runtime::g_stop ? "stopped" : "task done");
   std::this_thread::sleep_for(std::chrono::milliseconds(100));

@@ -96,6 +96,7 @@ int main(int argc, char** argv) {
   // Supervisor references, to measure each arm's tracking error |x_d - x| as the world sees it.
   struct RefSlot {
     long tick = -1;
+    int32_t strength = 0;
     model::Vec2 x = model::Vec2::Zero();
   };
   std::array<std::array<RefSlot, 64>, 2> ref_ring{};
@@ -148,7 +149,9 @@ int main(int argc, char** argv) {
       const int j = ctx.arm_index(ref_in.arm_id());
       if (j < 0 || !runtime::all_finite(ref_in.x())) continue;
       RefSlot& slot = ref_ring[static_cast<size_t>(j)][ref_in.tick() % 64];
+      if (slot.tick == static_cast<long>(ref_in.tick()) && ref_in.strength() < slot.strength) continue;  // as robots
       slot.tick = static_cast<long>(ref_in.tick());
+      slot.strength = ref_in.strength();
       slot.x = model::Vec2(ref_in.x()[0], ref_in.x()[1]);
     }
     TickRecord& rec = history[static_cast<size_t>(k) % kHistory];

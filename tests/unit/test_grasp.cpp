@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <cstdint>
 #include <vector>
 
@@ -390,4 +391,30 @@ TEST_CASE("time scale: pause and resume keep the reference C1, tau by finite dif
   ts.retarget(2.2, 0.0, 0.0);
   CHECK(ts.at(2.0).tau == before.tau);
   CHECK(ts.at(2.4).tau == ts.at(2.2).tau);
+}
+
+TEST_CASE("time scale: exported retargets restore the same path times, bad ones are refused", "[grasp]") {
+  tm::TimeScale a;
+  a.retarget(0.7, 0.0, 0.3);
+  a.retarget(1.5, 1.0, 0.3);
+  a.retarget(2.9, 0.0, 0.02);
+  // A standby that adopts the primary's latest two retargets samples every later time exactly alike.
+  tm::TimeScale b;
+  REQUIRE(b.restore(a.export_breaks(2)));
+  CHECK(a.export_breaks(2).size() == 10);
+  for (double t = 1.5; t < 4.0; t += 0.0137) {
+    CHECK(b.at(t).tau == a.at(t).tau);
+    CHECK(b.at(t).rate == a.at(t).rate);
+    CHECK(b.at(t).rate_dot == a.at(t).rate_dot);
+  }
+  CHECK(b.target() == 0.0);
+  // Refused, and nothing changed: a ragged list, a NaN, decreasing t0, a negative ramp.
+  tm::TimeScale c;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  CHECK_FALSE(c.restore({0.5, 0.5, 1.0, 0.0}));
+  CHECK_FALSE(c.restore({0.5, nan, 1.0, 0.0, 0.3}));
+  CHECK_FALSE(c.restore({0.9, 0.9, 1.0, 0.0, 0.3, 0.5, 0.5, 0.0, 1.0, 0.3}));
+  CHECK_FALSE(c.restore({0.5, 0.5, 1.0, 0.0, -0.1}));
+  CHECK(c.export_breaks(8).empty());
+  CHECK(c.at(2.0).tau == 2.0);
 }

@@ -47,6 +47,32 @@ void TimeScale::retarget(double t0, double rate, double ramp) {
   breaks_.push_back({t0, s.tau, s.rate, rate, std::max(ramp, 0.0)});
 }
 
+std::vector<double> TimeScale::export_breaks(size_t max) const {
+  std::vector<double> out;
+  const size_t first = breaks_.size() > max ? breaks_.size() - max : 0;
+  out.reserve(5 * (breaks_.size() - first));
+  for (size_t i = first; i < breaks_.size(); ++i) {
+    const Break& b = breaks_[i];
+    out.insert(out.end(), {b.t0, b.tau0, b.r0, b.r1, b.ramp});
+  }
+  return out;
+}
+
+bool TimeScale::restore(const std::vector<double>& flat) {
+  if (flat.size() % 5 != 0) return false;
+  std::vector<Break> next;
+  for (size_t i = 0; i < flat.size(); i += 5) {
+    for (size_t j = i; j < i + 5; ++j) {
+      if (!std::isfinite(flat[j])) return false;
+    }
+    const Break b{flat[i], flat[i + 1], flat[i + 2], flat[i + 3], flat[i + 4]};
+    if (b.ramp < 0.0 || (!next.empty() && b.t0 < next.back().t0)) return false;
+    next.push_back(b);
+  }
+  breaks_ = std::move(next);
+  return true;
+}
+
 TimeScale::Sample TimeScale::at(double t) const noexcept {
   Sample out;
   out.tau = t;

@@ -48,6 +48,7 @@ Deployment load_deployment(const std::string& path) {
     if (!m.scenario.empty() && m.scenario[0] != '/') m.scenario = dir + "/" + m.scenario;
     mr.text("case", m.case_name, true);
     mr.integer("standby", m.standby, 0, 3);
+    mr.integer("supervisor_standby", m.supervisor_standby, 0, 3);
     mr.choice("restart", m.restart, {"never", "on-failure", "always"});
     mr.integer("restart_limit", m.restart_limit, 0, 100);
     mr.num("restart_window", m.restart_window, 0.1, 86400.0);

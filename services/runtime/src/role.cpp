@@ -22,7 +22,8 @@ void usage(const char* role, bool needs_arm, std::FILE* f) {
                "       [--deployment NAME] [--continuous]%s\n"
                "Started by 'tandem up'; one Fast DDS participant. Exit: 0 done, 2 bad arguments or\n"
                "configuration, 3 peers not found in time, 4 a tick timed out.\n",
-               role, needs_arm ? " --arm ROBOT" : "", needs_arm ? " [--strength N (100 primary)]" : "");
+               role, needs_arm ? " --arm ROBOT" : "",
+               needs_arm || std::string(role) == "supervisor" ? " [--strength N (100 primary)]" : "");
 }
 }  // namespace
 
@@ -70,7 +71,7 @@ bool parse_role_options(const char* role, int argc, char** argv, bool needs_arm,
         return false;
       }
       o.transport = v == "shm" ? dds::Transport::SharedMemory : dds::Transport::Udp;
-    } else if (a == "--strength" && needs_arm) {
+    } else if (a == "--strength" && (needs_arm || std::string(role) == "supervisor")) {
       char* end = nullptr;
       const long v2 = std::strtol(v.c_str(), &end, 10);
       if (*end != '\0' || v2 < 1 || v2 > 1000000) {

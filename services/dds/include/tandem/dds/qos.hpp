@@ -41,5 +41,6 @@ inline constexpr const char* kControlTopic = "tandem/control";
 inline constexpr const char* kTaskAssignmentTopic = "tandem/task_assignment";
 inline constexpr const char* kTaskStateTopic = "tandem/task_state";
 inline constexpr const char* kCoordinatorStateTopic = "tandem/coordinator_state";
+inline constexpr const char* kSupervisorPlanTopic = "tandem/supervisor_plan";
 
 }  // namespace tandem::dds

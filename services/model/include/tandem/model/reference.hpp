@@ -57,6 +57,13 @@ class TimeScale {
   bool settled(double t) const noexcept {
     return breaks_.empty() || t >= breaks_.back().t0 + breaks_.back().ramp;
   }
+  /// The latest `max` retargets as numbers, five per retarget (t0, tau0, r0, r1, ramp): what a standby
+  /// supervisor needs to sample the same path times. Older ones only matter for times before the oldest
+  /// kept, which a supervisor never samples again.
+  std::vector<double> export_breaks(size_t max) const;
+  /// Replaces the retargets with exported ones; false (and nothing changed) unless the size is a multiple
+  /// of five, every number is finite, the t0 do not decrease and every ramp is >= 0.
+  bool restore(const std::vector<double>& flat);
 
  private:
   struct Break {

@@ -13,8 +13,12 @@ struct ModuleDeployment {
   std::string scenario;  ///< resolved path
   std::string case_name;
   int standby = 0;  ///< standby robot processes per arm (hot standby, lower ownership strength)
+  /// Standby supervisors (hot standby: they follow the active one's plan and publish the same references,
+  /// and the strongest live one takes over its duties when it dies).
+  int supervisor_standby = 0;
   /// Restart policy of the module's robot processes (OTP-style): never | on-failure | always, at most
   /// restart_limit restarts per arm within restart_window seconds, the n-th after restart_backoff * 2^n s.
+  /// Supervisors follow it too while another supervisor of the module serves (a restarted one is a standby).
   std::string restart = "never";
   int restart_limit = 3;
   double restart_window = 30.0;

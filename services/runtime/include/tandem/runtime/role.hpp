@@ -24,7 +24,7 @@ struct RoleOptions {
   bool realtime = false;      ///< world: step on the wall clock (else lockstep)
   std::string deployment;     ///< name of the deployment (in status messages)
   bool continuous = false;    ///< run until stopped, tasks from the coordinator (else the scenario's task)
-  int strength = kPrimaryStrength;  ///< robot: ownership strength of its torque writer (standby: lower)
+  int strength = kPrimaryStrength;  ///< robot: ownership strength of its torque writer; supervisor: its rank (standby: lower)
   static constexpr int kPrimaryStrength = 100;
 };
 

@@ -54,14 +54,16 @@ void remote_usage(std::FILE* f) {
       "usage: tandem status <deploy.yaml> | --domain ID [--name NAME]\n"
       "       tandem down   <deploy.yaml> | --domain ID --name NAME\n"
       "       tandem kill   <deploy.yaml> | --domain ID --name NAME  PROCESS\n"
-      "status: prints the lifecycle state and live figures of every process of the deployment(s) on the domain.\n"
-      "down:   asks the deployment's launcher to stop it cleanly (as Ctrl-C would); exit 1 if no launcher on the\n"
-      "        domain is listening (a launcher of another deployment on the same domain ignores the request).\n"
       "       tandem plug   <deploy.yaml> | --domain ID --name NAME  robot MODULE/ARM [--standby | --primary]\n"
       "       tandem plug   <deploy.yaml> | --domain ID --name NAME  module NAME [--scenario FILE --case CASE]\n"
       "       tandem unplug <deploy.yaml> | --domain ID --name NAME  robot MODULE/ARM[@STRENGTH] | module NAME\n"
+      "status: prints the lifecycle state and live figures of every process of the deployment(s) on the domain;\n"
+      "        with a launcher, it waits (at most 10 s) until every process the launcher runs has been heard.\n"
+      "down:   asks the deployment's launcher to stop it cleanly (as Ctrl-C would) and prints its answer; exit 1\n"
+      "        if no launcher of that deployment answers.\n"
       "kill:   fault injection: the launcher SIGKILLs PROCESS (a label of the status view, e.g. m1/left, m1/world,\n"
-      "        coordinator) or every process of a MODULE.\n"
+      "        m1/supervisor, m1/supervisor@50, coordinator) or every process of a MODULE. A robot or supervisor\n"
+      "        with a standby is replaced at once; see docs/failure-model.md for what happens to the others.\n"
       "plug robot: starts a robot process for the arm, as its primary (default; refused if the arm has one) or as\n"
       "        a standby computing in shadow. Plugged into a paused module (arm braked), it releases the brake and\n"
       "        the module resumes.\n"
@@ -70,8 +72,8 @@ void remote_usage(std::FILE* f) {
       "unplug robot: graceful. With another robot on the arm, it hands over at once (its writer is deleted\n"
       "        first). Without, the module pauses (object brought to rest, the arm braked) until a robot is plugged.\n"
       "unplug module: the module finishes its task, takes no new one, and its processes stop.\n"
-      "kill, plug and unplug wait for the launcher's answer and print it: exit 0 done, 1 refused or no answer,\n"
-      "2 bad command line.\n",
+      "down, kill, plug and unplug wait for the launcher's answer and print it: exit 0 done, 1 refused or no\n"
+      "answer, 2 bad command line.\n",
       f);
 }
 

@@ -198,35 +198,33 @@ class Launcher {
     launch(c, note);
   }
 
-  /// Starts a robot for `module`/`robot` with the given strength; false (and why) if it cannot.
+  /// Starts a robot for `module`/`robot` with the given strength; false if the process could not be started.
   bool start_robot(const std::string& module, const std::string& robot, int strength, const char* note) {
-    const ModuleRun& mr = modules_.at(module);
-    Child c;
-    c.arm = module + "/" + robot;
-    c.label = c.arm + (strength == runtime::RoleOptions::kPrimaryStrength ? "" : "@" + std::to_string(strength));
-    c.role = "robot";
-    c.module = module;
-    c.strength = strength;
-    c.exe = dir_ + "/tandem-robot";
-    c.args = common_args(mr.cfg);
-    c.args.insert(c.args.end(), {"--arm", robot, "--strength", std::to_string(strength)});
-    launch(c, note);
-    return c.pid > 0;
+    return start_ranked("robot", module, robot, strength, {"--arm", robot}, note);
   }
 
   /// Starts a supervisor for `module`: the primary (strength 100) or a standby (lower).
   void start_supervisor(const std::string& module, int strength, const char* note) {
-    const ModuleRun& mr = modules_.at(module);
+    start_ranked("supervisor", module, "supervisor", strength, {}, note);
+  }
+
+  /// A process that serves a slot of a module by strength (an arm's robot, the module's supervisor): its
+  /// slot is kept in Child::arm (standby strengths and live counts are per slot), its label is the slot, with
+  /// "@strength" for a standby.
+  bool start_ranked(const char* role, const std::string& module, const std::string& slot, int strength,
+                    std::vector<std::string> extra, const char* note) {
     Child c;
-    c.arm = module + "/supervisor";  // the slot it serves, as an arm for robots (standby strengths, live count)
+    c.arm = module + "/" + slot;
     c.label = c.arm + (strength == runtime::RoleOptions::kPrimaryStrength ? "" : "@" + std::to_string(strength));
-    c.role = "supervisor";
+    c.role = role;
     c.module = module;
     c.strength = strength;
-    c.exe = dir_ + "/tandem-supervisor";
-    c.args = common_args(mr.cfg);
-    c.args.insert(c.args.end(), {"--strength", std::to_string(strength)});
+    c.exe = dir_ + "/tandem-" + role;
+    c.args = common_args(modules_.at(module).cfg);
+    extra.insert(extra.end(), {"--strength", std::to_string(strength)});
+    c.args.insert(c.args.end(), extra.begin(), extra.end());
     launch(c, note);
+    return c.pid > 0;
   }
 
   /// Strength for a new standby of `arm`: below every live robot of the arm (50 if none), 0 if none is left.
@@ -757,8 +755,10 @@ void up_usage(std::FILE* f) {
       "one, in lockstep or real-time timing. Prints progress while it runs and a summary at the end (RMS per\n"
       "robot, slips, contact losses, rejected samples, failovers, and in real time the latency and late ticks).\n"
       "While it runs, from any terminal: tandem status | plug | unplug | kill | down (see 'tandem help plug').\n"
-      "Robots and coordinators are restarted by the file's restart policy; with a coordinator, a module whose\n"
-      "world or supervisor fails is stopped and the others go on (docs/failure-model.md).\n"
+      "Robots, supervisors and coordinators can have hot standbys and are restarted by the file's restart policy;\n"
+      "with a coordinator, a module whose world (or supervisor, without a standby) fails is stopped and the others\n"
+      "go on (docs/failure-model.md). In real-time timing the world, supervisors and robots run SCHED_FIFO at the\n"
+      "file's realtime_priority (default 20; a note says so if the system refuses it).\n"
       "--summary FILE also writes the summary as key=value lines (full precision).\n"
       "Ctrl-C or SIGTERM stops every process cleanly. Schema: docs/architecture.md.\n"
       "\n"

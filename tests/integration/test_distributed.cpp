@@ -10,6 +10,7 @@
 #include <fstream>
 #include <map>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -22,8 +23,14 @@ namespace {
 const std::string kSrc = TANDEM_SOURCE_DIR;
 const std::string kBin = TANDEM_BIN_DIR;
 
-// A domain id per test process, so that two runs on one machine never see each other.
-int test_domain(int offset) { return 100 + (static_cast<int>(::getpid()) * 7 + offset) % 120; }
+// A domain id per test: a base per test run (ctest starts every test from the same parent) plus the test's
+// own offset, so that the tests of one run never share a domain (a SIGKILLed participant leaves shared-memory
+// ports behind that can deafen a later participant of its domain) and two runs at once are unlikely to meet.
+int test_domain(int offset) { return 100 + (static_cast<int>(::getppid()) * 17 + offset) % 120; }
+
+// Tests that SIGKILL processes run over UDP: over shared memory a killed participant's ports stay behind,
+// and a later participant can take the dead one's port and hear nothing (docs/failure-model.md).
+const std::string kCrashTransport = "udp";
 
 // One scratch directory per test process, removed when the process ends.
 struct WorkDir {
@@ -38,9 +45,10 @@ std::string work_dir() {
 }
 
 std::string write_deployment(const std::string& name, int domain, const std::string& case_name,
-                             const std::string& timing = "lockstep", int standby = 0, const std::string& extra = "") {
+                             const std::string& timing = "lockstep", int standby = 0, const std::string& extra = "",
+                             const std::string& transport = "shm") {
   const std::string path = work_dir() + "/" + name + ".yaml";
-  std::ofstream(path) << "name: " << name << "\ndomain_id: " << domain << "\ntransport: shm\ntiming: " << timing
+  std::ofstream(path) << "name: " << name << "\ndomain_id: " << domain << "\ntransport: " << transport << "\ntiming: " << timing
                       << "\ntimeout: 10\nmodules:\n  - name: m1\n    scenario: "
                       << kSrc << "/config/scenarios/paper.yaml\n    case: " << case_name << "\n    standby: " << standby
                       << "\n" << extra;
@@ -100,6 +108,44 @@ std::vector<double> parse_list(const std::string& text) {
   return out;
 }
 
+// The paper scenario's SOSM case on the embedded module: what a lockstep run of it must reproduce.
+const tandem::sim::CaseResult& embedded_sosm() {
+  static const tandem::sim::CaseResult result = [] {
+    const auto sc = tandem::sim::load_scenario(kSrc + "/config/scenarios/paper.yaml");
+    for (const auto& c : sc.cases) {
+      if (c.name == "SOSM") return tandem::sim::run_case(sc, c);
+    }
+    throw std::runtime_error("paper.yaml has no case SOSM");
+  }();
+  return result;
+}
+
+// A deployment with a coordinator and `pairs` out-and-back tasks of 1 s each (out-i to x = 0, back-i to
+// x = -0.2), lockstep; `coordinator_keys` and `modules` are YAML lines of their own.
+std::string write_task_deployment(const std::string& name, int domain, int pairs, const std::string& coordinator_keys,
+                                  const std::string& modules, const std::string& transport = "shm") {
+  const std::string path = work_dir() + "/" + name + ".yaml";
+  std::ofstream f(path);
+  f << "name: " << name << "\ndomain_id: " << domain << "\ntransport: " << transport << "\ntiming: lockstep\ntimeout: 20\n"
+    << "coordinator:\n" << coordinator_keys << "  tasks:\n";
+  for (int i = 0; i < pairs; ++i) {
+    f << "    - {name: out-" << i << ", segments: [{to: [0.0, 0.8, 0.0], duration: 1.0}]}\n"
+      << "    - {name: back-" << i << ", segments: [{to: [-0.2, 0.8, 0.0], duration: 1.0}]}\n";
+  }
+  f << "modules:\n" << modules;
+  return path;
+}
+
+// Module entries m1..mN running the paper scenario's SOSM case, with `extra` keys ("" or ", key: value").
+std::string sosm_modules(int n, const std::string& extra = "") {
+  std::string out;
+  for (int m = 1; m <= n; ++m) {
+    out += "  - {name: m" + std::to_string(m) + ", scenario: " + kSrc + "/config/scenarios/paper.yaml, case: SOSM" +
+           extra + "}\n";
+  }
+  return out;
+}
+
 bool processes_left(int domain) {
   // The bracket keeps pgrep (and its shell) from matching their own command lines.
   return run("pgrep -f 'tandem-[wrsc][a-z]* .*--domain " + std::to_string(domain) + " '").exit_code == 0;
@@ -116,13 +162,7 @@ TEST_CASE("lockstep over DDS gives the embedded simulation's numbers", "[distrib
   REQUIRE(r.exit_code == 0);
   CHECK_FALSE(processes_left(domain));
 
-  const auto sc = tandem::sim::load_scenario(kSrc + "/config/scenarios/paper.yaml");
-  const tandem::sim::CaseConfig* cc = nullptr;
-  for (const auto& c : sc.cases) {
-    if (c.name == "SOSM") cc = &c;
-  }
-  REQUIRE(cc != nullptr);
-  const tandem::sim::CaseResult e = tandem::sim::run_case(sc, *cc);
+  const tandem::sim::CaseResult& e = embedded_sosm();
   const auto kv = read_summary(summary);
   REQUIRE(kv.count("m1.ticks") == 1);
   CHECK(kv.at("m1.ticks") == 5000);
@@ -197,13 +237,9 @@ TEST_CASE("invalid samples on the wire are rejected and counted, and the run is 
   CHECK(kv.at("m1.slip_events") == 0);
   CHECK(kv.at("m1.contact_lost") == 0);
   // Nothing invalid was applied: the arms computed exactly what the embedded simulation computes.
-  const auto sc = tandem::sim::load_scenario(kSrc + "/config/scenarios/paper.yaml");
-  for (const auto& c : sc.cases) {
-    if (c.name != "SOSM") continue;
-    const tandem::sim::CaseResult e = tandem::sim::run_case(sc, c);
-    CHECK(kv.at("m1/left.ep_pos_rms") == Approx(e.robots[0].ep_pos_rms).epsilon(1e-12));
-    CHECK(kv.at("m1/right.eh_rms") == Approx(e.robots[1].eh_rms).epsilon(1e-12));
-  }
+  const tandem::sim::CaseResult& e = embedded_sosm();
+  CHECK(kv.at("m1/left.ep_pos_rms") == Approx(e.robots[0].ep_pos_rms).epsilon(1e-12));
+  CHECK(kv.at("m1/right.eh_rms") == Approx(e.robots[1].eh_rms).epsilon(1e-12));
   CHECK_FALSE(processes_left(domain));
 }
 
@@ -247,20 +283,7 @@ TEST_CASE("tandem status and tandem down work from another process over DDS", "[
 
 TEST_CASE("a coordinator hands a task queue to four modules, which complete it", "[distributed]") {
   const int domain = test_domain(5);
-  const std::string path = work_dir() + "/four.yaml";
-  {
-    std::ofstream f(path);
-    f << "name: four\ndomain_id: " << domain << "\ntransport: shm\ntiming: lockstep\ntimeout: 20\n"
-      << "coordinator:\n  balance: wear\n  tasks:\n";
-    for (int i = 0; i < 3; ++i) {
-      f << "    - {name: out-" << i << ", segments: [{to: [0.0, 0.8, 0.0], duration: 1.0}]}\n"
-        << "    - {name: back-" << i << ", segments: [{to: [-0.2, 0.8, 0.0], duration: 1.0}]}\n";
-    }
-    f << "modules:\n";
-    for (int m = 1; m <= 4; ++m) {
-      f << "  - {name: m" << m << ", scenario: " << kSrc << "/config/scenarios/paper.yaml, case: SOSM}\n";
-    }
-  }
+  const std::string path = write_task_deployment("four", domain, 3, "  balance: wear\n", sosm_modules(4));
   const std::string summary = work_dir() + "/four.summary";
   const Run r = run(kBin + "/tandem up " + path + " --summary " + summary);
   INFO(r.output);
@@ -287,7 +310,7 @@ TEST_CASE("a coordinator hands a task queue to four modules, which complete it",
 
 TEST_CASE("SIGKILL of a primary robot: its hot standby takes over and nothing changes", "[distributed]") {
   const int domain = test_domain(6);
-  const std::string deploy = write_deployment("standby", domain, "SOSM", "lockstep", 1);
+  const std::string deploy = write_deployment("standby", domain, "SOSM", "lockstep", 1, "", kCrashTransport);
   const std::string summary = work_dir() + "/standby.summary";
   const std::string up_log = work_dir() + "/standby.log";
   const std::string cmd = kBin + "/tandem up " + deploy + " --summary " + summary + " > " + up_log +
@@ -312,14 +335,10 @@ TEST_CASE("SIGKILL of a primary robot: its hot standby takes over and nothing ch
   CHECK(kv.at("m1.failover_max_ms") > 1.0);
   CHECK(kv.at("m1.failover_max_ms") < 5000.0);
   // The standby ran the same controller in shadow on the same inputs: the run is exactly the embedded one.
-  const auto sc = tandem::sim::load_scenario(kSrc + "/config/scenarios/paper.yaml");
-  for (const auto& c : sc.cases) {
-    if (c.name != "SOSM") continue;
-    const tandem::sim::CaseResult e = tandem::sim::run_case(sc, c);
-    CHECK(kv.at("m1/left@50.ep_pos_rms") == Approx(e.robots[0].ep_pos_rms).epsilon(1e-12));
-    CHECK(kv.at("m1/left@50.eh_rms") == Approx(e.robots[0].eh_rms).epsilon(1e-12));
-    CHECK(kv.at("m1.object_final0") == Approx(e.final_state.c(0)).margin(1e-12));
-  }
+  const tandem::sim::CaseResult& e = embedded_sosm();
+  CHECK(kv.at("m1/left@50.ep_pos_rms") == Approx(e.robots[0].ep_pos_rms).epsilon(1e-12));
+  CHECK(kv.at("m1/left@50.eh_rms") == Approx(e.robots[0].eh_rms).epsilon(1e-12));
+  CHECK(kv.at("m1.object_final0") == Approx(e.final_state.c(0)).margin(1e-12));
   CHECK_FALSE(processes_left(domain));
 }
 
@@ -343,7 +362,8 @@ std::string read_file(const std::string& path) {
 TEST_CASE("SIGKILL of the supervisor: its hot standby carries on with the same references", "[distributed]") {
   const int domain = test_domain(13);
   const std::string deploy =
-      write_deployment("supstandby", domain, "SOSM", "lockstep", 0, "    supervisor_standby: 1\n    restart: on-failure\n");
+      write_deployment("supstandby", domain, "SOSM", "lockstep", 0,
+                       "    supervisor_standby: 1\n    restart: on-failure\n", kCrashTransport);
   const std::string summary = work_dir() + "/supstandby.summary", up_log = work_dir() + "/supstandby.log";
   const std::string t = kBin + "/tandem ";
   const std::string cmd = t + "up " + deploy + " --summary " + summary + " > " + up_log + " 2>&1 & up=$!; sleep 1.2; " +
@@ -364,30 +384,16 @@ TEST_CASE("SIGKILL of the supervisor: its hot standby carries on with the same r
   CHECK(kv.at("m1.braked_ticks") == 0);  // the robots never lacked a reference long enough to be braked
   // The standby published the same references all along, and the robots went on with them: the run is
   // exactly the embedded one.
-  const auto sc = tandem::sim::load_scenario(kSrc + "/config/scenarios/paper.yaml");
-  for (const auto& c : sc.cases) {
-    if (c.name != "SOSM") continue;
-    const tandem::sim::CaseResult e = tandem::sim::run_case(sc, c);
-    CHECK(kv.at("m1/left.ep_pos_rms") == Approx(e.robots[0].ep_pos_rms).epsilon(1e-12));
-    CHECK(kv.at("m1/right.eh_rms") == Approx(e.robots[1].eh_rms).epsilon(1e-12));
-    CHECK(kv.at("m1.object_final0") == Approx(e.final_state.c(0)).margin(1e-12));
-  }
+  const tandem::sim::CaseResult& e = embedded_sosm();
+  CHECK(kv.at("m1/left.ep_pos_rms") == Approx(e.robots[0].ep_pos_rms).epsilon(1e-12));
+  CHECK(kv.at("m1/right.eh_rms") == Approx(e.robots[1].eh_rms).epsilon(1e-12));
+  CHECK(kv.at("m1.object_final0") == Approx(e.final_state.c(0)).margin(1e-12));
   CHECK_FALSE(processes_left(domain));
 }
 
 TEST_CASE("the supervisor dies mid-task under a coordinator: the standby finishes the task from the same plan", "[distributed]") {
   const int domain = test_domain(14);
-  const std::string path = work_dir() + "/suptasks.yaml";
-  {
-    std::ofstream f(path);
-    f << "name: suptasks\ndomain_id: " << domain << "\ntransport: shm\ntiming: lockstep\ntimeout: 20\n"
-      << "coordinator:\n  tasks:\n";
-    for (int i = 0; i < 2; ++i) {
-      f << "    - {name: out-" << i << ", segments: [{to: [0.0, 0.8, 0.0], duration: 1.0}]}\n"
-        << "    - {name: back-" << i << ", segments: [{to: [-0.2, 0.8, 0.0], duration: 1.0}]}\n";
-    }
-    f << "modules:\n  - {name: m1, scenario: " << kSrc << "/config/scenarios/paper.yaml, case: SOSM, supervisor_standby: 1}\n";
-  }
+  const std::string path = write_task_deployment("suptasks", domain, 2, "", sosm_modules(1, ", supervisor_standby: 1"), kCrashTransport);
   const std::string summary = work_dir() + "/suptasks.summary", up_log = work_dir() + "/suptasks.log";
   const std::string t = kBin + "/tandem ";
   // Killed while the second task runs: the standby must know that task, where and when it started.
@@ -426,7 +432,8 @@ TEST_CASE("a robot is restarted after a crash, and given up on after the intensi
   // Real time: the run lasts at least its 5 s of simulated time, so both kills land mid-run.
   // Real time, 9 s: long enough for the restarted robot to start, be discovered and answer (1-4 s here).
   const std::string deploy = work_dir() + "/restarts.yaml";
-  std::ofstream(deploy) << "name: restarts\ndomain_id: " << domain << "\ntimeout: 10\ntiming: realtime\nmodules:\n"
+  std::ofstream(deploy) << "name: restarts\ndomain_id: " << domain << "\ntransport: " << kCrashTransport
+                        << "\ntimeout: 10\ntiming: realtime\nmodules:\n"
                         << "  - {name: m1, scenario: " << long_scenario() << ", case: SOSM, restart: on-failure,"
                         << " restart_limit: 1, restart_window: 60}\n";
   const std::string up_log = work_dir() + "/restarts.log";
@@ -547,20 +554,7 @@ TEST_CASE("unplug of a primary with a standby hands the arm over without braking
 
 TEST_CASE("four modules: the coordinator is killed, one module killed and one unplugged, and every task is done once", "[distributed]") {
   const int domain = test_domain(12);
-  const std::string path = work_dir() + "/live4.yaml";
-  {
-    std::ofstream f(path);
-    f << "name: live4\ndomain_id: " << domain << "\ntransport: shm\ntiming: lockstep\ntimeout: 20\n"
-      << "coordinator:\n  standby: 1\n  tasks:\n";
-    for (int i = 0; i < 8; ++i) {
-      f << "    - {name: out-" << i << ", segments: [{to: [0.0, 0.8, 0.0], duration: 1.0}]}\n"
-        << "    - {name: back-" << i << ", segments: [{to: [-0.2, 0.8, 0.0], duration: 1.0}]}\n";
-    }
-    f << "modules:\n";
-    for (int m = 1; m <= 4; ++m) {
-      f << "  - {name: m" << m << ", scenario: " << kSrc << "/config/scenarios/paper.yaml, case: SOSM}\n";
-    }
-  }
+  const std::string path = write_task_deployment("live4", domain, 8, "  standby: 1\n", sosm_modules(4), kCrashTransport);
   const std::string summary = work_dir() + "/live4.summary", up_log = work_dir() + "/live4.log";
   const std::string t = kBin + "/tandem ";
   const std::string cmd = t + "up " + path + " --summary " + summary + " > " + up_log + " 2>&1 & up=$!; " +

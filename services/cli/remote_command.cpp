@@ -133,13 +133,16 @@ int send_request(const char* verb, const Deployment& d, const std::string& targe
   // launcher's reader has matched (supervisors read the same topic, so a match alone proves nothing).
   const auto t0 = std::chrono::steady_clock::now();
   bool launcher_seen = false;
-  while (!launcher_seen && std::chrono::steady_clock::now() - t0 < std::chrono::seconds(4)) {
+  // Up to 10 s: discovery of a new participant took over 4 s now and then while a lockstep deployment kept
+  // both cores busy.
+  while (!launcher_seen && std::chrono::steady_clock::now() - t0 < std::chrono::seconds(10)) {
     status.wait(0.05);
     msg::ProcessStatus s;
     while (status.take(s)) launcher_seen = launcher_seen || (s.deployment() == d.name && s.role() == "launcher");
   }
   if (!launcher_seen || control.matched() < 1) {
-    std::fprintf(stderr, "tandem %s: no launcher of %s on domain %d answered\n", verb, d.name.c_str(), d.domain_id);
+    std::fprintf(stderr, "tandem %s: no launcher of %s on domain %d answered within 10 s\n", verb, d.name.c_str(),
+                 d.domain_id);
     return 1;
   }
   std::this_thread::sleep_for(std::chrono::milliseconds(50));

@@ -66,7 +66,7 @@ int main(int argc, char** argv) {
   model::ArmReference ref;
   struct Slot {
     long tick = -1;
-    int32_t strength = 0;  // of the supervisor that sent it
+    runtime::SupervisorRank rank;  // of the supervisor that sent it
     model::ArmReference ref;
   };
   std::array<Slot, 64> ring{};
@@ -106,16 +106,21 @@ int main(int argc, char** argv) {
       got = true;
       if (r.arm_id() != my_arm) continue;
       if (!runtime::all_finite(r.x()) || !runtime::all_finite(r.xd()) || !runtime::all_finite(r.xdd()) ||
-          !(r.force() >= 0.0 && r.force() < 1e6)) {
+          !(r.force() >= 0.0 && r.force() < 1e6) || !runtime::valid_rank(r.strength(), r.epoch())) {
         ++rejected;
         continue;
       }
       // References arrive up to a tick ahead, and a standby may lag: keep a ring indexed by tick. With
-      // standby supervisors every tick comes more than once: the strongest supervisor's copy stands (they
-      // are equal while the standby follows the active one's plan; a weaker one is there if it died).
+      // standby supervisors every tick comes more than once: the copy of the highest-ranked supervisor
+      // (epoch, then strength) stands. The copies are equal while the standbys follow the leader's plan; a
+      // lower one is there if the leader died, and a stalled former leader's stale copy ranks below the
+      // epoch of the one that took over from it.
       Slot& slot = ring[r.tick() % ring.size()];
-      if (slot.tick == static_cast<long>(r.tick()) && r.strength() < slot.strength) continue;
-      slot.strength = r.strength();
+      const runtime::SupervisorRank rank{r.epoch(), static_cast<int32_t>(r.strength())};
+      if (static_cast<long>(r.tick()) < slot.tick || (slot.tick == static_cast<long>(r.tick()) && slot.rank.outranks(rank))) {
+        continue;  // a late copy of a tick 64 back, or a lower-ranked copy of this tick
+      }
+      slot.rank = rank;
       for (int i = 0; i < 3; ++i) {
         slot.ref.x(i) = r.x()[static_cast<size_t>(i)];
         slot.ref.xd(i) = r.xd()[static_cast<size_t>(i)];

@@ -11,14 +11,17 @@
 // The module's task state goes to the coordinator and the launcher on every change and every 100 ms.
 //
 // Hot standby (--strength below 100): a standby supervisor reads the same samples and publishes the same
-// references, marked with its strength; a robot keeps, per tick, the copy of the strongest supervisor, so
-// when the active one dies the robots go on with the standby's references with no gap. The standby makes the
-// same decisions from the same inputs, and adopts the active supervisor's plan whenever it comes
-// (SupervisorPlan: task, start tick, time-scale retargets, pause and drain flags), so its references are the
-// same to the bit, and within a tick or two if the active one died before its latest plan arrived. When no
-// reference of a stronger supervisor has come for kTakeOverAfter (and kTakeOverTicks) while samples flow, it
-// takes over the duties: task state, tasks from the coordinator, pause/resume/drain, publishing its plan.
-// Should the stronger one show up again (it was only stalled), it steps back.
+// references, marked with its rank (runtime::SupervisorRank: the latest epoch it led, then its strength); a
+// robot keeps, per tick, the copy of the highest-ranked supervisor, so when the leader dies the robots go on
+// with the standby's references with no gap. The standby makes the same decisions from the same inputs
+// (requests, tasks, brakes), and adopts the leader's plan whenever it comes (SupervisorPlan: task, start
+// tick, time-scale retargets, pause and drain flags), so its references are the same to the bit, and within
+// a tick or two if the leader died before its latest plan arrived. When no reference of a higher-ranked
+// supervisor has come for kTakeOverAfter (and kTakeOverTicks) while samples flow, it takes over the duties
+// (task state, tasks from the coordinator, publishing its plan) in a new epoch, one above the highest heard.
+// A leader that was only stalled (stopped, starved of CPU) comes back with its old epoch: it hears the new
+// leader's higher rank, steps down and adopts its plan; its own stale references rank below the new ones, so
+// no robot follows them. After a stall of its own a leader listens before it acts (kStallListen).
 #include <tandemPubSubTypes.h>
 
 #include <algorithm>
@@ -46,7 +49,12 @@ constexpr auto kTakeOverAfter = std::chrono::milliseconds(50);
 constexpr long kTakeOverTicks = 20;
 // Without ever having heard a stronger supervisor (it died before this one matched), this long: longer than
 // discovery takes on a busy machine, so that a standby does not take a primary it has not found yet for dead.
-constexpr auto kTakeOverAlone = std::chrono::milliseconds(3000);
+constexpr auto kTakeOverAlone = std::chrono::milliseconds(6000);
+// A leader whose loop stopped for longer than kStallGap listens to the other supervisors for up to
+// kStallListen before it decides anything: one may have taken over in the meantime.
+constexpr auto kStallGap = std::chrono::milliseconds(25);
+constexpr auto kStallListen = std::chrono::milliseconds(20);
+using Clock = std::chrono::steady_clock;
 
 enum class TaskStateCode : uint8_t { Idle = 0, Running = 1, Done = 2, Paused = 3, Draining = 4, Left = 5 };
 
@@ -95,8 +103,12 @@ class TaskPlan {
   bool import_from(const msg::SupervisorPlan& p) {
     const std::vector<double>& w = p.waypoints();
     if (w.size() % 4 != 0 || !runtime::all_finite(w) || !runtime::all_finite(p.rest()) ||
-        !runtime::all_finite(p.path_start()) || !std::isfinite(p.tau_start())) {
+        !runtime::all_finite(p.path_start()) || !(p.tau_start() >= 0.0 && p.tau_start() < 1e9) ||
+        p.start_tick() < 0 || p.start_tick() >= (1LL << 40) || p.state() > static_cast<uint8_t>(TaskStateCode::Left)) {
       return false;
+    }
+    for (size_t i = 3; i < w.size(); i += 4) {
+      if (!(w[i] > 0.0)) return false;  // a waypoint's duration
     }
     model::TimeScale scale;
     if (!scale.restore(p.breaks())) return false;
@@ -184,16 +196,15 @@ int main(int argc, char** argv) {
                                                                          bus::TopicKind::Control);
   bus::Writer<msg::SupervisorPlan, msg::SupervisorPlanPubSubType> plan_out(part, bus::kSupervisorPlanTopic,
                                                                            bus::TopicKind::Task);
-  // Only a standby listens to the other supervisors (their references: who is alive; their plan).
-  std::optional<bus::Reader<msg::ArmReference, msg::ArmReferencePubSubType>> refs_in;
-  std::optional<bus::Reader<msg::SupervisorPlan, msg::SupervisorPlanPubSubType>> plan_in;
-  if (started_as_standby) {
-    refs_in.emplace(part, bus::module_topic(bus::kReferencesTopic, opt.module), bus::TopicKind::References);
-    plan_in.emplace(part, bus::kSupervisorPlanTopic, bus::TopicKind::Task);
-  }
+  // Every supervisor listens to the others: their references say who leads and that it is alive, their
+  // plans what it decided.
+  bus::Reader<msg::ArmReference, msg::ArmReferencePubSubType> refs_in(part, bus::module_topic(bus::kReferencesTopic, opt.module),
+                                                                      bus::TopicKind::References);
+  bus::Reader<msg::SupervisorPlan, msg::SupervisorPlanPubSubType> plan_in(part, bus::kSupervisorPlanTopic, bus::TopicKind::Task);
   runtime::StatusPublisher status(part, self_id, "supervisor", opt.module);
   status.msg().deployment(opt.deployment);
   bool active = !started_as_standby;
+  runtime::SupervisorRank my_rank{0, opt.strength};
   status.msg().serving(active ? "primary" : "standby");
   status.set(runtime::Lifecycle::Active, opt.continuous ? "waiting for a task" : "publishing references");
 
@@ -269,17 +280,78 @@ int main(int argc, char** argv) {
   msg::ArmReference r;
   r.supervisor_id(self_id);
   r.strength(opt.strength);
+  r.epoch(0);
+  plan_msg.epoch(0);
   msg::ArmReference heard;
   msg::SupervisorPlan adopted;
   msg::TaskAssignment a;
   msg::ControlRequest req;
-  const auto t_start = std::chrono::steady_clock::now();
+  const auto t_start = Clock::now();
   auto last_input = t_start;
-  auto last_stronger = t_start;  // a standby: the latest reference of a stronger supervisor
+  auto last_stronger = t_start;  // the latest reference of a higher-ranked supervisor
   long stronger_tick = -1;       // and the newest tick it published
-  bool heard_stronger = false;
-  std::optional<msg::SupervisorPlan> latest_plan;  // the stronger one's latest plan (adopted while standing by)
-  auto last_published = t_start - std::chrono::hours(1);
+  bool heard_stronger = false, heard_other = false, speaking = true;
+  uint64_t max_epoch = 0;        // the highest epoch heard (a takeover starts the next one)
+  uint64_t followed_epoch = 0;   // epoch of the leader whose plan this one follows
+  std::optional<msg::SupervisorPlan> latest_plan;  // the highest-ranked plan heard (adopted while standing by)
+  auto last_answered = t_start - std::chrono::hours(1);  // the latest sample this one answered (published or not)
+  auto last_loop = t_start;
+  auto rank_of = [](const auto& sample) {
+    return runtime::SupervisorRank{sample.epoch(), static_cast<int32_t>(sample.strength())};
+  };
+  // Adopts the leader's plan; false if the module left with it (this one exits too).
+  auto adopt = [&](const msg::SupervisorPlan& p, bool from_new_leader) {
+    // From the same leader, never back to an older task than this one already started or finished on its
+    // own (its plan may come a little after the assignment); a new leader's plan is the module's plan.
+    if (!from_new_leader && (p.task_id() < plan.task_id() || (p.task_id() == plan.task_id() && p.tasks_done() < plan.done()))) {
+      return true;
+    }
+    if (!plan.import_from(p)) {
+      std::fprintf(stderr, "tandem-supervisor %s: a malformed plan from %s was ignored\n", self_id.c_str(),
+                   p.supervisor_id().c_str());
+      return true;
+    }
+    followed_epoch = p.epoch();
+    pause_requested = p.pause_requested();
+    draining = p.draining();
+    if (p.state() == static_cast<uint8_t>(TaskStateCode::Left)) {
+      std::printf("tandem-supervisor %s: %s drained the module; leaving with it\n", self_id.c_str(), p.supervisor_id().c_str());
+      return false;
+    }
+    return true;
+  };
+  // Reads the other supervisors' references and plans; true if a higher-ranked one spoke. False in `stay`
+  // if this one must leave (the leader drained the module).
+  auto listen = [&](Clock::time_point now, bool& stay) {
+    bool stronger = false;
+    while (refs_in.take(heard)) {
+      if (!runtime::valid_rank(heard.strength(), heard.epoch()) || heard.supervisor_id() == self_id) continue;
+      heard_other = true;
+      max_epoch = std::max(max_epoch, static_cast<uint64_t>(heard.epoch()));
+      if (rank_of(heard).outranks(my_rank)) {
+        stronger = heard_stronger = true;
+        last_stronger = now;
+        stronger_tick = std::max(stronger_tick, static_cast<long>(heard.tick()));
+      }
+    }
+    while (plan_in.take(adopted)) {
+      if (adopted.module_id() != opt.module || !runtime::valid_rank(adopted.strength(), adopted.epoch()) ||
+          adopted.supervisor_id() == self_id) {
+        continue;
+      }
+      max_epoch = std::max(max_epoch, static_cast<uint64_t>(adopted.epoch()));
+      if (!rank_of(adopted).outranks(my_rank)) continue;
+      if (latest_plan && rank_of(*latest_plan).outranks(rank_of(adopted))) continue;  // a stale former leader's
+      latest_plan = adopted;
+      if (!active && !adopt(adopted, adopted.epoch() > followed_epoch)) stay = false;
+    }
+    return stronger;
+  };
+  auto leave = [&] {
+    status.set(runtime::Lifecycle::Finalized, "drained");
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    return 0;
+  };
   auto start_task = [&](const msg::TaskAssignment& t) {
     const long start = std::max(last[0], last[1]) + 1;  // never change a published reference
     plan.assign(t.task_id(), t.waypoints(), start);
@@ -288,6 +360,61 @@ int main(int argc, char** argv) {
   };
   while (!runtime::g_stop && (last[0] + 1 < m.steps || last[1] + 1 < m.steps)) {
     bool got = false;
+    {
+      // Who leads: first of all, so that a leader back from a stall decides nothing before it has heard
+      // whether another took over meanwhile.
+      auto now = Clock::now();
+      bool stay = true;
+      bool stronger = listen(now, stay);
+      if (active && heard_other && now - last_loop > kStallGap) {
+        const auto until = now + kStallListen;
+        while (!stronger && stay && Clock::now() < until) {
+          refs_in.wait(0.002);
+          stronger = listen(Clock::now(), stay);
+        }
+        now = Clock::now();
+      }
+      last_loop = now;
+      if (!stay) return leave();
+      // Quiet: the ticks go on (this one has published kTakeOverTicks past the stronger one's newest) and
+      // nothing has come from the stronger one for kTakeOverAfter. Ticks, not time alone: in lockstep a
+      // world that waits re-publishes the same tick every 50 ms, and both supervisors answer it.
+      const long mine = std::max(last[0], last[1]);
+      const bool flowing = now - last_answered < kTakeOverAfter;
+      const bool quiet = heard_stronger ? (now - last_stronger > kTakeOverAfter && mine - stronger_tick > kTakeOverTicks)
+                                        : (now - t_start > kTakeOverAlone && mine > kTakeOverTicks);
+      if (!active && flowing && quiet) {
+        active = true;
+        my_rank.epoch = max_epoch + 1;
+        max_epoch = my_rank.epoch;
+        r.epoch(my_rank.epoch);
+        plan_msg.epoch(my_rank.epoch);
+        plan_sent_version = ~0ULL;  // publish the plan now, under the new epoch
+        std::printf("tandem-supervisor %s: taking over in epoch %llu (%s) with plan version %llu: task %llu %s, "
+                    "%llu done\n",
+                    self_id.c_str(), static_cast<unsigned long long>(my_rank.epoch),
+                    heard_stronger ? ("no reference from the leader for " +
+                                      std::to_string(std::lround(std::chrono::duration<double, std::milli>(now - last_stronger).count())) + " ms")
+                                         .c_str()
+                                   : "never heard a leader",
+                    static_cast<unsigned long long>(plan.version()), static_cast<unsigned long long>(plan.task_id()),
+                    plan.running() ? "running" : "not running", static_cast<unsigned long long>(plan.done()));
+        std::fflush(stdout);
+        status.msg().serving("primary");
+        reported = TaskStateCode::Idle;
+        publish_state(true);
+      } else if (active && stronger) {
+        // A higher rank leads: a standby that took over in a later epoch while this one was stalled, or a
+        // stronger one of the same epoch. It decides from now on; this one follows its plan.
+        active = false;
+        std::printf("tandem-supervisor %s: stepping down: a higher-ranked supervisor leads%s\n", self_id.c_str(),
+                    latest_plan ? (" (" + latest_plan->supervisor_id() + ", epoch " + std::to_string(latest_plan->epoch()) + ")").c_str() : "");
+        std::fflush(stdout);
+        if (latest_plan && !adopt(*latest_plan, true)) return leave();
+        status.msg().serving("standby");
+        status.publish();
+      }
+    }
     while (control.take(req)) {
       if (req.deployment() != opt.deployment || req.target() != opt.module) continue;
       if (req.command() == "pause") pause_requested = true;
@@ -304,68 +431,15 @@ int main(int argc, char** argv) {
       if (a.module_id() != opt.module || a.task_id() <= plan.task_id() || plan.running() || draining) continue;
       start_task(a);
     }
-    if (started_as_standby) {
-      const auto now = std::chrono::steady_clock::now();
-      while (refs_in->take(heard)) {
-        if (heard.strength() > opt.strength) {
-          last_stronger = now;
-          stronger_tick = std::max(stronger_tick, static_cast<long>(heard.tick()));
-          heard_stronger = true;
-        }
-      }
-      while (plan_in->take(adopted)) {
-        if (adopted.module_id() != opt.module || adopted.strength() <= opt.strength) continue;
-        latest_plan = adopted;
-        if (active) continue;  // kept for when it steps back
-        // Never back to an older task than this one already started or finished on its own.
-        if (adopted.task_id() < plan.task_id() ||
-            (adopted.task_id() == plan.task_id() && adopted.tasks_done() < plan.done())) {
-          continue;
-        }
-        if (!plan.import_from(adopted)) {
-          std::fprintf(stderr, "tandem-supervisor %s: a malformed plan from %s was ignored\n", self_id.c_str(),
-                       adopted.supervisor_id().c_str());
-          continue;
-        }
-        pause_requested = adopted.pause_requested();
-        draining = adopted.draining();
-        if (adopted.state() == static_cast<uint8_t>(TaskStateCode::Left)) {
-          std::printf("tandem-supervisor %s: %s drained the module; leaving with it\n", self_id.c_str(),
-                      adopted.supervisor_id().c_str());
-          status.set(runtime::Lifecycle::Finalized, "drained");
-          std::this_thread::sleep_for(std::chrono::milliseconds(100));
-          return 0;
-        }
-      }
-      // Quiet: the ticks go on (this one has published kTakeOverTicks past the stronger one's newest) and
-      // nothing has come from the stronger one for kTakeOverAfter. Ticks, not time alone: in lockstep a
-      // world that waits re-publishes the same tick every 50 ms, and both supervisors answer it.
-      const long mine = std::max(last[0], last[1]);
-      const bool flowing = now - last_published < kTakeOverAfter;
-      const bool quiet = heard_stronger ? (now - last_stronger > kTakeOverAfter && mine - stronger_tick > kTakeOverTicks)
-                                        : (now - t_start > kTakeOverAlone && mine > kTakeOverTicks);
-      if (!active && flowing && quiet) {
-        active = true;
-        std::printf("tandem-supervisor %s: taking over (no reference from a stronger supervisor for %.0f ms) with "
-                    "plan version %llu: task %llu %s, %llu done\n",
-                    self_id.c_str(), std::chrono::duration<double, std::milli>(now - last_stronger).count(),
-                    static_cast<unsigned long long>(plan.version()), static_cast<unsigned long long>(plan.task_id()),
-                    plan.running() ? "running" : "not running", static_cast<unsigned long long>(plan.done()));
-        std::fflush(stdout);
-        status.msg().serving("primary");
-        reported = TaskStateCode::Idle;
-        publish_state(true);
-      } else if (active && !quiet) {
-        active = false;  // the stronger one was only stalled: it decides again, and this one follows its plan
-        if (latest_plan && plan.import_from(*latest_plan)) {
-          pause_requested = latest_plan->pause_requested();
-          draining = latest_plan->draining();
-        }
-        std::printf("tandem-supervisor %s: a stronger supervisor is back; standing by again\n", self_id.c_str());
-        std::fflush(stdout);
-        status.msg().serving("standby");
-        status.publish();
-      }
+    // A standby publishes only while it follows the current leader's plan: one that has heard of a newer
+    // epoch than the plan it follows (a former leader back from a stall) is silent until that plan comes.
+    const bool speak = active || followed_epoch >= max_epoch;
+    if (speak != speaking) {
+      speaking = speak;
+      std::printf("tandem-supervisor %s: %s\n", self_id.c_str(),
+                  speak ? "following the leader's plan; publishing references again"
+                        : "silent until the new leader's plan arrives (its references are ahead of this one's plan)");
+      std::fflush(stdout);
     }
     while (sensors.take(s)) {
       got = true;
@@ -401,10 +475,10 @@ int main(int argc, char** argv) {
           r.xdd()[static_cast<size_t>(i)] = ref.xdd(i);
         }
         r.force(ref.force);
-        refs.write(r);
+        if (speak) refs.write(r);
         last[static_cast<size_t>(j)] = std::max(last[static_cast<size_t>(j)], kk);
       }
-      last_published = std::chrono::steady_clock::now();
+      last_answered = Clock::now();
       if (opt.continuous && plan.finish_if_done(std::min(last[0], last[1]))) publish_state(true);
     }
     publish_state(false);
@@ -414,7 +488,7 @@ int main(int argc, char** argv) {
       std::this_thread::sleep_for(std::chrono::milliseconds(300));  // let the state reach the coordinator
       return 0;
     }
-    const auto now = std::chrono::steady_clock::now();
+    const auto now = Clock::now();
     if (got) last_input = now;
     if (std::chrono::duration<double>(now - last_input).count() > opt.timeout) {
       std::fprintf(stderr, "tandem-supervisor %s: no sensor sample for %.1f s; stopping\n", opt.module.c_str(),

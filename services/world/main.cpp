@@ -96,7 +96,7 @@ int main(int argc, char** argv) {
   // Supervisor references, to measure each arm's tracking error |x_d - x| as the world sees it.
   struct RefSlot {
     long tick = -1;
-    int32_t strength = 0;
+    runtime::SupervisorRank rank;
     model::Vec2 x = model::Vec2::Zero();
   };
   std::array<std::array<RefSlot, 64>, 2> ref_ring{};
@@ -147,11 +147,14 @@ int main(int argc, char** argv) {
     // Tracking error as the world sees it, and the windows after owner switches.
     while (refs.take(ref_in)) {
       const int j = ctx.arm_index(ref_in.arm_id());
-      if (j < 0 || !runtime::all_finite(ref_in.x())) continue;
+      if (j < 0 || !runtime::all_finite(ref_in.x()) || !runtime::valid_rank(ref_in.strength(), ref_in.epoch())) continue;
       RefSlot& slot = ref_ring[static_cast<size_t>(j)][ref_in.tick() % 64];
-      if (slot.tick == static_cast<long>(ref_in.tick()) && ref_in.strength() < slot.strength) continue;  // as robots
+      const runtime::SupervisorRank rank{ref_in.epoch(), static_cast<int32_t>(ref_in.strength())};
+      if (static_cast<long>(ref_in.tick()) < slot.tick || (slot.tick == static_cast<long>(ref_in.tick()) && slot.rank.outranks(rank))) {
+        continue;  // as robots
+      }
       slot.tick = static_cast<long>(ref_in.tick());
-      slot.strength = ref_in.strength();
+      slot.rank = rank;
       slot.x = model::Vec2(ref_in.x()[0], ref_in.x()[1]);
     }
     TickRecord& rec = history[static_cast<size_t>(k) % kHistory];

@@ -4,7 +4,8 @@ namespace tandem::dds {
 namespace fdds = eprosima::fastdds::dds;
 
 namespace {
-// Per-tick topics: reliable (lockstep must not lose a tick), keep-last 32 (a reader that is one or two
+// Per-tick topics: reliable (lockstep must not lose a tick), keep-last 32 (references 128: one copy per
+// supervisor) (a reader that is one or two
 // ticks behind still gets everything; nothing older matters), volatile (a late joiner starts from the next
 // tick). Summaries and status: reliable, transient-local, keep-last 1 per key, so a launcher or a
 // `tandem status` that looks late still sees the latest value; the same for task assignments and task
@@ -17,6 +18,9 @@ void apply(Q& q, TopicKind kind) {
   if (kind == TopicKind::Summary || kind == TopicKind::Status || kind == TopicKind::Task) {
     q.history().depth = 1;
     q.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
+  } else if (kind == TopicKind::References) {
+    q.history().depth = 128;  // every tick comes once per supervisor (a leader and up to three standbys)
+    q.durability().kind = fdds::VOLATILE_DURABILITY_QOS;
   } else {
     q.history().depth = 32;
     q.durability().kind = fdds::VOLATILE_DURABILITY_QOS;

@@ -66,7 +66,8 @@ bool TimeScale::restore(const std::vector<double>& flat) {
       if (!std::isfinite(flat[j])) return false;
     }
     const Break b{flat[i], flat[i + 1], flat[i + 2], flat[i + 3], flat[i + 4]};
-    if (b.ramp < 0.0 || (!next.empty() && b.t0 < next.back().t0)) return false;
+    const bool rate_ok = b.r0 >= 0.0 && b.r0 <= 1.0 && b.r1 >= 0.0 && b.r1 <= 1.0;  // paused .. normal speed
+    if (!rate_ok || b.ramp < 0.0 || b.t0 < 0.0 || b.tau0 < 0.0 || (!next.empty() && b.t0 < next.back().t0)) return false;
     next.push_back(b);
   }
   breaks_ = std::move(next);

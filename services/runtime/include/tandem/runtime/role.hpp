@@ -4,6 +4,7 @@
 #pragma once
 
 #include <atomic>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -55,6 +56,20 @@ bool start_role(const char* role, int argc, char** argv, bool needs_arm, RoleOpt
 /// Set by SIGINT/SIGTERM.
 extern std::atomic<bool> g_stop;
 void install_stop_handlers();
+
+/// Rank of a supervisor and of what it publishes: the latest epoch it led (0 until it first takes over; a
+/// takeover starts the epoch after the highest one heard), then its strength. The highest rank leads: a
+/// supervisor that was only stalled comes back with its old epoch, below the one that took over from it.
+struct SupervisorRank {
+  uint64_t epoch = 0;
+  int32_t strength = 0;
+  bool outranks(const SupervisorRank& o) const { return epoch != o.epoch ? epoch > o.epoch : strength > o.strength; }
+};
+
+/// A supervisor strength on the wire is in [1, RoleOptions::kPrimaryStrength]; an epoch below 2^32.
+inline bool valid_rank(int64_t strength, uint64_t epoch) {
+  return strength >= 1 && strength <= RoleOptions::kPrimaryStrength && epoch < (1ULL << 32);
+}
 
 /// True if every value is finite.
 template <class Array>

@@ -65,6 +65,7 @@ struct Child {
   int status = -1;                 ///< exit code once reaped (128 + signal if killed)
   bool expected = false;           ///< its exit is no failure (unplugged, drained, module stopped, restarted)
   bool handled = false;            ///< its exit has been dealt with
+  Clock::time_point term_at{};     ///< when it was asked to stop alone (SIGTERM); SIGKILL 5 s later
 };
 
 struct ModuleRun {
@@ -72,6 +73,7 @@ struct ModuleRun {
   std::vector<std::string> robots;  ///< robot names of its scenario
   double h_sg = 0.0;
   bool started = false;
+  bool task_over = false;            ///< its world finished the scenario's task: nothing is restarted
   std::string end;                   ///< "", "failed: ...", "unplugged"
   bool paused_for_unplug = false;    ///< a pause was asked for an unplug without standby: resume on plug
 };
@@ -416,7 +418,7 @@ class Launcher {
       // follows the next strongest at once (a standby computes in shadow: no transient).
       say(true, "unplugging %s: another robot serves %s, handing over\n", c->label.c_str(), c->arm.c_str());
       c->expected = true;
-      ::kill(c->pid, SIGTERM);
+      terminate(*c);
       return;
     }
     // The only robot of its arm: pause the module (object brought to rest), then let the robot go; the world
@@ -455,7 +457,7 @@ class Launcher {
       if (!paused) std::printf("tandem up: %s did not report paused within 5 s; unplugging %s anyway (the brakes hold the arm)\n", it->module.c_str(), c->label.c_str());
       std::printf("tandem up: %s paused; %s leaves, its arm is braked until a robot is plugged in\n",
                   it->module.c_str(), c->label.c_str());
-      ::kill(c->pid, SIGTERM);
+      terminate(*c);
       it = pending_unplugs_.erase(it);
     }
     for (auto it = world_done_.begin(); it != world_done_.end();) {
@@ -467,9 +469,17 @@ class Launcher {
         if (c.module != it->first || !c.running) continue;
         std::printf("tandem up: %s is still waiting after its module's task ended; stopping it\n", c.label.c_str());
         c.expected = true;
-        ::kill(c.pid, SIGTERM);
+        terminate(c);
       }
       it = world_done_.erase(it);
+    }
+    // A process asked to stop alone that is still there after 5 s (hung, or stopped by a signal).
+    for (auto& c : children_) {
+      if (c.running && c.term_at != Clock::time_point{} && Clock::now() - c.term_at > std::chrono::seconds(5)) {
+        std::printf("tandem up: %s did not stop within 5 s of SIGTERM; sending SIGKILL\n", c.label.c_str());
+        ::kill(c.pid, SIGKILL);
+        c.term_at = Clock::time_point{};
+      }
     }
     for (auto it = pending_restarts_.begin(); it != pending_restarts_.end();) {
       if (stopping_ || Clock::now() < it->when) {
@@ -478,6 +488,11 @@ class Launcher {
       }
       Child c = it->child;
       it = pending_restarts_.erase(it);
+      if (!c.module.empty() && (modules_.at(c.module).task_over || !modules_.at(c.module).end.empty())) {
+        std::printf("tandem up: not restarting %s: module %s is %s\n", c.label.c_str(), c.module.c_str(),
+                    modules_.at(c.module).task_over ? "done with its task" : "stopped");
+        continue;
+      }
       if (c.role == "robot") {
         int strength = c.strength;
         if (strength != runtime::RoleOptions::kPrimaryStrength || primary_of(c.arm) != nullptr) {
@@ -569,7 +584,10 @@ class Launcher {
     if (c.status == 0 && !d_.coordinator) {
       // The module's task is over. Its processes end by themselves, but for one that joined late (a restarted
       // standby) and waits for ticks that will not come: stopped after a grace for the summaries.
-      if (c.role == "world") world_done_[c.module] = Clock::now();
+      if (c.role == "world") {
+        world_done_[c.module] = Clock::now();
+        mr.task_over = true;
+      }
       return;
     }
     if (d_.coordinator) {
@@ -611,7 +629,7 @@ class Launcher {
     for (auto& c : children_) {
       if (c.module != module) continue;
       c.expected = true;
-      if (c.running) ::kill(c.pid, SIGTERM);
+      if (c.running) terminate(c);
     }
     pending_unplugs_.erase(std::remove_if(pending_unplugs_.begin(), pending_unplugs_.end(),
                                           [&](const auto& u) { return u.module == module; }),
@@ -622,6 +640,24 @@ class Launcher {
     std::fprintf(stderr, "tandem up: %s; stopping the deployment\n", why.c_str());
     failed_ = true;
     stop_all(SIGTERM);
+  }
+
+  /// Asks one process to stop (SIGTERM); poll() sends SIGKILL if it is still there 5 s later.
+  void terminate(Child& c) {
+    if (!c.running || c.pid <= 0) return;
+    ::kill(c.pid, SIGTERM);
+    if (c.term_at == Clock::time_point{}) c.term_at = Clock::now();
+  }
+
+  /// The answer to a request that came while the deployment stops: nothing is carried out.
+  void refuse_while_stopping(const msg::ControlRequest& req) {
+    if (req.seq() != 0 && !handled_seqs_.insert(req.seq()).second) return;
+    current_seq_ = req.seq();
+    if (req.command() == "down") {
+      say(true, "'down' requested over DDS; the deployment is already stopping\n");
+    } else {
+      say(false, "'%s %s' refused: the deployment is stopping\n", req.command().c_str(), req.target().c_str());
+    }
   }
 
   void stop_all(int sig) {
@@ -898,8 +934,12 @@ int up_command(const std::vector<std::string>& args) {
     while (status.take(ps)) view.update(ps);
     msg::ControlRequest req;
     while (control.take(req)) {
-      if (L.stopping_ || req.deployment() != d.name) continue;
-      L.handle(req);
+      if (req.deployment() != d.name) continue;
+      if (L.stopping_) {
+        L.refuse_while_stopping(req);
+      } else {
+        L.handle(req);
+      }
       if (L.reply_seq_ == req.seq() && !L.reply_.empty()) {  // the answer the sender waits for
         launcher_status.msg().detail("reply " + std::to_string(req.seq()) + (L.reply_ok_ ? " ok: " : " error: ") + L.reply_);
         launcher_status.publish();

@@ -43,8 +43,8 @@ constexpr double kPauseRamp = 0.3;   // requested pause / resume [s]
 constexpr double kBrakeRamp = 0.02;  // an arm braked: stop the path now [s]
 constexpr long kReleaseSettleTicks = 200;  // both arms controlled again for this long before resuming
 // A standby takes over when no reference of a stronger supervisor has come for this long while it publishes
-// its own (samples flow). Longer than a scheduler stall of the active one is likely to be (it steps back
-// if that is what it was); the robots do not wait for it: they already have the standby's references.
+// its own (samples flow). Longer than a scheduler stall of the leader is likely to be (the leader steps
+// down if that is what it was); the robots do not wait for it: they already have the standby's references.
 constexpr auto kTakeOverAfter = std::chrono::milliseconds(50);
 constexpr long kTakeOverTicks = 20;
 // Without ever having heard a stronger supervisor (it died before this one matched), this long: longer than

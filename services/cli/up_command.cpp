@@ -164,6 +164,7 @@ class Launcher {
     const auto& m = mr.cfg;
     mr.started = true;
     mr.end.clear();
+    mr.task_over = false;
     Child w;
     w.label = m.name + "/world";
     w.role = "world";
@@ -488,9 +489,8 @@ class Launcher {
       }
       Child c = it->child;
       it = pending_restarts_.erase(it);
-      if (!c.module.empty() && (modules_.at(c.module).task_over || !modules_.at(c.module).end.empty())) {
-        std::printf("tandem up: not restarting %s: module %s is %s\n", c.label.c_str(), c.module.c_str(),
-                    modules_.at(c.module).task_over ? "done with its task" : "stopped");
+      if (!c.module.empty() && modules_.at(c.module).task_over) {
+        std::printf("tandem up: not restarting %s: module %s is done with its task\n", c.label.c_str(), c.module.c_str());
         continue;
       }
       if (c.role == "robot") {
@@ -634,6 +634,15 @@ class Launcher {
     pending_unplugs_.erase(std::remove_if(pending_unplugs_.begin(), pending_unplugs_.end(),
                                           [&](const auto& u) { return u.module == module; }),
                            pending_unplugs_.end());
+    // Restarts still pending for it are dropped (a module plugged in again starts afresh).
+    const size_t before = pending_restarts_.size();
+    pending_restarts_.erase(std::remove_if(pending_restarts_.begin(), pending_restarts_.end(),
+                                           [&](const auto& r) { return r.child.module == module; }),
+                            pending_restarts_.end());
+    if (pending_restarts_.size() != before) {
+      std::printf("tandem up: %zu pending restart(s) of module %s dropped: it was stopped\n",
+                  before - pending_restarts_.size(), module.c_str());
+    }
   }
 
   void fail(const std::string& why) {
@@ -651,6 +660,8 @@ class Launcher {
 
   /// The answer to a request that came while the deployment stops: nothing is carried out.
   void refuse_while_stopping(const msg::ControlRequest& req) {
+    const std::string& cmd = req.command();
+    if (cmd == "pause" || cmd == "resume" || cmd == "drain") return;  // the launcher's own, to supervisors
     if (req.seq() != 0 && !handled_seqs_.insert(req.seq()).second) return;
     current_seq_ = req.seq();
     if (req.command() == "down") {

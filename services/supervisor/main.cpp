@@ -21,7 +21,8 @@
 // (task state, tasks from the coordinator, publishing its plan) in a new epoch, one above the highest heard.
 // A leader that was only stalled (stopped, starved of CPU) comes back with its old epoch: it hears the new
 // leader's higher rank, steps down and adopts its plan; its own stale references rank below the new ones, so
-// no robot follows them. After a stall of its own a leader listens before it acts (kStallListen).
+// no robot follows them. A leader that finds the world kTakeOverTicks past its own last answer (it was
+// stalled, and a standby may have taken over) publishes nothing until it has heard the others at that tick.
 #include <tandemPubSubTypes.h>
 
 #include <algorithm>
@@ -50,10 +51,13 @@ constexpr long kTakeOverTicks = 20;
 // Without ever having heard a stronger supervisor (it died before this one matched), this long: longer than
 // discovery takes on a busy machine, so that a standby does not take a primary it has not found yet for dead.
 constexpr auto kTakeOverAlone = std::chrono::milliseconds(6000);
-// A leader whose loop stopped for longer than kStallGap listens to the other supervisors for up to
-// kStallListen before it decides anything: one may have taken over in the meantime.
-constexpr auto kStallGap = std::chrono::milliseconds(25);
-constexpr auto kStallListen = std::chrono::milliseconds(20);
+// A leader that sees a sample kTakeOverTicks past its own last answer while other supervisors are about
+// (one published a tick within kOthersRecentTicks of its own last answer: ticks, not wall time, which a
+// stall distorts) was stalled: one may have taken over. It answers nothing and decides nothing until it
+// has heard another supervisor's reference of that tick or later (or kSuspectMax has passed: the others
+// are gone), then steps down if that one outranks it, else leads on.
+constexpr long kOthersRecentTicks = 100;
+constexpr auto kSuspectMax = std::chrono::milliseconds(200);
 using Clock = std::chrono::steady_clock;
 
 enum class TaskStateCode : uint8_t { Idle = 0, Running = 1, Done = 2, Paused = 3, Draining = 4, Left = 5 };
@@ -292,10 +296,13 @@ int main(int argc, char** argv) {
   long stronger_tick = -1;       // and the newest tick it published
   bool heard_stronger = false, heard_other = false, speaking = true;
   uint64_t max_epoch = 0;        // the highest epoch heard (a takeover starts the next one)
-  uint64_t followed_epoch = 0;   // epoch of the leader whose plan this one follows
+  // Rank of the leader whose plan this one follows: at first the primary (epoch 0, strength 100); only grows.
+  runtime::SupervisorRank followed{0, runtime::RoleOptions::kPrimaryStrength};
   std::optional<msg::SupervisorPlan> latest_plan;  // the highest-ranked plan heard (adopted while standing by)
   auto last_answered = t_start - std::chrono::hours(1);  // the latest sample this one answered (published or not)
-  auto last_loop = t_start;
+  long suspect_from = -1;  // a leader back from a stall: the tick it saw (-1: none), and since when
+  auto suspect_since = t_start;
+  long others_newest = -1;  // the newest tick another supervisor published
   auto rank_of = [](const auto& sample) {
     return runtime::SupervisorRank{sample.epoch(), static_cast<int32_t>(sample.strength())};
   };
@@ -311,7 +318,7 @@ int main(int argc, char** argv) {
                    p.supervisor_id().c_str());
       return true;
     }
-    followed_epoch = p.epoch();
+    if (rank_of(p).outranks(followed)) followed = rank_of(p);
     pause_requested = p.pause_requested();
     draining = p.draining();
     if (p.state() == static_cast<uint8_t>(TaskStateCode::Left)) {
@@ -327,6 +334,7 @@ int main(int argc, char** argv) {
     while (refs_in.take(heard)) {
       if (!runtime::valid_rank(heard.strength(), heard.epoch()) || heard.supervisor_id() == self_id) continue;
       heard_other = true;
+      others_newest = std::max(others_newest, static_cast<long>(heard.tick()));
       max_epoch = std::max(max_epoch, static_cast<uint64_t>(heard.epoch()));
       if (rank_of(heard).outranks(my_rank)) {
         stronger = heard_stronger = true;
@@ -340,10 +348,12 @@ int main(int argc, char** argv) {
         continue;
       }
       max_epoch = std::max(max_epoch, static_cast<uint64_t>(adopted.epoch()));
-      if (!rank_of(adopted).outranks(my_rank)) continue;
-      if (latest_plan && rank_of(*latest_plan).outranks(rank_of(adopted))) continue;  // a stale former leader's
+      const runtime::SupervisorRank rank = rank_of(adopted);
+      if (!rank.outranks(my_rank) || followed.outranks(rank)) continue;  // below this one, or a former leader's
+      if (latest_plan && rank_of(*latest_plan).outranks(rank)) continue;
       latest_plan = adopted;
-      if (!active && !adopt(adopted, adopted.epoch() > followed_epoch)) stay = false;
+      stronger = true;  // a leader that hears a higher-ranked plan steps down, references or not
+      if (!active && !adopt(adopted, rank.outranks(followed))) stay = false;
     }
     return stronger;
   };
@@ -363,19 +373,16 @@ int main(int argc, char** argv) {
     {
       // Who leads: first of all, so that a leader back from a stall decides nothing before it has heard
       // whether another took over meanwhile.
-      auto now = Clock::now();
+      const auto now = Clock::now();
       bool stay = true;
-      bool stronger = listen(now, stay);
-      if (active && heard_other && now - last_loop > kStallGap) {
-        const auto until = now + kStallListen;
-        while (!stronger && stay && Clock::now() < until) {
-          refs_in.wait(0.002);
-          stronger = listen(Clock::now(), stay);
-        }
-        now = Clock::now();
-      }
-      last_loop = now;
+      const bool stronger = listen(now, stay);
       if (!stay) return leave();
+      if (suspect_from >= 0 && !stronger && (others_newest >= suspect_from || now - suspect_since > kSuspectMax)) {
+        std::printf("tandem-supervisor %s: %s; leading on\n", self_id.c_str(),
+                    others_newest >= suspect_from ? "no other supervisor took over" : "no other supervisor heard");
+        std::fflush(stdout);
+        suspect_from = -1;
+      }
       // Quiet: the ticks go on (this one has published kTakeOverTicks past the stronger one's newest) and
       // nothing has come from the stronger one for kTakeOverAfter. Ticks, not time alone: in lockstep a
       // world that waits re-publishes the same tick every 50 ms, and both supervisors answer it.
@@ -390,6 +397,7 @@ int main(int argc, char** argv) {
         r.epoch(my_rank.epoch);
         plan_msg.epoch(my_rank.epoch);
         plan_sent_version = ~0ULL;  // publish the plan now, under the new epoch
+        latest_plan.reset();        // plans of the former leaders: never to be adopted again
         std::printf("tandem-supervisor %s: taking over in epoch %llu (%s) with plan version %llu: task %llu %s, "
                     "%llu done\n",
                     self_id.c_str(), static_cast<unsigned long long>(my_rank.epoch),
@@ -407,10 +415,12 @@ int main(int argc, char** argv) {
         // A higher rank leads: a standby that took over in a later epoch while this one was stalled, or a
         // stronger one of the same epoch. It decides from now on; this one follows its plan.
         active = false;
+        suspect_from = -1;
         std::printf("tandem-supervisor %s: stepping down: a higher-ranked supervisor leads%s\n", self_id.c_str(),
                     latest_plan ? (" (" + latest_plan->supervisor_id() + ", epoch " + std::to_string(latest_plan->epoch()) + ")").c_str() : "");
         std::fflush(stdout);
-        if (latest_plan && !adopt(*latest_plan, true)) return leave();
+        // Adopt the new leader's plan if it is here already (else silent until it comes, see `speak`).
+        if (latest_plan && latest_plan->epoch() >= max_epoch && !adopt(*latest_plan, true)) return leave();
         status.msg().serving("standby");
         status.publish();
       }
@@ -425,15 +435,16 @@ int main(int argc, char** argv) {
         std::fflush(stdout);
       }
     }
-    while (opt.continuous && assignments.take(a)) {
+    while (opt.continuous && suspect_from < 0 && assignments.take(a)) {
       // A standby starts the task too, at the tick the active one will most likely choose: should the
       // active one die before its plan arrives, the standby's path differs by a tick or two at most.
       if (a.module_id() != opt.module || a.task_id() <= plan.task_id() || plan.running() || draining) continue;
       start_task(a);
     }
     // A standby publishes only while it follows the current leader's plan: one that has heard of a newer
-    // epoch than the plan it follows (a former leader back from a stall) is silent until that plan comes.
-    const bool speak = active || followed_epoch >= max_epoch;
+    // epoch than the plan it follows (a former leader back from a stall) is silent until that plan comes,
+    // or until that leader too has gone quiet (then this one's ticks must flow for it to take over).
+    const bool speak = active || followed.epoch >= max_epoch || (heard_stronger && Clock::now() - last_stronger > kTakeOverAfter);
     if (speak != speaking) {
       speaking = speak;
       std::printf("tandem-supervisor %s: %s\n", self_id.c_str(),
@@ -447,6 +458,17 @@ int main(int argc, char** argv) {
       if (j < 0) continue;  // another module's arm
       braked[static_cast<size_t>(j)] = s.braked();
       if (braked[0] || braked[1]) last_braked_tick = static_cast<long>(s.tick());
+      const long answered = std::max(last[0], last[1]);
+      if (active && suspect_from < 0 && answered >= 0 && static_cast<long>(s.tick()) > answered + kTakeOverTicks &&
+          others_newest >= 0 && answered - others_newest < kOthersRecentTicks) {
+        suspect_from = static_cast<long>(s.tick());
+        suspect_since = Clock::now();
+        std::printf("tandem-supervisor %s: the world is at tick %ld, %ld past this one's last answer (it was stalled); "
+                    "silent until it hears whether another supervisor took over\n",
+                    self_id.c_str(), suspect_from, suspect_from - answered);
+        std::fflush(stdout);
+      }
+      if (suspect_from >= 0) continue;  // the others answer this tick
       // Pause while an arm is braked or a pause is asked for; the change applies from the first tick not
       // yet published, so a published reference never changes. (A standby decides the same from the same
       // samples; the active one's plan, when it comes, overrides.)
@@ -481,7 +503,7 @@ int main(int argc, char** argv) {
       last_answered = Clock::now();
       if (opt.continuous && plan.finish_if_done(std::min(last[0], last[1]))) publish_state(true);
     }
-    publish_state(false);
+    if (suspect_from < 0) publish_state(false);
     if (active && reported == TaskStateCode::Left) {
       std::printf("tandem-supervisor %s: drained; the module leaves\n", opt.module.c_str());
       status.set(runtime::Lifecycle::Finalized, "drained");

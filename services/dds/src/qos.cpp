@@ -4,9 +4,9 @@ namespace tandem::dds {
 namespace fdds = eprosima::fastdds::dds;
 
 namespace {
-// Per-tick topics: reliable (lockstep must not lose a tick), keep-last 32 (references 128: one copy per
-// supervisor) (a reader that is one or two
-// ticks behind still gets everything; nothing older matters), volatile (a late joiner starts from the next
+// Per-tick topics: reliable (lockstep must not lose a tick), keep-last 32 (a reader that is one or two
+// ticks behind still gets everything; nothing older matters; references 128, as every supervisor of the
+// module, up to four, sends every tick once: 32 ticks each), volatile (a late joiner starts from the next
 // tick). Summaries and status: reliable, transient-local, keep-last 1 per key, so a launcher or a
 // `tandem status` that looks late still sees the latest value; the same for task assignments and task
 // states, so a supervisor that (re)joins gets its module's current task. Control requests: reliable, keep-last 32,

@@ -60,6 +60,7 @@ void install_stop_handlers();
 /// Rank of a supervisor and of what it publishes: the latest epoch it led (0 until it first takes over; a
 /// takeover starts the epoch after the highest one heard), then its strength. The highest rank leads: a
 /// supervisor that was only stalled comes back with its old epoch, below the one that took over from it.
+/// docs/architecture.md, Hot standby (supervisors).
 struct SupervisorRank {
   uint64_t epoch = 0;
   int32_t strength = 0;

@@ -483,16 +483,18 @@ class Launcher {
       }
     }
     for (auto it = pending_restarts_.begin(); it != pending_restarts_.end();) {
+      if (!it->child.module.empty() && modules_.at(it->child.module).task_over) {  // at once, not when due
+        std::printf("tandem up: not restarting %s: module %s is done with its task\n", it->child.label.c_str(),
+                    it->child.module.c_str());
+        it = pending_restarts_.erase(it);
+        continue;
+      }
       if (stopping_ || Clock::now() < it->when) {
         ++it;
         continue;
       }
       Child c = it->child;
       it = pending_restarts_.erase(it);
-      if (!c.module.empty() && modules_.at(c.module).task_over) {
-        std::printf("tandem up: not restarting %s: module %s is done with its task\n", c.label.c_str(), c.module.c_str());
-        continue;
-      }
       if (c.role == "robot") {
         int strength = c.strength;
         if (strength != runtime::RoleOptions::kPrimaryStrength || primary_of(c.arm) != nullptr) {

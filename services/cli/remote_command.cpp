@@ -135,7 +135,9 @@ int send_request(const char* verb, const Deployment& d, const std::string& targe
   bool launcher_seen = false;
   // Up to 10 s: discovery of a new participant took over 4 s now and then while a lockstep deployment kept
   // both cores busy.
-  while (!launcher_seen && std::chrono::steady_clock::now() - t0 < std::chrono::seconds(10)) {
+  // The launcher's status can arrive before this writer has matched a reader of the control topic: wait for
+  // both (a request written before any match is lost; later ones are re-sent until answered).
+  while ((!launcher_seen || control.matched() < 1) && std::chrono::steady_clock::now() - t0 < std::chrono::seconds(10)) {
     status.wait(0.05);
     msg::ProcessStatus s;
     while (status.take(s)) launcher_seen = launcher_seen || (s.deployment() == d.name && s.role() == "launcher");

@@ -620,6 +620,37 @@ TEST_CASE("unplug of a primary with a standby hands the arm over without braking
   CHECK_FALSE(processes_left(domain));
 }
 
+TEST_CASE("tandem down with a robot that cannot stop: the launcher SIGKILLs it 5 s after SIGTERM and leaves nothing", "[distributed]") {
+  const int domain = test_domain(17);
+  const std::string deploy = write_deployment("stuck", domain, "SOSM", "realtime", 0, "", kCrashTransport);
+  const std::string up_log = work_dir() + "/stuck.log";
+  const std::string t = kBin + "/tandem ";
+  // SIGSTOP the right robot (a stopped process cannot act on SIGTERM), then ask for a clean stop. Whatever
+  // happens, the stopped robot is woken and killed at the end so that no test leaves it behind.
+  const std::string cmd = t + "up " + deploy + " > " + up_log + " 2>&1 & up=$!; sleep 1.5; " +
+                          "pid=$(pgrep -f \"tandem-[r]obot .*--domain " + std::to_string(domain) +
+                          " .*--arm right\"); echo pid=$pid; kill -STOP $pid; sleep 0.3; " +
+                          "t0=$(date +%s%N); " + t + "down " + deploy + "; echo down_rc=$?; wait $up; echo up_rc=$?; " +
+                          "echo took_ms=$(( ($(date +%s%N) - t0) / 1000000 )); " +
+                          "if kill -0 $pid 2>/dev/null; then echo robot_left; kill -CONT $pid; kill -KILL $pid; fi";
+  const Run r = run("bash -c '" + cmd + "'");
+  const std::string log = read_file(up_log);
+  INFO(r.output << "\n--- tandem up ---\n" << log);
+  REQUIRE(r.output.find("pid=\n") == std::string::npos);  // the robot was found and stopped
+  CHECK(r.output.find("down_rc=0") != std::string::npos);
+  CHECK(r.output.find("up_rc=1") != std::string::npos);  // stopped before its task was done
+  CHECK(log.find("1 process(es) did not stop within 5 s; sending SIGKILL") != std::string::npos);
+  CHECK(log.find("result: STOPPED") != std::string::npos);
+  CHECK(r.output.find("robot_left") == std::string::npos);
+  // The escalation waits its 5 s, and not much more.
+  const auto at = r.output.find("took_ms=");
+  REQUIRE(at != std::string::npos);
+  const long took = std::stol(r.output.substr(at + 8));
+  CHECK(took >= 4500);
+  CHECK(took < 12000);
+  CHECK_FALSE(processes_left(domain));
+}
+
 TEST_CASE("four modules: the coordinator is killed, one module killed and one unplugged, and every task is done once", "[distributed]") {
   const int domain = test_domain(12);
   const std::string path = write_task_deployment("live4", domain, 8, "  standby: 1\n", sosm_modules(4), kCrashTransport);

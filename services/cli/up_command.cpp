@@ -770,6 +770,7 @@ class Launcher {
   int coordinator_restarts_ = 0;
   unsigned long long seq_ = 0;
   std::set<unsigned long long> handled_seqs_;
+  std::map<unsigned long long, std::string> answers_;  ///< seq -> " ok: text" / " error: text", the newest 256
   std::string reply_;  ///< the outcome of the latest live command
   bool reply_ok_ = false;
   unsigned long long reply_seq_ = 0, current_seq_ = 0;
@@ -953,8 +954,16 @@ int up_command(const std::vector<std::string>& args) {
       } else {
         L.handle(req);
       }
-      if (L.reply_seq_ == req.seq() && !L.reply_.empty()) {  // the answer the sender waits for
-        launcher_status.msg().detail("reply " + std::to_string(req.seq()) + (L.reply_ok_ ? " ok: " : " error: ") + L.reply_);
+      // The answer the sender waits for. Status keeps one sample per process, so a reply to another terminal's
+      // request can overwrite this one before its sender has read it: each answer is kept, and a request re-sent
+      // (not yet answered, as its sender sees it) gets its answer again.
+      if (req.seq() != 0 && L.reply_seq_ == req.seq() && !L.reply_.empty()) {
+        L.answers_[req.seq()] = std::string(L.reply_ok_ ? " ok: " : " error: ") + L.reply_;
+        while (L.answers_.size() > 256) L.answers_.erase(L.answers_.begin());
+      }
+      const auto answer = L.answers_.find(req.seq());
+      if (req.seq() != 0 && answer != L.answers_.end()) {
+        launcher_status.msg().detail("reply " + std::to_string(req.seq()) + answer->second);
         launcher_status.publish();
       }
     }

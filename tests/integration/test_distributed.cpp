@@ -630,7 +630,10 @@ TEST_CASE("tandem down with a robot that cannot stop: the launcher SIGKILLs it 5
   const std::string cmd = t + "up " + deploy + " > " + up_log + " 2>&1 & up=$!; sleep 1.5; " +
                           "pid=$(pgrep -f \"tandem-[r]obot .*--domain " + std::to_string(domain) +
                           " .*--arm right\"); echo pid=$pid; kill -STOP $pid; sleep 0.3; " +
-                          "t0=$(date +%s%N); " + t + "down " + deploy + "; echo down_rc=$?; wait $up; echo up_rc=$?; " +
+                          "t0=$(date +%s%N); " + t + "down " + deploy + "; echo down_rc=$?; " +
+                          // While it waits for the stuck robot, the launcher still answers live commands.
+                          "(" + t + "down " + deploy + "; echo down2_rc=$?) & (" + t + "plug " + deploy +
+                          " robot m1/left --standby; echo late_rc=$?) & wait %2 %3; wait $up; echo up_rc=$?; " +
                           "echo took_ms=$(( ($(date +%s%N) - t0) / 1000000 )); " +
                           "if kill -0 $pid 2>/dev/null; then echo robot_left; kill -CONT $pid; kill -KILL $pid; fi";
   const Run r = run("bash -c '" + cmd + "'");
@@ -642,6 +645,10 @@ TEST_CASE("tandem down with a robot that cannot stop: the launcher SIGKILLs it 5
   CHECK(log.find("1 process(es) did not stop within 5 s; sending SIGKILL") != std::string::npos);
   CHECK(log.find("result: STOPPED") != std::string::npos);
   CHECK(r.output.find("robot_left") == std::string::npos);
+  CHECK(r.output.find("down2_rc=0") != std::string::npos);
+  CHECK(r.output.find("the deployment is already stopping") != std::string::npos);
+  CHECK(r.output.find("late_rc=1") != std::string::npos);
+  CHECK(r.output.find("'plug robot m1/left' refused: the deployment is stopping") != std::string::npos);
   // The escalation waits its 5 s, and not much more.
   const auto at = r.output.find("took_ms=");
   REQUIRE(at != std::string::npos);

@@ -284,14 +284,16 @@ class Launcher {
     std::printf("tandem up: %s", buf);
     std::string text(buf);
     while (!text.empty() && text.back() == '\n') text.pop_back();
-    if (reply_seq_ == current_seq_) {  // a further line for the same request (e.g. kill of a module)
-      reply_ += "; " + text;
-      reply_ok_ = reply_ok_ && ok;
-    } else {
-      reply_ = text;
-      reply_ok_ = ok;
-      reply_seq_ = current_seq_;
+    if (current_seq_ == 0) return;  // no live command's (seq 0: the launcher's own requests)
+    const auto [it, fresh] = answers_.try_emplace(current_seq_);
+    Answer& a = it->second;
+    if (fresh) {
+      a = Answer{ok, text};
+    } else {  // a further line for the same request (e.g. kill of a module)
+      a.text += "; " + text;
+      a.ok = a.ok && ok;
     }
+    while (answers_.size() > 256 && answers_.begin()->first != current_seq_) answers_.erase(answers_.begin());
   }
 
   void kill_target(const std::string& target) {
@@ -770,10 +772,15 @@ class Launcher {
   int coordinator_restarts_ = 0;
   unsigned long long seq_ = 0;
   std::set<unsigned long long> handled_seqs_;
-  std::map<unsigned long long, std::string> answers_;  ///< seq -> " ok: text" / " error: text", the newest 256
-  std::string reply_;  ///< the outcome of the latest live command
-  bool reply_ok_ = false;
-  unsigned long long reply_seq_ = 0, current_seq_ = 0;
+  /// The outcome of a live command, kept by its seq (the newest 256) until its sender has read it: status keeps
+  /// one sample per process, so an answer to another terminal's request can replace this one before it is
+  /// read, and a request re-sent (not yet answered, as its sender sees it) gets its answer again.
+  struct Answer {
+    bool ok = false;
+    std::string text;
+  };
+  std::map<unsigned long long, Answer> answers_;
+  unsigned long long current_seq_ = 0;  ///< the live command being carried out (its say() lines are its answer)
   /// SCHED_FIFO priority for the per-tick processes (0: normal scheduling); set once before any start.
   int rt_priority_ = 0;
 
@@ -954,16 +961,11 @@ int up_command(const std::vector<std::string>& args) {
       } else {
         L.handle(req);
       }
-      // The answer the sender waits for. Status keeps one sample per process, so a reply to another terminal's
-      // request can overwrite this one before its sender has read it: each answer is kept, and a request re-sent
-      // (not yet answered, as its sender sees it) gets its answer again.
-      if (req.seq() != 0 && L.reply_seq_ == req.seq() && !L.reply_.empty()) {
-        L.answers_[req.seq()] = std::string(L.reply_ok_ ? " ok: " : " error: ") + L.reply_;
-        while (L.answers_.size() > 256) L.answers_.erase(L.answers_.begin());
-      }
+      // The answer the sender waits for (again, for a request re-sent: see Launcher::answers_).
       const auto answer = L.answers_.find(req.seq());
-      if (req.seq() != 0 && answer != L.answers_.end()) {
-        launcher_status.msg().detail("reply " + std::to_string(req.seq()) + answer->second);
+      if (answer != L.answers_.end()) {
+        launcher_status.msg().detail("reply " + std::to_string(req.seq()) + (answer->second.ok ? " ok: " : " error: ") +
+                                     answer->second.text);
         launcher_status.publish();
       }
     }

@@ -117,7 +117,7 @@ int main(int argc, char** argv) {
       // epoch of the one that took over from it.
       Slot& slot = ring[r.tick() % ring.size()];
       const runtime::SupervisorRank rank{r.epoch(), static_cast<int32_t>(r.strength())};
-      if (static_cast<long>(r.tick()) < slot.tick || (slot.tick == static_cast<long>(r.tick()) && slot.rank.outranks(rank))) {
+      if (!runtime::replaces(static_cast<long>(r.tick()), rank, slot.tick, slot.rank)) {
         continue;  // a late copy of a tick 64 back, or a lower-ranked copy of this tick
       }
       slot.rank = rank;

@@ -150,9 +150,7 @@ int main(int argc, char** argv) {
       if (j < 0 || !runtime::all_finite(ref_in.x()) || !runtime::valid_rank(ref_in.strength(), ref_in.epoch())) continue;
       RefSlot& slot = ref_ring[static_cast<size_t>(j)][ref_in.tick() % 64];
       const runtime::SupervisorRank rank{ref_in.epoch(), static_cast<int32_t>(ref_in.strength())};
-      if (static_cast<long>(ref_in.tick()) < slot.tick || (slot.tick == static_cast<long>(ref_in.tick()) && slot.rank.outranks(rank))) {
-        continue;  // as robots
-      }
+      if (!runtime::replaces(static_cast<long>(ref_in.tick()), rank, slot.tick, slot.rank)) continue;  // as robots
       slot.tick = static_cast<long>(ref_in.tick());
       slot.rank = rank;
       slot.x = model::Vec2(ref_in.x()[0], ref_in.x()[1]);

@@ -67,6 +67,13 @@ struct SupervisorRank {
   bool outranks(const SupervisorRank& o) const { return epoch != o.epoch ? epoch > o.epoch : strength > o.strength; }
 };
 
+/// The per-tick reference rings of robots and the world: whether a copy of `tick` from a supervisor of `rank`
+/// replaces a slot holding `slot_tick` from `slot_rank`. A late copy of an older tick never overwrites a newer
+/// one; within a tick, the highest rank stands.
+inline bool replaces(long tick, const SupervisorRank& rank, long slot_tick, const SupervisorRank& slot_rank) {
+  return tick > slot_tick || (tick == slot_tick && !slot_rank.outranks(rank));
+}
+
 /// A supervisor strength on the wire is in [1, RoleOptions::kPrimaryStrength]; an epoch below 2^32.
 inline bool valid_rank(int64_t strength, uint64_t epoch) {
   return strength >= 1 && strength <= RoleOptions::kPrimaryStrength && epoch < (1ULL << 32);

@@ -181,6 +181,13 @@ int main(int argc, char** argv) {
     }
     timespec sent{};
     ::clock_gettime(CLOCK_MONOTONIC, &sent);
+    if (k == 0) {  // for start-up measurements (bench/scale.sh)
+      timespec wall{};
+      ::clock_gettime(CLOCK_REALTIME, &wall);
+      std::printf("tandem-world %s: first tick at wall %.3f\n", opt.module.c_str(),
+                  static_cast<double>(wall.tv_sec) + static_cast<double>(wall.tv_nsec) * 1e-9);
+      std::fflush(stdout);
+    }
     if (opt.realtime) {
       const long long wake_late_ns = to_ns(sent) - to_ns(tick_start);
       wake_late_us.add(static_cast<double>(wake_late_ns) * 1e-3);

@@ -1,0 +1,93 @@
+#!/usr/bin/env bash
+# Real-time scale benchmark: N basic modules (world, supervisor, two robots each) in `timing: realtime`,
+# with a bare 1 kHz timer loop (bench/timer_loop.cpp) running beside them in the same run. Per N it prints
+# late arm-ticks (%), sample->command latency p50/p99 (mean of the modules' p50, worst p99), CPU per module
+# in steady state (from /proc, all role processes, over a window after every world has ticked), RSS per
+# process, start-up time until every world's first tick, slips, dropped objects, and the timer loop's late
+# fraction (ticks > 0.5 ms late).
+#
+# Usage: bash bench/scale.sh [N ...]        default: 1 2 4 8 16
+#   env: SECONDS_RUN (scenario duration, default 8), DOMAIN_BASE (default 170), PRIO (realtime_priority,
+#        default 20), TRANSPORT (shm|udp, default shm), KEEP (a folder to keep the logs in)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bin=build/bin
+[ -x "$bin/tandem" ] && [ -x "$bin/tandem_bench_timer" ] || { echo "scale.sh: build first (bash scripts/build.sh)" >&2; exit 2; }
+ns=("$@")
+[ ${#ns[@]} -gt 0 ] || ns=(1 2 4 8 16)
+for n in "${ns[@]}"; do
+  [[ "$n" =~ ^[0-9]+$ ]] && [ "$n" -ge 1 ] && [ "$n" -le 64 ] || { echo "scale.sh: N must be an integer in [1, 64], got '$n'" >&2; exit 2; }
+done
+dur="${SECONDS_RUN:-8}"
+prio="${PRIO:-20}"
+transport="${TRANSPORT:-shm}"
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+hz=$(getconf CLK_TCK)
+echo "machine: $(nproc) cores, $(lscpu | sed -n 's/^Model name: *//p'), kernel $(uname -r)"
+echo "command: bash bench/scale.sh ${ns[*]}  (duration ${dur} s, realtime_priority $prio, transport $transport, commit $(git rev-parse --short HEAD 2>/dev/null || echo '?'))"
+sed "s/^  duration: .*/  duration: $dur/" config/scenarios/paper.yaml > "$work/scenario.yaml"
+printf "%-4s %-8s %-10s %-10s %-10s %-10s %-9s %-8s %-6s %-8s %-10s\n" N late% p50_us p99_us cpu/mod rss_MB start_s slips drops timer% result
+idx=0
+for n in "${ns[@]}"; do
+  domain=$(( ${DOMAIN_BASE:-170} + idx ))
+  idx=$((idx + 1))
+  dep="$work/scale$n.yaml"
+  {
+    echo "name: scale$n"
+    echo "domain_id: $domain"
+    echo "transport: $transport"
+    echo "timing: realtime"
+    echo "realtime_priority: $prio"
+    echo "timeout: 60"
+    echo "modules:"
+    for i in $(seq 1 "$n"); do
+      echo "  - {name: m$i, scenario: scenario.yaml, case: SOSM}"
+    done
+  } > "$dep"
+  log="$work/up$n.log"
+  start=$(date +%s.%N)
+  "$bin/tandem" up "$dep" --summary "$work/sum$n.txt" > "$log" 2>&1 &
+  up=$!
+  tfifo=()
+  [ "$prio" -gt 0 ] && tfifo=(--fifo "$prio")
+  "$bin/tandem_bench_timer" --seconds "$((dur + 30))" "${tfifo[@]}" > "$work/timer$n.txt" &
+  timer=$!
+  # Wait for every world's first tick (or the launcher's end).
+  first=""
+  while kill -0 "$up" 2>/dev/null; do
+    c=$(grep -c "first tick" "$log" || true)
+    if [ "$c" -ge "$n" ]; then first=$(date +%s.%N); break; fi
+    sleep 0.1
+  done
+  cpu="nan"; rss="nan"
+  if [ -n "$first" ]; then
+    sleep 1
+    pids=$(pgrep -P "$up" | tr '\n' ' ')
+    ticks() { local s=0; for p in $pids; do [ -r /proc/$p/stat ] && s=$((s + $(awk '{print $14 + $15}' /proc/$p/stat))); done; echo $s; }
+    t0=$(ticks); w0=$(date +%s.%N)
+    sleep 3
+    t1=$(ticks); w1=$(date +%s.%N)
+    rss=$(for p in $pids; do awk '/VmRSS/ {print $2}' /proc/$p/status 2>/dev/null; done | awk '{s += $1; c++} END {if (c) printf "%.1f", s / c / 1024; else print "nan"}')
+    cpu=$(awk -v a="$t0" -v b="$t1" -v hz="$hz" -v w0="$w0" -v w1="$w1" -v n="$n" 'BEGIN {printf "%.3f", (b - a) / hz / (w1 - w0) / n}')
+  fi
+  rc=0; wait "$up" || rc=$?
+  kill "$timer" 2>/dev/null || true; wait "$timer" 2>/dev/null || true
+  # The timer loop was cut short: run a fresh one only if it printed nothing.
+  sum="$work/sum$n.txt"
+  startup=$(grep -o "first tick at wall [0-9.]*" "$log" | awk -v s="$start" '{v = $5 - s; if (v > m) m = v} END {printf "%.2f", m}')
+  read -r late ticks p50 p99 slips drops < <(awk -F= -v n="$n" '
+    /^m[0-9]+\.late_commands=/ {late += $2}
+    /^m[0-9]+\.ticks=/ {ticks += $2}
+    /^m[0-9]+\.latency_p50_us=/ {p50 += $2; c50++}
+    /^m[0-9]+\.latency_p99_us=/ {if ($2 > p99) p99 = $2}
+    /^m[0-9]+\.slip_events=/ {slips += $2}
+    /^m[0-9]+\.object_final1=/ {if ($2 < 0.7) drops++}
+    END {printf "%d %d %.0f %.0f %d %d\n", late, ticks, c50 ? p50 / c50 : 0, p99, slips, drops}' "$sum" 2>/dev/null || echo "0 0 0 0 0 0")
+  pct=$(awk -v l="$late" -v t="$ticks" 'BEGIN {if (t > 0) printf "%.2f", 100 * l / (2 * t); else print "nan"}')
+  tl=$(sed -n 's/^timer_late_fraction=//p' "$work/timer$n.txt" 2>/dev/null | awk '{printf "%.2f", 100 * $1}')
+  result=$([ "$rc" -eq 0 ] && echo PASS || echo "FAIL($rc)")
+  printf "%-4s %-8s %-10s %-10s %-10s %-10s %-9s %-8s %-6s %-8s %-10s\n" "$n" "$pct" "$p50" "$p99" "$cpu" "$rss" "$startup" "$slips" "$drops" "${tl:-nan}" "$result"
+  if [ -n "${KEEP:-}" ]; then mkdir -p "$KEEP"; cp "$log" "$sum" "$work/timer$n.txt" "$KEEP/" 2>/dev/null || true; fi
+  sleep 1
+done

@@ -1,21 +1,28 @@
-// tandem-robot: the controller of one arm (VLLC + LLC, docs/controller.md). For every tick it waits for its
-// arm's sensor sample and the supervisor's reference of the same tick, and answers with a torque command.
-// References with NaN/inf are rejected and counted; the previous valid reference is kept.
+// tandem-robot: the controller of one arm (VLLC + LLC, docs/controller.md). It follows the module's plan
+// (plan::PlanFollower: the highest-ranked supervisor's, published when it changes) and, for every sensor
+// sample of its own arm, evaluates eq. (15) for that tick and answers with a torque command, in the DDS
+// thread that received the sample (no hand-off to another thread: docs/architecture.md, "Per-tick data flow").
+// Samples and plans with NaN/inf or out of range are rejected and counted.
 #include <tandemPubSubTypes.h>
 
 #include <algorithm>
 #include <array>
 #include <chrono>
 #include <cstdio>
+#include <functional>
+#include <mutex>
 #include <optional>
 #include <thread>
 #include <unistd.h>
 
+#include "tandem/runtime/plan_wire.hpp"
 #include "tandem/runtime/role.hpp"
 #include "tandem/runtime/status.hpp"
 
 using namespace tandem;
 namespace bus = tandem::dds;
+namespace fdds = eprosima::fastdds::dds;
+using Clock = std::chrono::steady_clock;
 
 int main(int argc, char** argv) {
   runtime::RoleOptions opt;
@@ -38,11 +45,11 @@ int main(int argc, char** argv) {
       opt.strength == runtime::RoleOptions::kPrimaryStrength ? my_arm : my_arm + "@" + std::to_string(opt.strength);
   model::HybridController ctl(m.plant.arms[j], m.control[j]);
   sim::RobotMeter meter(m.control[j].selection_p, ctx.scenario.transient, m.path.motion_end());
+  plan::PlanFollower follower(m, opt.continuous);
 
   bus::Participant part(opt.domain, "robot/" + my_arm, opt.transport);
-  bus::Reader<msg::ArmSensors, msg::ArmSensorsPubSubType> sensors(part, bus::module_topic(bus::kSensorsTopic, opt.module), bus::TopicKind::Sensors);
-  bus::Reader<msg::ArmReference, msg::ArmReferencePubSubType> refs(part, bus::module_topic(bus::kReferencesTopic, opt.module),
-                                                                   bus::TopicKind::References);
+  bus::Reader<msg::SupervisorPlan, msg::SupervisorPlanPubSubType> plans(
+      part, bus::module_topic(bus::kSupervisorPlanTopic, opt.module), bus::TopicKind::Task);
   // The torque writer goes first when the robot stops (std::optional::reset below): deleting it tells the
   // world at once, so a standby takes over within a tick instead of after the liveliness lease.
   std::optional<bus::Writer<msg::TorqueCommand, msg::TorqueCommandPubSubType>> torque_writer;
@@ -50,171 +57,147 @@ int main(int argc, char** argv) {
   auto& torques = *torque_writer;
   bus::Writer<msg::RobotSummary, msg::RobotSummaryPubSubType> summary(part, bus::kRobotSummaryTopic,
                                                                        bus::TopicKind::Summary);
-
   runtime::StatusPublisher status(part, robot_id, "robot", opt.module);
   status.msg().deployment(opt.deployment);
   status.msg().serving(std::to_string(opt.strength));
-  status.set(runtime::Lifecycle::Inactive, "waiting for the first tick");
-  msg::ArmSensors s;
-  msg::ArmReference r;
+  status.set(runtime::Lifecycle::Inactive, "waiting for the plan and the first tick");
+
+  // State shared by the receiving thread (which computes) and the main thread (liveliness, status, exit).
+  std::mutex mu;
   msg::TorqueCommand cmd;
   cmd.arm_id(my_arm);
   cmd.robot_id(robot_id);
   cmd.strength(opt.strength);
-  long have_sensor = -1, have_ref = -1, done = -1;
-  model::ArmSensors in;
-  model::ArmReference ref;
-  struct Slot {
-    long tick = -1;
-    runtime::SupervisorRank rank;  // of the supervisor that sent it
-    model::ArmReference ref;
-  };
-  std::array<Slot, 64> ring{};
-  struct SensorSlot {
-    long tick = -1;
-    model::ArmSensors in;
-    bool braked = false;
-  };
-  std::array<SensorSlot, 64> sring{};
+  long done = -1;
+  bool activated = false;
   model::Vec3 prev_q = model::Vec3::Zero();
-  double wear = 0.0, workload = 0.0, interval_worst_us = 0.0;
+  double wear = 0.0, workload = 0.0, interval_worst_us = 0.0, tracking = 0.0;
   unsigned long long rejected = 0;
-  auto last_input = std::chrono::steady_clock::now();
-  auto last_assert = last_input;
-  while (!runtime::g_stop && done + 1 < m.steps) {
-    bool got = false;
-    while (sensors.take(s)) {
-      got = true;
-      if (s.arm_id() != my_arm) continue;  // another arm's sample
-      if (!runtime::all_finite(s.q()) || !runtime::all_finite(s.qd()) || !runtime::all_finite(s.h())) {
+  auto last_write = Clock::now();
+  auto last_input = last_write;
+  msg::SupervisorPlan plan_in;
+  std::string why;
+  auto take_plans = [&] {  // under mu
+    while (plans.take(plan_in)) {
+      if (plan_in.module_id() != opt.module) continue;
+      if (follower.offer(runtime::from_wire(plan_in), &why) == plan::PlanFollower::Offer::Rejected) {
         ++rejected;
-        continue;
+        std::fprintf(stderr, "tandem-robot %s: plan from '%s' rejected: %s\n", robot_id.c_str(),
+                     plan_in.supervisor_id().c_str(), why.c_str());
       }
-      // Samples are queued by tick and processed in order, so that a standby running in shadow computes
-      // exactly what the primary computes (same inputs, same controller state).
-      SensorSlot& slot = sring[s.tick() % sring.size()];
-      for (int i = 0; i < 3; ++i) {
-        slot.in.q(i) = s.q()[static_cast<size_t>(i)];
-        slot.in.qd(i) = s.qd()[static_cast<size_t>(i)];
-      }
-      slot.in.h = model::Vec2(s.h()[0], s.h()[1]);
-      slot.braked = s.braked();
-      slot.tick = static_cast<long>(s.tick());
-      have_sensor = std::max(have_sensor, slot.tick);
     }
-    while (refs.take(r)) {
-      got = true;
-      if (r.arm_id() != my_arm) continue;
-      if (!runtime::all_finite(r.x()) || !runtime::all_finite(r.xd()) || !runtime::all_finite(r.xdd()) ||
-          !(r.force() >= 0.0 && r.force() < 1e6) || !runtime::valid_rank(r.strength(), r.epoch())) {
-        ++rejected;
-        continue;
-      }
-      // References arrive up to a tick ahead, and a standby may lag: keep a ring indexed by tick. With
-      // standby supervisors every tick comes more than once: the copy of the highest-ranked supervisor
-      // (epoch, then strength) stands. The copies are equal while the standbys follow the leader's plan; a
-      // lower one is there if the leader died, and a stalled former leader's stale copy ranks below the
-      // epoch of the one that took over from it.
-      Slot& slot = ring[r.tick() % ring.size()];
-      const runtime::SupervisorRank rank{r.epoch(), static_cast<int32_t>(r.strength())};
-      if (!runtime::replaces(static_cast<long>(r.tick()), rank, slot.tick, slot.rank)) {
-        continue;  // a late copy of a tick 64 back, or a lower-ranked copy of this tick
-      }
-      slot.rank = rank;
-      for (int i = 0; i < 3; ++i) {
-        slot.ref.x(i) = r.x()[static_cast<size_t>(i)];
-        slot.ref.xd(i) = r.xd()[static_cast<size_t>(i)];
-        slot.ref.xdd(i) = r.xdd()[static_cast<size_t>(i)];
-      }
-      slot.ref.force = r.force();
-      slot.tick = static_cast<long>(r.tick());
+  };
+  // One tick: eq. (15) from the plan, the control law, the command out. Samples come in tick order from
+  // one writer; a repeated tick (lockstep: the world asks again for a robot that joined late) gets the same
+  // command again, an older one nothing.
+  msg::ArmSensors s;
+  auto on_sample = [&](const msg::ArmSensors& smp) {  // under mu
+    last_input = Clock::now();
+    if (!runtime::all_finite(smp.q()) || !runtime::all_finite(smp.qd()) || !runtime::all_finite(smp.h())) {
+      ++rejected;
+      return;
     }
-    // The next tick to compute; a robot more than a ring behind (real time) skips to the newest sample.
-    long next = done + 1;
-    if (have_sensor - next >= static_cast<long>(sring.size())) next = have_sensor;
-    // A robot that joined late may lack the input of a tick for good: samples and references come in tick
-    // order over reliable topics, so if the newest sample's tick is complete (sample and reference) while
-    // `next` is not, `next`'s will never come (it went out before this robot matched): go to the newest.
-    // (A robot that has been there from the start always has every tick, so a shadow stays exact.)
-    if (have_sensor > next && sring[static_cast<size_t>(have_sensor) % sring.size()].tick == have_sensor &&
-        ring[static_cast<size_t>(have_sensor) % ring.size()].tick == have_sensor &&
-        (sring[static_cast<size_t>(std::max(next, 0L)) % sring.size()].tick != next ||
-         ring[static_cast<size_t>(std::max(next, 0L)) % ring.size()].tick != next)) {
-      next = have_sensor;
-    }
-    const SensorSlot& due_in = sring[static_cast<size_t>(std::max(next, 0L)) % sring.size()];
-    const Slot& due = ring[static_cast<size_t>(std::max(next, 0L)) % ring.size()];
-    const bool sensor_ready = due_in.tick == next;
-    have_ref = due.tick == next ? next : -1;
-    if (sensor_ready && have_ref == next) {
-      const long k = next;
-      in = due_in.in;
-      ref = due.ref;
-      const auto compute_start = std::chrono::steady_clock::now();
-      // While the brakes hold the arm, the law's memory (super-twisting integral, force history) must not
-      // wind up on an error the arm cannot act on: it starts afresh every braked tick, so that the first
-      // tick after the release is a clean start.
-      if (due_in.braked) ctl.reset();
-      model::ControlOutput out = ctl.step(in, ref);
-      // Actuator limits: the command is saturated here as the drive would (the plant clips the same way).
-      const model::Vec3& lim = m.plant.arms[j].tau_max;
-      out.tau = out.tau.cwiseMax(-lim).cwiseMin(lim);
-      meter.add(static_cast<double>(k) * m.period, ref, out);
-      cmd.tick(static_cast<uint64_t>(k));
-      for (int i = 0; i < 3; ++i) cmd.tau()[static_cast<size_t>(i)] = out.tau(i);
-      torques.write(cmd);
-      interval_worst_us = std::max(
-          interval_worst_us,
-          std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - compute_start).count());
-      // Wear and workload, for the coordinator's balancing: joint travel and mechanical work so far.
-      if (done >= 0) {
-        const model::Vec3 dq = (in.q - prev_q).cwiseAbs();
-        wear += dq.sum();
-        workload += out.tau.cwiseAbs().dot(dq);
+    const long k = static_cast<long>(smp.tick());
+    if (k <= done) {
+      if (k == done) {
+        torques.write(cmd);
+        last_write = Clock::now();
       }
-      prev_q = in.q;
-      if (done < 0) status.set(runtime::Lifecycle::Active, "controlling");
-      if (k % 100 == 0) {
-        status.msg().tick(static_cast<uint64_t>(k));
-        status.msg().tracking_error(out.e_p.head<2>().norm());
-        status.msg().late(rejected);
-        status.msg().wear(wear);
-        status.msg().workload(workload);
-        status.msg().latency_p99_us(interval_worst_us);  // worst control step + write of the interval
-        interval_worst_us = 0.0;
-        status.publish();
-      }
-      done = k;
-      last_input = std::chrono::steady_clock::now();
-      continue;
+      return;
     }
-    const auto now = std::chrono::steady_clock::now();
-    if (got) last_input = now;
-    // Liveliness (MANUAL_BY_TOPIC): assert while waiting, so that a live robot is never taken for dead. While
-    // the world waits for this tick, repeat the last command: after a failover the new owner's earlier
+    if (!follower.has_plan()) return;  // nothing to follow yet: the world asks again (lockstep) or ticks on
+    const auto compute_start = Clock::now();
+    model::ArmSensors in;
+    for (int i = 0; i < 3; ++i) {
+      in.q(i) = smp.q()[static_cast<size_t>(i)];
+      in.qd(i) = smp.qd()[static_cast<size_t>(i)];
+    }
+    in.h = model::Vec2(smp.h()[0], smp.h()[1]);
+    const model::ArmReference ref = follower.reference(j, k);
+    // While the brakes hold the arm, the law's memory (super-twisting integral, force history) must not
+    // wind up on an error the arm cannot act on: it starts afresh every braked tick.
+    if (smp.braked()) ctl.reset();
+    model::ControlOutput out = ctl.step(in, ref);
+    // Actuator limits: the command is saturated here as the drive would (the plant clips the same way).
+    const model::Vec3& lim = m.plant.arms[j].tau_max;
+    out.tau = out.tau.cwiseMax(-lim).cwiseMin(lim);
+    meter.add(static_cast<double>(k) * m.period, ref, out);
+    cmd.tick(static_cast<uint64_t>(k));
+    for (int i = 0; i < 3; ++i) cmd.tau()[static_cast<size_t>(i)] = out.tau(i);
+    torques.write(cmd);
+    last_write = Clock::now();
+    interval_worst_us = std::max(interval_worst_us, std::chrono::duration<double, std::micro>(last_write - compute_start).count());
+    // Wear and workload, for the coordinator's balancing: joint travel and mechanical work so far.
+    if (done >= 0) {
+      const model::Vec3 dq = (in.q - prev_q).cwiseAbs();
+      wear += dq.sum();
+      workload += out.tau.cwiseAbs().dot(dq);
+    }
+    prev_q = in.q;
+    tracking = out.e_p.head<2>().norm();
+    done = k;
+  };
+  struct Listener : fdds::DataReaderListener {
+    std::function<void(fdds::DataReader*)> fn;
+    void on_data_available(fdds::DataReader* r) override { fn(r); }
+  } listener;
+  listener.fn = [&](fdds::DataReader* r) {
+    std::lock_guard<std::mutex> lock(mu);
+    take_plans();
+    fdds::SampleInfo info;
+    while (r->take_next_sample(&s, &info) == ReturnCode_t::RETCODE_OK) {
+      if (info.valid_data) on_sample(s);
+    }
+  };
+  bus::Reader<msg::ArmSensors, msg::ArmSensorsPubSubType> sensors(
+      part, bus::arm_topic(bus::kSensorsTopic, my_arm), opt.realtime ? bus::TopicKind::SensorsRealtime : bus::TopicKind::Sensors,
+      &listener);
+
+  long reported_tick = -1;
+  while (!runtime::g_stop) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(bus::kLivelinessAssertMs));
+    std::unique_lock<std::mutex> lock(mu);
+    take_plans();
+    if (done + 1 >= m.steps) break;
+    const auto now = Clock::now();
+    // Liveliness (MANUAL_BY_TOPIC): every write asserts it; while no tick comes, assert it, so that a live
+    // robot is never taken for dead, and repeat the last command: after a failover the new owner's earlier
     // sample was filtered out by the world's reader, and this repeat is what reaches it.
-    if (now - last_assert > std::chrono::milliseconds(bus::kLivelinessAssertMs)) {
+    if (now - last_write > std::chrono::milliseconds(bus::kLivelinessAssertMs)) {
       torques.assert_liveliness();
-      if (done >= 0 && now - last_input > std::chrono::milliseconds(2 * bus::kLivelinessAssertMs)) torques.write(cmd);
-      last_assert = now;
+      if (done >= 0 && now - last_input > std::chrono::milliseconds(2 * bus::kLivelinessAssertMs)) {
+        torques.write(cmd);
+        last_write = now;
+      }
+    }
+    if (done >= 0 && !activated) {
+      activated = true;
+      status.set(runtime::Lifecycle::Active, "controlling");
+    }
+    if (done >= 0 && done / 100 != reported_tick / 100) {
+      reported_tick = done;
+      status.msg().tick(static_cast<uint64_t>(done));
+      status.msg().tracking_error(tracking);
+      status.msg().late(rejected);
+      status.msg().wear(wear);
+      status.msg().workload(workload);
+      status.msg().latency_p99_us(interval_worst_us);  // worst control step + write of the interval
+      interval_worst_us = 0.0;
+      status.publish();
     }
     if (std::chrono::duration<double>(now - last_input).count() > opt.timeout) {
       std::fprintf(stderr, "tandem-robot %s: no input for %.1f s after tick %ld; stopping\n", my_arm.c_str(),
                    opt.timeout, done);
       break;
     }
-    // The reference of a tick follows its sensor sample (the supervisor answers the sample): wait on the
-    // reader whose sample is due next.
-    const double wait_s = bus::kLivelinessAssertMs * 1e-3;
-    if (sensor_ready && have_ref != next) {
-      refs.wait(wait_s);
-    } else {
-      sensors.wait(wait_s);
-    }
   }
+  std::unique_lock<std::mutex> lock(mu);
+  listener.fn = [](fdds::DataReader*) {};  // nothing more is computed
+  lock.unlock();
   torques.unregister(cmd);     // give the arm up: the world follows the next strongest robot at once
   torques.wait_for_acks(0.1);  // the last command and the unregistration reach the world
   torque_writer.reset();       // then leave the arm at once (graceful hand-over), then report
+  lock.lock();
   const sim::RobotMeter::Summary sm = meter.summary();
   msg::RobotSummary rs;
   rs.arm_id(my_arm);
@@ -231,12 +214,15 @@ int main(int argc, char** argv) {
   status.msg().tick(static_cast<uint64_t>(std::max(done, 0L)));
   status.msg().wear(wear);
   status.msg().workload(workload);
-  if (done + 1 == m.steps) {
+  status.msg().late(rejected);
+  const bool finished = done + 1 >= m.steps;
+  if (finished) {
     status.set(runtime::Lifecycle::Finalized, "task done");
   } else {
     status.set(runtime::g_stop ? runtime::Lifecycle::Finalized : runtime::Lifecycle::Error,
                runtime::g_stop ? "stopped" : "no input");
   }
+  lock.unlock();
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
-  return (done + 1 == m.steps || runtime::g_stop) ? 0 : 4;
+  return (finished || runtime::g_stop) ? 0 : 4;
 }

@@ -1,28 +1,27 @@
-// tandem-supervisor: the supervisor of one basic module. For every sensor sample of tick k it publishes that
-// arm's references for ticks k and k+1 (eq. 15 on the planned object path) with the grasp force h_ref
-// (eq. 16). The path is the scenario's task, or, with --continuous, the tasks the coordinator assigns: each
-// starts where the previous one left the object; between tasks the object is held still.
+// tandem-supervisor: the supervisor of one basic module, off the per-tick path (docs/architecture.md,
+// "Per-tick data flow"). It makes the module's plan (plan::ModulePlan: the object path of the scenario or of
+// the tasks the coordinator assigns, sampled through a time scale for pause and resume, eq. 15-16 evaluated
+// by each robot) and publishes it when it changes and every 20 ms as a heartbeat; robots and the world
+// evaluate it tick by tick themselves. It plans from the world's report (tandem/world_report: tick, brakes,
+// lowest normal force, every 10 ticks and at once on a brake change): a change applies kLeadTicks after the
+// newest tick heard, so it reaches the robots before its tick in real time (a plan that comes late is
+// applied at once by the followers).
 //
-// Pause and resume: the path is sampled through a time scale (model::TimeScale). The module pauses when an
-// arm is braked (its samples say so: no live controller) or when the launcher asks ("pause", for an unplug
-// without a standby); it resumes when both arms are controlled again and no pause is asked for. A requested
-// pause ramps the object smoothly to rest (0.3 s); a braked arm stops the path at once (20 ms ramp).
-// Drain ("drain"): the module finishes its task, takes no new one, reports "left" and exits.
-// The module's task state goes to the coordinator and the launcher on every change and every 100 ms.
+// Pause and resume: the module pauses when an arm is braked (no live controller) or when the launcher asks
+// ("pause", for an unplug without a standby); it resumes when both arms have been controlled again for
+// kReleaseSettleTicks and no pause is asked for. A requested pause ramps the object smoothly to rest (0.3 s); a
+// braked arm stops the path fast (20 ms ramp). Drain: finish the task, take no new one, report "left", exit.
+// Grasp watch (eq. 14): the world reports the lowest normal force of every 10 ticks; a value below h_sg is
+// logged with its tick.
 //
-// Hot standby (--strength below 100): a standby supervisor reads the same samples and publishes the same
-// references, marked with its rank (runtime::SupervisorRank: the latest epoch it led, then its strength); a
-// robot keeps, per tick, the copy of the highest-ranked supervisor, so when the leader dies the robots go on
-// with the standby's references with no gap. The standby makes the same decisions from the same inputs
-// (requests, tasks, brakes), and adopts the leader's plan whenever it comes (SupervisorPlan: task, start
-// tick, time-scale retargets, pause and drain flags), so its references are the same to the bit, and within
-// a tick or two if the leader died before its latest plan arrived. When no reference of a higher-ranked
-// supervisor has come for kTakeOverAfter (and kTakeOverTicks) while samples flow, it takes over the duties
-// (task state, tasks from the coordinator, publishing its plan) in a new epoch, one above the highest heard.
-// A leader that was only stalled (stopped, starved of CPU) comes back with its old epoch: it hears the new
-// leader's higher rank, steps down and adopts its plan; its own stale references rank below the new ones, so
-// no robot follows them. A leader that finds the world kTakeOverTicks past its own last answer (it was
-// stalled, and a standby may have taken over) publishes nothing until it has heard the others at that tick.
+// Hot standby (--strength below 100): a standby reads the same reports, requests and tasks and makes the same
+// decisions, and adopts every plan of a higher-ranked supervisor (plan::SupervisorRank: epoch, strength).
+// When no plan has come from a higher-ranked supervisor for kTakeOverAfter while the world's ticks move on
+// (kTakeOverTicks past the newest tick that one had heard), it takes over in a new epoch, one above the
+// highest heard, and publishes its plan at once. Robots keep the highest-ranked plan, so a leader that was only
+// stalled and comes back with its old epoch is ignored by them; it hears the new leader's plan and steps down.
+// A leader that finds the world kTakeOverTicks past the newest tick it had heard (it was stalled) decides and
+// publishes nothing until it has heard the others at that tick (or kSuspectMax has passed).
 #include <tandemPubSubTypes.h>
 
 #include <algorithm>
@@ -32,152 +31,34 @@
 #include <optional>
 #include <thread>
 
+#include "tandem/runtime/plan_wire.hpp"
 #include "tandem/runtime/role.hpp"
 #include "tandem/runtime/status.hpp"
 
 using namespace tandem;
 namespace bus = tandem::dds;
+using plan::TaskStateCode;
 
 namespace {
 
 constexpr double kPauseRamp = 0.3;   // requested pause / resume [s]
 constexpr double kBrakeRamp = 0.02;  // an arm braked: stop the path now [s]
 constexpr long kReleaseSettleTicks = 200;  // both arms controlled again for this long before resuming
-// A standby takes over when no reference of a stronger supervisor has come for this long while it publishes
-// its own (samples flow). Longer than a scheduler stall of the leader is likely to be (the leader steps
-// down if that is what it was); the robots do not wait for it: they already have the standby's references.
+// A change of the plan applies this many ticks after the newest tick heard from the world: the world
+// reports every 10 ticks, and plan delivery takes well under a tick, so in real time the robots hold the
+// change before its tick.
+constexpr long kLeadTicks = 20;
+constexpr auto kHeartbeat = std::chrono::milliseconds(20);
+// A standby takes over when no plan of a stronger supervisor has come for this long (the leader's heartbeat
+// is 20 ms) while the world's ticks flow, and kTakeOverTicks past the newest tick the stronger one had heard.
 constexpr auto kTakeOverAfter = std::chrono::milliseconds(50);
 constexpr long kTakeOverTicks = 20;
 // Without ever having heard a stronger supervisor (it died before this one matched), this long: longer than
 // discovery takes on a busy machine, so that a standby does not take a primary it has not found yet for dead.
 constexpr auto kTakeOverAlone = std::chrono::milliseconds(6000);
-// A leader that sees a sample kTakeOverTicks past its own last answer while other supervisors are about
-// (one published a tick within kOthersRecentTicks of its own last answer: ticks, not wall time, which a
-// stall distorts) was stalled: one may have taken over. It answers nothing and decides nothing until it
-// has heard another supervisor's reference of that tick or later (or kSuspectMax has passed: the others
-// are gone), then steps down if that one outranks it, else leads on.
 constexpr long kOthersRecentTicks = 100;
 constexpr auto kSuspectMax = std::chrono::milliseconds(200);
 using Clock = std::chrono::steady_clock;
-
-enum class TaskStateCode : uint8_t { Idle = 0, Running = 1, Done = 2, Paused = 3, Draining = 4, Left = 5 };
-
-// The object's planned pose as a function of the tick: the scenario's path, or a chain of assigned tasks,
-// each sampled through the module's time scale.
-class TaskPlan {
- public:
-  TaskPlan(const sim::ModuleSetup& m, bool continuous) : m_(m), continuous_(continuous) {
-    rest_ = m.path.sample(0.0).pose;
-  }
-  model::PoseSample sample(long k) const {
-    const model::TimeScale::Sample s = scale_.at(time(k));
-    if (!continuous_) return model::sample_scaled(m_.path, s);
-    if (task_id_ == 0 || k < start_) {
-      model::PoseSample p;
-      p.pose = rest_;
-      return p;
-    }
-    return model::sample_scaled(path_, s, tau_start_);
-  }
-  /// Starts a task at tick `start` from the current rest pose.
-  void assign(uint64_t id, const std::vector<double>& waypoints, long start) {
-    build_path(rest_, waypoints);
-    task_id_ = id;
-    start_ = start;
-    tau_start_ = scale_.at(time(start)).tau;
-    running_ = true;
-    ++version_;
-  }
-  /// The plan as a standby needs it (the latest 64 retargets of the time scale).
-  void export_to(msg::SupervisorPlan& p) const {
-    p.version(version_);
-    p.task_id(task_id_);
-    p.tasks_done(done_);
-    p.running(running_);
-    p.start_tick(start_);
-    p.tau_start(tau_start_);
-    for (int i = 0; i < 3; ++i) {
-      p.rest()[static_cast<size_t>(i)] = rest_(i);
-      p.path_start()[static_cast<size_t>(i)] = path_start_(i);
-    }
-    p.waypoints(waypoints_);
-    p.breaks(scale_.export_breaks(64));
-  }
-  /// Adopts an active supervisor's plan; false (nothing changed) if it is malformed.
-  bool import_from(const msg::SupervisorPlan& p) {
-    const std::vector<double>& w = p.waypoints();
-    if (w.size() % 4 != 0 || !runtime::all_finite(w) || !runtime::all_finite(p.rest()) ||
-        !runtime::all_finite(p.path_start()) || !(p.tau_start() >= 0.0 && p.tau_start() < 1e9) ||
-        p.start_tick() < 0 || p.start_tick() >= (1LL << 40) || p.state() > static_cast<uint8_t>(TaskStateCode::Left)) {
-      return false;
-    }
-    for (size_t i = 3; i < w.size(); i += 4) {
-      if (!(w[i] > 0.0)) return false;  // a waypoint's duration
-    }
-    model::TimeScale scale;
-    if (!scale.restore(p.breaks())) return false;
-    scale_ = scale;
-    rest_ = model::Vec3(p.rest()[0], p.rest()[1], p.rest()[2]);
-    build_path(model::Vec3(p.path_start()[0], p.path_start()[1], p.path_start()[2]), w);
-    task_id_ = p.task_id();
-    done_ = p.tasks_done();
-    running_ = p.running();
-    start_ = static_cast<long>(p.start_tick());
-    tau_start_ = p.tau_start();
-    version_ = p.version();
-    return true;
-  }
-  uint64_t version() const { return version_; }
-  /// True once every tick of the running task has been published (then the object rests at its end).
-  bool finish_if_done(long published_min) {
-    if (!running_ || published_min < start_ ||
-        scale_.at(time(published_min)).tau - tau_start_ < path_.motion_end()) {
-      return false;
-    }
-    running_ = false;
-    rest_ = end_pose_;
-    ++done_;
-    ++version_;
-    return true;
-  }
-  /// Scenario mode: the path's motion is over by tick k.
-  bool motion_over(long k) const { return scale_.at(time(k)).tau >= m_.path.motion_end(); }
-  /// From tick `from` (the first one not yet published) the path runs at `rate` (0 paused, 1 normal).
-  void set_rate(long from, double rate, double ramp) {
-    if (scale_.target() != rate) {
-      scale_.retarget(time(from), rate, ramp);
-      ++version_;
-    }
-  }
-  double target_rate() const { return scale_.target(); }
-  bool paused_at(long k) const { return scale_.target() == 0.0 && scale_.settled(time(k)); }
-  bool running() const { return running_; }
-  uint64_t task_id() const { return task_id_; }
-  uint64_t done() const { return done_; }
-
- private:
-  double time(long k) const { return static_cast<double>(k) * m_.period; }
-  void build_path(const model::Vec3& from, const std::vector<double>& waypoints) {
-    std::vector<model::ObjectPath::Segment> segs;
-    for (size_t i = 0; i + 3 < waypoints.size(); i += 4) {
-      segs.push_back({model::Vec3(waypoints[i], waypoints[i + 1], waypoints[i + 2]), waypoints[i + 3]});
-    }
-    path_ = model::ObjectPath(from, 0.0, segs);
-    path_start_ = from;
-    waypoints_ = waypoints;
-    end_pose_ = segs.empty() ? from : segs.back().to;
-  }
-  const sim::ModuleSetup& m_;
-  bool continuous_;
-  model::TimeScale scale_;
-  model::Vec3 rest_ = model::Vec3::Zero(), end_pose_ = model::Vec3::Zero(), path_start_ = model::Vec3::Zero();
-  model::ObjectPath path_;
-  std::vector<double> waypoints_;
-  uint64_t task_id_ = 0, done_ = 0, version_ = 0;
-  long start_ = 0;
-  double tau_start_ = 0.0;
-  bool running_ = false;
-};
 
 }  // namespace
 
@@ -190,82 +71,82 @@ int main(int argc, char** argv) {
   const bool started_as_standby = opt.strength != runtime::RoleOptions::kPrimaryStrength;
   const std::string self_id = opt.module + "/supervisor" + (started_as_standby ? "@" + std::to_string(opt.strength) : "");
   bus::Participant part(opt.domain, "supervisor/" + opt.module, opt.transport);
-  bus::Reader<msg::ArmSensors, msg::ArmSensorsPubSubType> sensors(part, bus::module_topic(bus::kSensorsTopic, opt.module), bus::TopicKind::Sensors);
-  bus::Writer<msg::ArmReference, msg::ArmReferencePubSubType> refs(part, bus::module_topic(bus::kReferencesTopic, opt.module),
-                                                                   bus::TopicKind::References);
+  bus::Reader<msg::WorldReport, msg::WorldReportPubSubType> reports(part, bus::module_topic(bus::kWorldReportTopic, opt.module),
+                                                                    bus::TopicKind::Task);
   bus::Reader<msg::TaskAssignment, msg::TaskAssignmentPubSubType> assignments(part, bus::kTaskAssignmentTopic,
                                                                               bus::TopicKind::Task);
   bus::Writer<msg::TaskState, msg::TaskStatePubSubType> task_state(part, bus::kTaskStateTopic, bus::TopicKind::Task);
   bus::Reader<msg::ControlRequest, msg::ControlRequestPubSubType> control(part, bus::kControlTopic,
                                                                          bus::TopicKind::Control);
-  bus::Writer<msg::SupervisorPlan, msg::SupervisorPlanPubSubType> plan_out(part, bus::kSupervisorPlanTopic,
-                                                                           bus::TopicKind::Task);
-  // Every supervisor listens to the others: their references say who leads and that it is alive, their
-  // plans what it decided.
-  bus::Reader<msg::ArmReference, msg::ArmReferencePubSubType> refs_in(part, bus::module_topic(bus::kReferencesTopic, opt.module),
-                                                                      bus::TopicKind::References);
-  bus::Reader<msg::SupervisorPlan, msg::SupervisorPlanPubSubType> plan_in(part, bus::kSupervisorPlanTopic, bus::TopicKind::Task);
+  const std::string plan_topic = bus::module_topic(bus::kSupervisorPlanTopic, opt.module);
+  bus::Writer<msg::SupervisorPlan, msg::SupervisorPlanPubSubType> plan_out(part, plan_topic, bus::TopicKind::Task);
+  // Every supervisor listens to the others' plans: they say who leads, that it is alive, and what it decided.
+  bus::Reader<msg::SupervisorPlan, msg::SupervisorPlanPubSubType> plan_in(part, plan_topic, bus::TopicKind::Task);
   runtime::StatusPublisher status(part, self_id, "supervisor", opt.module);
   status.msg().deployment(opt.deployment);
   bool active = !started_as_standby;
   runtime::SupervisorRank my_rank{0, opt.strength};
   status.msg().serving(active ? "primary" : "standby");
-  status.set(runtime::Lifecycle::Active, opt.continuous ? "waiting for a task" : "publishing references");
+  status.set(runtime::Lifecycle::Active, opt.continuous ? "waiting for a task" : "planning");
 
-  TaskPlan plan(m, opt.continuous);
+  plan::ModulePlan plan(m, opt.continuous);
   bool pause_requested = false, draining = false;
   std::array<bool, 2> braked{false, false};
-  long last_braked_tick = -1;
-  std::array<long, 2> last{-1, -1};
+  long braked_since = -1, released_at = -1;
+  long heard_tick = -1;  // the newest tick the world reported
   msg::TaskState ts;
   ts.module_id(opt.module);
   ts.deployment(opt.deployment);
   TaskStateCode reported = TaskStateCode::Idle;
-  auto last_state_sent = std::chrono::steady_clock::now();
-  // The module's state as the coordinator and the launcher see it.
+  auto last_state_sent = Clock::now();
   auto current_state = [&] {
-    const long published = std::min(last[0], last[1]);
-    const bool busy = opt.continuous ? plan.running() : !plan.motion_over(std::max(published, 0L));
+    const long k = std::max(heard_tick, 0L);
+    const bool busy = opt.continuous ? plan.running() : !plan.motion_over(k);
     if (draining && !busy) return TaskStateCode::Left;
-    if (plan.target_rate() == 0.0 && plan.paused_at(std::max(published, 0L))) return TaskStateCode::Paused;
+    if (plan.target_rate() == 0.0 && plan.paused_at(k)) return TaskStateCode::Paused;
     if (draining) return TaskStateCode::Draining;
     if (busy) return TaskStateCode::Running;
     return plan.done() > 0 ? TaskStateCode::Done : TaskStateCode::Idle;
   };
-  // The active supervisor's plan, for its standbys: on every change of the plan or of its flags.
+  // The plan on the wire: on every change, and every kHeartbeat while leading.
+  plan::PlanData plan_data;
+  plan_data.supervisor_id = self_id;
+  plan_data.strength = opt.strength;
   msg::SupervisorPlan plan_msg;
   plan_msg.module_id(opt.module);
   plan_msg.deployment(opt.deployment);
-  plan_msg.supervisor_id(self_id);
-  plan_msg.strength(opt.strength);
   uint64_t plan_sent_version = ~0ULL;
   bool plan_sent_pause = false, plan_sent_drain = false;
   uint8_t plan_sent_state = 255;
-  auto publish_plan = [&](TaskStateCode st) {
-    if (plan.version() == plan_sent_version && pause_requested == plan_sent_pause && draining == plan_sent_drain &&
-        static_cast<uint8_t>(st) == plan_sent_state) {
-      return;
-    }
-    plan.export_to(plan_msg);
-    plan_msg.pause_requested(pause_requested);
-    plan_msg.draining(draining);
-    plan_msg.state(static_cast<uint8_t>(st));
+  auto plan_sent_at = Clock::now() - std::chrono::hours(1);
+  auto publish_plan = [&](TaskStateCode st, bool heartbeat) {
+    const bool changed = plan.version() != plan_sent_version || pause_requested != plan_sent_pause ||
+                         draining != plan_sent_drain || static_cast<uint8_t>(st) != plan_sent_state;
+    if (!changed && !(heartbeat && Clock::now() - plan_sent_at >= kHeartbeat)) return;
+    plan.export_to(plan_data);
+    plan_data.epoch = my_rank.epoch;
+    plan_data.pause_requested = pause_requested;
+    plan_data.draining = draining;
+    plan_data.state = static_cast<uint8_t>(st);
+    plan_data.heard_tick = heard_tick;
+    runtime::to_wire(plan_data, plan_msg);
     plan_out.write(plan_msg);
     plan_sent_version = plan.version();
     plan_sent_pause = pause_requested;
     plan_sent_drain = draining;
     plan_sent_state = static_cast<uint8_t>(st);
+    plan_sent_at = Clock::now();
   };
   auto publish_state = [&](bool force) {
     if (!active) return;  // a standby's duties start when it takes over
     const TaskStateCode st = current_state();
-    publish_plan(st);
-    const auto now = std::chrono::steady_clock::now();
+    publish_plan(st, true);
+    const auto now = Clock::now();
     if (!force && st == reported && now - last_state_sent < std::chrono::milliseconds(100)) return;
     ts.task_id(plan.task_id());
     ts.state(static_cast<uint8_t>(st));
     ts.tasks_done(plan.done());
-    ts.tick(static_cast<uint64_t>(std::max(std::min(last[0], last[1]), 0L)));
+    ts.tick(static_cast<uint64_t>(std::max(heard_tick, 0L)));
     task_state.write(ts);
     if (st != reported) {
       static const char* names[] = {"idle", "running", "done", "paused", "draining", "left"};
@@ -280,45 +161,35 @@ int main(int argc, char** argv) {
   };
   publish_state(true);
 
-  msg::ArmSensors s;
-  msg::ArmReference r;
-  r.supervisor_id(self_id);
-  r.strength(opt.strength);
-  r.epoch(0);
-  plan_msg.epoch(0);
-  msg::ArmReference heard;
+  msg::WorldReport rep;
   msg::SupervisorPlan adopted;
   msg::TaskAssignment a;
   msg::ControlRequest req;
   const auto t_start = Clock::now();
-  auto last_input = t_start;
-  auto last_stronger = t_start;  // the latest reference of a higher-ranked supervisor
-  long stronger_tick = -1;       // and the newest tick it published
-  bool heard_stronger = false, heard_other = false, speaking = true;
+  auto last_report = t_start;
+  auto last_stronger = t_start;  // the latest plan of a higher-ranked supervisor
+  long stronger_tick = -1;       // and the newest world tick it had heard
+  bool heard_stronger = false;
   uint64_t max_epoch = 0;        // the highest epoch heard (a takeover starts the next one)
   // Rank of the leader whose plan this one follows: at first the primary (epoch 0, strength 100); only grows.
   runtime::SupervisorRank followed{0, runtime::RoleOptions::kPrimaryStrength};
-  std::optional<msg::SupervisorPlan> latest_plan;  // the highest-ranked plan heard (adopted while standing by)
-  auto last_answered = t_start - std::chrono::hours(1);  // the latest sample this one answered (published or not)
+  std::optional<msg::SupervisorPlan> latest_plan;  // the highest-ranked plan heard
   long suspect_from = -1;  // a leader back from a stall: the tick it saw (-1: none), and since when
   auto suspect_since = t_start;
-  long others_newest = -1;  // the newest tick another supervisor published
-  auto rank_of = [](const auto& sample) {
-    return runtime::SupervisorRank{sample.epoch(), static_cast<int32_t>(sample.strength())};
-  };
+  long others_newest = -1;  // the newest world tick another supervisor had heard
+  long low_force_reported = -1;
   // Adopts the leader's plan; false if the module left with it (this one exits too).
   auto adopt = [&](const msg::SupervisorPlan& p, bool from_new_leader) {
-    // From the same leader, never back to an older task than this one already started or finished on its
-    // own (its plan may come a little after the assignment); a new leader's plan is the module's plan.
     if (!from_new_leader && (p.task_id() < plan.task_id() || (p.task_id() == plan.task_id() && p.tasks_done() < plan.done()))) {
-      return true;
+      return true;  // never back to an older task than this one already started or finished on its own
     }
-    if (!plan.import_from(p)) {
+    if (!plan.import_from(runtime::from_wire(p))) {
       std::fprintf(stderr, "tandem-supervisor %s: a malformed plan from %s was ignored\n", self_id.c_str(),
                    p.supervisor_id().c_str());
       return true;
     }
-    if (rank_of(p).outranks(followed)) followed = rank_of(p);
+    const runtime::SupervisorRank r{p.epoch(), static_cast<int32_t>(p.strength())};
+    if (r.outranks(followed)) followed = r;
     pause_requested = p.pause_requested();
     draining = p.draining();
     if (p.state() == static_cast<uint8_t>(TaskStateCode::Left)) {
@@ -327,32 +198,24 @@ int main(int argc, char** argv) {
     }
     return true;
   };
-  // Reads the other supervisors' references and plans; true if a higher-ranked one spoke. False in `stay`
-  // if this one must leave (the leader drained the module).
+  // Reads the other supervisors' plans; true if a higher-ranked one spoke. `stay` false: the module left.
   auto listen = [&](Clock::time_point now, bool& stay) {
     bool stronger = false;
-    while (refs_in.take(heard)) {
-      if (!runtime::valid_rank(heard.strength(), heard.epoch()) || heard.supervisor_id() == self_id) continue;
-      heard_other = true;
-      others_newest = std::max(others_newest, static_cast<long>(heard.tick()));
-      max_epoch = std::max(max_epoch, static_cast<uint64_t>(heard.epoch()));
-      if (rank_of(heard).outranks(my_rank)) {
-        stronger = heard_stronger = true;
-        last_stronger = now;
-        stronger_tick = std::max(stronger_tick, static_cast<long>(heard.tick()));
-      }
-    }
     while (plan_in.take(adopted)) {
-      if (adopted.module_id() != opt.module || !runtime::valid_rank(adopted.strength(), adopted.epoch()) ||
-          adopted.supervisor_id() == self_id) {
-        continue;
-      }
+      if (!runtime::valid_rank(adopted.strength(), adopted.epoch()) || adopted.supervisor_id() == self_id) continue;
+      others_newest = std::max(others_newest, static_cast<long>(adopted.heard_tick()));
       max_epoch = std::max(max_epoch, static_cast<uint64_t>(adopted.epoch()));
-      const runtime::SupervisorRank rank = rank_of(adopted);
-      if (!rank.outranks(my_rank) || followed.outranks(rank)) continue;  // below this one, or a former leader's
-      if (latest_plan && rank_of(*latest_plan).outranks(rank)) continue;
+      const runtime::SupervisorRank rank{adopted.epoch(), static_cast<int32_t>(adopted.strength())};
+      if (!rank.outranks(my_rank)) continue;
+      heard_stronger = true;
+      last_stronger = now;
+      stronger_tick = std::max(stronger_tick, static_cast<long>(adopted.heard_tick()));
+      stronger = true;
+      if (followed.outranks(rank)) continue;  // a former leader's
+      const bool newer = !latest_plan || rank.outranks(runtime::SupervisorRank{latest_plan->epoch(), static_cast<int32_t>(latest_plan->strength())}) ||
+                         adopted.version() != latest_plan->version();
+      if (!newer) continue;  // a heartbeat of the plan already adopted
       latest_plan = adopted;
-      stronger = true;  // a leader that hears a higher-ranked plan steps down, references or not
       if (!active && !adopt(adopted, rank.outranks(followed))) stay = false;
     }
     return stronger;
@@ -362,18 +225,12 @@ int main(int argc, char** argv) {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
     return 0;
   };
-  auto start_task = [&](const msg::TaskAssignment& t) {
-    const long start = std::max(last[0], last[1]) + 1;  // never change a published reference
-    plan.assign(t.task_id(), t.waypoints(), start);
-    status.msg().detail("task " + t.task_name());
-    publish_state(true);
-  };
-  while (!runtime::g_stop && (last[0] + 1 < m.steps || last[1] + 1 < m.steps)) {
-    bool got = false;
+  bool world_done = false;
+  while (!runtime::g_stop && !world_done) {
+    const auto now = Clock::now();
     {
       // Who leads: first of all, so that a leader back from a stall decides nothing before it has heard
       // whether another took over meanwhile.
-      const auto now = Clock::now();
       bool stay = true;
       const bool stronger = listen(now, stay);
       if (!stay) return leave();
@@ -383,25 +240,19 @@ int main(int argc, char** argv) {
         std::fflush(stdout);
         suspect_from = -1;
       }
-      // Quiet: the ticks go on (this one has published kTakeOverTicks past the stronger one's newest) and
-      // nothing has come from the stronger one for kTakeOverAfter. Ticks, not time alone: in lockstep a
-      // world that waits re-publishes the same tick every 50 ms, and both supervisors answer it.
-      const long mine = std::max(last[0], last[1]);
-      const bool flowing = now - last_answered < kTakeOverAfter;
-      const bool quiet = heard_stronger ? (now - last_stronger > kTakeOverAfter && mine - stronger_tick > kTakeOverTicks)
-                                        : (now - t_start > kTakeOverAlone && mine > kTakeOverTicks);
+      const bool flowing = now - last_report < kTakeOverAfter;
+      const bool quiet = heard_stronger ? (now - last_stronger > kTakeOverAfter && heard_tick - stronger_tick > kTakeOverTicks)
+                                        : (now - t_start > kTakeOverAlone && heard_tick > kTakeOverTicks);
       if (!active && flowing && quiet) {
         active = true;
         my_rank.epoch = max_epoch + 1;
         max_epoch = my_rank.epoch;
-        r.epoch(my_rank.epoch);
-        plan_msg.epoch(my_rank.epoch);
         plan_sent_version = ~0ULL;  // publish the plan now, under the new epoch
-        latest_plan.reset();        // plans of the former leaders: never to be adopted again
+        latest_plan.reset();
         std::printf("tandem-supervisor %s: taking over in epoch %llu (%s) with plan version %llu: task %llu %s, "
                     "%llu done\n",
                     self_id.c_str(), static_cast<unsigned long long>(my_rank.epoch),
-                    heard_stronger ? ("no reference from the leader for " +
+                    heard_stronger ? ("no plan from the leader for " +
                                       std::to_string(std::lround(std::chrono::duration<double, std::milli>(now - last_stronger).count())) + " ms")
                                          .c_str()
                                    : "never heard a leader",
@@ -412,15 +263,12 @@ int main(int argc, char** argv) {
         reported = TaskStateCode::Idle;
         publish_state(true);
       } else if (active && stronger) {
-        // A higher rank leads: a standby that took over in a later epoch while this one was stalled, or a
-        // stronger one of the same epoch. It decides from now on; this one follows its plan.
         active = false;
         suspect_from = -1;
         std::printf("tandem-supervisor %s: stepping down: a higher-ranked supervisor leads%s\n", self_id.c_str(),
                     latest_plan ? (" (" + latest_plan->supervisor_id() + ", epoch " + std::to_string(latest_plan->epoch()) + ")").c_str() : "");
         std::fflush(stdout);
-        // Adopt the new leader's plan if it is here already (else silent until it comes, see `speak`).
-        if (latest_plan && latest_plan->epoch() >= max_epoch && !adopt(*latest_plan, true)) return leave();
+        if (latest_plan && !adopt(*latest_plan, true)) return leave();
         status.msg().serving("standby");
         status.publish();
       }
@@ -435,90 +283,68 @@ int main(int argc, char** argv) {
         std::fflush(stdout);
       }
     }
-    while (opt.continuous && suspect_from < 0 && assignments.take(a)) {
-      // A standby starts the task too, at the tick the active one will most likely choose: should the
-      // active one die before its plan arrives, the standby's path differs by a tick or two at most.
-      if (a.module_id() != opt.module || a.task_id() <= plan.task_id() || plan.running() || draining) continue;
-      start_task(a);
-    }
-    // A standby publishes only while it follows the current leader's plan: one that has heard of a newer
-    // epoch than the plan it follows (a former leader back from a stall) is silent until that plan comes,
-    // or until that leader too has gone quiet (then this one's ticks must flow for it to take over).
-    const bool speak = active || followed.epoch >= max_epoch || (heard_stronger && Clock::now() - last_stronger > kTakeOverAfter);
-    if (speak != speaking) {
-      speaking = speak;
-      std::printf("tandem-supervisor %s: %s\n", self_id.c_str(),
-                  speak ? "following the leader's plan; publishing references again"
-                        : "silent until the new leader's plan arrives (its references are ahead of this one's plan)");
-      std::fflush(stdout);
-    }
-    while (sensors.take(s)) {
+    bool got = false;
+    while (reports.take(rep)) {
+      if (rep.module_id() != opt.module) continue;
       got = true;
-      const int j = ctx.arm_index(s.arm_id());
-      if (j < 0) continue;  // another module's arm
-      braked[static_cast<size_t>(j)] = s.braked();
-      if (braked[0] || braked[1]) last_braked_tick = static_cast<long>(s.tick());
-      const long answered = std::max(last[0], last[1]);
-      if (active && suspect_from < 0 && answered >= 0 && static_cast<long>(s.tick()) > answered + kTakeOverTicks &&
-          others_newest >= 0 && answered - others_newest < kOthersRecentTicks) {
-        suspect_from = static_cast<long>(s.tick());
-        suspect_since = Clock::now();
-        std::printf("tandem-supervisor %s: the world is at tick %ld, %ld past this one's last answer (it was stalled); "
-                    "silent until it hears whether another supervisor took over\n",
-                    self_id.c_str(), suspect_from, suspect_from - answered);
+      const long k = static_cast<long>(rep.tick());
+      if (active && suspect_from < 0 && heard_tick >= 0 && k > heard_tick + kTakeOverTicks && others_newest >= 0 &&
+          heard_tick - others_newest < kOthersRecentTicks) {
+        suspect_from = k;
+        suspect_since = now;
+        std::printf("tandem-supervisor %s: the world is at tick %ld, %ld past the newest this one had heard (it was "
+                    "stalled); silent until it hears whether another supervisor took over\n",
+                    self_id.c_str(), k, k - heard_tick);
         std::fflush(stdout);
       }
-      if (suspect_from >= 0) continue;  // the others answer this tick
-      // Pause while an arm is braked or a pause is asked for; the change applies from the first tick not
-      // yet published, so a published reference never changes. (A standby decides the same from the same
-      // samples; the active one's plan, when it comes, overrides.)
-      const long next = std::max(last[0], last[1]) + 1;
+      heard_tick = std::max(heard_tick, k);
+      braked = {rep.braked()[0], rep.braked()[1]};
+      braked_since = static_cast<long>(rep.braked_since());
+      released_at = static_cast<long>(rep.released_at());
+      if (rep.normal_min() < m.safe_grasp_force && k > static_cast<long>(ctx.scenario.transient / m.period) &&
+          k - low_force_reported > 1000) {
+        low_force_reported = k;  // eq. (14) violated: at most one line a second
+        std::printf("tandem-supervisor %s: grasp below the safe force at tick %ld: %.2f N < h_sg %.2f N\n",
+                    self_id.c_str(), k, rep.normal_min(), m.safe_grasp_force);
+        std::fflush(stdout);
+      }
+    }
+    if (got) last_report = now;
+    if (heard_tick >= 0 && suspect_from < 0) {
+      // Pause while an arm is braked or a pause is asked for, from kLeadTicks after the newest tick heard.
+      // A braking stops the path from the tick it began (the robots of a braked arm hold still anyway).
+      const long next = heard_tick + kLeadTicks;
       if (braked[0] || braked[1]) {
-        plan.set_rate(next, 0.0, kBrakeRamp);
-      } else if (last_braked_tick >= 0 && static_cast<long>(s.tick()) - last_braked_tick < kReleaseSettleTicks) {
-        // Just released: the new controller settles on the still reference first (no resume into a brake
-        // that engages again).
+        plan.set_rate(std::max(braked_since, 0L), 0.0, kBrakeRamp);
+      } else if (released_at >= 0 && heard_tick - released_at < kReleaseSettleTicks) {
+        // Just released: the new controller settles on the still reference first.
       } else {
         plan.set_rate(next, pause_requested ? 0.0 : 1.0, kPauseRamp);
       }
-      // The reference depends only on the planned path, so publish tick k and the next one: the robot then
-      // holds the reference of tick k+1 before its sensor sample arrives (one DDS hop less per tick).
-      const long k = static_cast<long>(s.tick());
-      // A sample of a tick already answered is the world asking again (a robot joined late): answer again.
-      // References depend only on the tick, so a repeat is identical.
-      const long from = k <= last[static_cast<size_t>(j)] ? k : std::max(k, last[static_cast<size_t>(j)] + 1);
-      for (long kk = from; kk <= std::min(k + 1, m.steps - 1); ++kk) {
-        const model::ArmReference ref = model::arm_reference(j, plan.sample(kk), m.geometry, m.reference_force);
-        r.arm_id(s.arm_id());
-        r.tick(static_cast<uint64_t>(kk));
-        for (int i = 0; i < 3; ++i) {
-          r.x()[static_cast<size_t>(i)] = ref.x(i);
-          r.xd()[static_cast<size_t>(i)] = ref.xd(i);
-          r.xdd()[static_cast<size_t>(i)] = ref.xdd(i);
-        }
-        r.force(ref.force);
-        if (speak) refs.write(r);
-        last[static_cast<size_t>(j)] = std::max(last[static_cast<size_t>(j)], kk);
+      while (opt.continuous && assignments.take(a)) {
+        // A standby starts the task too, at the tick the active one will most likely choose.
+        if (a.module_id() != opt.module || a.task_id() <= plan.task_id() || plan.running() || draining) continue;
+        plan.assign(a.task_id(), a.waypoints(), next);
+        status.msg().detail("task " + a.task_name());
+        publish_state(true);
       }
-      last_answered = Clock::now();
-      if (opt.continuous && plan.finish_if_done(std::min(last[0], last[1]))) publish_state(true);
+      if (opt.continuous && plan.finish_if_done(heard_tick)) publish_state(true);
+      publish_state(false);
+      if (!opt.continuous && heard_tick + 1 >= m.steps) world_done = true;
     }
-    if (suspect_from < 0) publish_state(false);
     if (active && reported == TaskStateCode::Left) {
       std::printf("tandem-supervisor %s: drained; the module leaves\n", opt.module.c_str());
       status.set(runtime::Lifecycle::Finalized, "drained");
       std::this_thread::sleep_for(std::chrono::milliseconds(300));  // let the state reach the coordinator
       return 0;
     }
-    const auto now = Clock::now();
-    if (got) last_input = now;
-    if (std::chrono::duration<double>(now - last_input).count() > opt.timeout) {
-      std::fprintf(stderr, "tandem-supervisor %s: no sensor sample for %.1f s; stopping\n", opt.module.c_str(),
+    if (std::chrono::duration<double>(now - last_report).count() > opt.timeout) {
+      std::fprintf(stderr, "tandem-supervisor %s: no report from the world for %.1f s; stopping\n", opt.module.c_str(),
                    opt.timeout);
-      status.set(runtime::Lifecycle::Error, "no sensor samples");
+      status.set(runtime::Lifecycle::Error, "no world reports");
       return 4;
     }
-    sensors.wait(started_as_standby ? 0.005 : 0.01);
+    reports.wait(0.01);
   }
   status.set(runtime::Lifecycle::Finalized, runtime::g_stop ? "stopped" : "task done");
   std::this_thread::sleep_for(std::chrono::milliseconds(100));

@@ -21,6 +21,7 @@
 #include <thread>
 
 #include "tandem/runtime/histogram.hpp"
+#include "tandem/runtime/plan_wire.hpp"
 #include "tandem/runtime/role.hpp"
 #include "tandem/runtime/status.hpp"
 
@@ -37,23 +38,31 @@ int main(int argc, char** argv) {
   plant.reset(m.initial);
 
   bus::Participant part(opt.domain, "world/" + opt.module, opt.transport);
-  bus::Writer<msg::ArmSensors, msg::ArmSensorsPubSubType> sensors(part, bus::module_topic(bus::kSensorsTopic, opt.module), bus::TopicKind::Sensors);
+  // Per arm: each robot receives only its own arm's samples. Real time: best effort, newest only.
+  const bus::TopicKind sensor_kind = opt.realtime ? bus::TopicKind::SensorsRealtime : bus::TopicKind::Sensors;
+  bus::Writer<msg::ArmSensors, msg::ArmSensorsPubSubType> sensors0(part, bus::arm_topic(bus::kSensorsTopic, ctx.arm_id(0)), sensor_kind);
+  bus::Writer<msg::ArmSensors, msg::ArmSensorsPubSubType> sensors1(part, bus::arm_topic(bus::kSensorsTopic, ctx.arm_id(1)), sensor_kind);
+  std::array<bus::Writer<msg::ArmSensors, msg::ArmSensorsPubSubType>*, 2> sensors{&sensors0, &sensors1};
   bus::Reader<msg::TorqueCommand, msg::TorqueCommandPubSubType> torques(part, bus::module_topic(bus::kTorquesTopic, opt.module),
                                                                          bus::TopicKind::Torques);
-  bus::Reader<msg::ArmReference, msg::ArmReferencePubSubType> refs(part, bus::module_topic(bus::kReferencesTopic, opt.module),
-                                                                   bus::TopicKind::References);
+  // The module's plan, to measure each arm's tracking error |x_d - x| as the world sees it (the same
+  // evaluation of eq. 15 as the robots'), and the report its supervisor plans from.
+  bus::Reader<msg::SupervisorPlan, msg::SupervisorPlanPubSubType> plans(part, bus::module_topic(bus::kSupervisorPlanTopic, opt.module),
+                                                                        bus::TopicKind::Task);
+  bus::Writer<msg::WorldReport, msg::WorldReportPubSubType> report(part, bus::module_topic(bus::kWorldReportTopic, opt.module),
+                                                                   bus::TopicKind::Task);
   bus::Writer<msg::WorldSummary, msg::WorldSummaryPubSubType> summary(part, bus::kWorldSummaryTopic,
                                                                        bus::TopicKind::Summary);
 
   runtime::StatusPublisher status(part, opt.module + "/world", "world", opt.module);
   status.msg().deployment(opt.deployment);
   status.set(runtime::Lifecycle::Inactive, "waiting for the supervisor and two robots");
-  // Peers: two robots and the supervisor read the sensors; two robots write torques.
+  // Peers: a robot per arm reads its sensors and writes torques; the supervisor reads the report.
   const auto t0 = std::chrono::steady_clock::now();
-  while (!runtime::g_stop && (sensors.matched() < 3 || torques.matched() < 2)) {
+  while (!runtime::g_stop && (sensors0.matched() < 1 || sensors1.matched() < 1 || torques.matched() < 2 || report.matched() < 1)) {
     if (std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() > opt.timeout) {
-      std::fprintf(stderr, "tandem-world: peers not found within %.1f s (sensor readers %d/3, torque writers %d/2)\n",
-                   opt.timeout, sensors.matched(), torques.matched());
+      std::fprintf(stderr, "tandem-world: peers not found within %.1f s (sensor readers %d+%d/2, torque writers %d/2, "
+                   "supervisor %d/1)\n", opt.timeout, sensors0.matched(), sensors1.matched(), torques.matched(), report.matched());
       status.set(runtime::Lifecycle::Error, "peers not found");
       return 3;
     }
@@ -93,17 +102,18 @@ int main(int argc, char** argv) {
   };
   std::vector<Window> windows;
   msg::WorldSummary ws;
-  // Supervisor references, to measure each arm's tracking error |x_d - x| as the world sees it.
-  struct RefSlot {
-    long tick = -1;
-    runtime::SupervisorRank rank;
-    model::Vec2 x = model::Vec2::Zero();
-  };
-  std::array<std::array<RefSlot, 64>, 2> ref_ring{};
+  plan::PlanFollower follower(m, opt.continuous);
+  msg::SupervisorPlan plan_in;
   std::array<double, 2> ep{0.0, 0.0};
+  // The report the supervisor plans from: every kReportEvery ticks, and at once when a brake changes.
+  constexpr long kReportEvery = 10;
+  msg::WorldReport rep;
+  rep.module_id(opt.module);
+  long braked_since = -1, released_at = -1;
+  double report_normal_min = 1e300;
+  bool report_now = true;
   msg::ArmSensors s;
   msg::TorqueCommand cmd;
-  msg::ArmReference ref_in;
   std::array<model::Vec3, 2> tau{model::Vec3::Zero(), model::Vec3::Zero()};
   timespec tick_start{};
   ::clock_gettime(CLOCK_MONOTONIC, &tick_start);
@@ -120,9 +130,18 @@ int main(int argc, char** argv) {
     }
     return out;
   };
+  long k = 0;
   auto set_brake = [&](int j, bool on, const std::string& why) {
+    const bool was_braked = link[0].braked || link[1].braked;
     link[j].braked = on;
     plant.set_brake(j, on);
+    const bool now_braked = link[0].braked || link[1].braked;
+    if (now_braked && !was_braked) braked_since = k;
+    if (!now_braked && was_braked) {
+      braked_since = -1;
+      released_at = k;
+    }
+    report_now = true;
     std::printf("tandem-world %s: %s %s (%s)\n", opt.module.c_str(), ctx.arm_id(j).c_str(),
                 on ? "braked" : "released", why.c_str());
     std::fflush(stdout);
@@ -133,7 +152,6 @@ int main(int argc, char** argv) {
   status.msg().serving(serving_text());
   status.set(runtime::Lifecycle::Active, opt.realtime ? "real time" : "lockstep");
   double min_normal = 1e300;
-  long k = 0;
   for (; k < m.steps && !runtime::g_stop; ++k) {
     const double t = static_cast<double>(k) * m.period;
     const model::ContactReading contact = plant.contacts();
@@ -144,21 +162,14 @@ int main(int argc, char** argv) {
         set_brake(j, false, "a robot answers again");
       }
     }
-    // Tracking error as the world sees it, and the windows after owner switches.
-    while (refs.take(ref_in)) {
-      const int j = ctx.arm_index(ref_in.arm_id());
-      if (j < 0 || !runtime::all_finite(ref_in.x()) || !runtime::valid_rank(ref_in.strength(), ref_in.epoch())) continue;
-      RefSlot& slot = ref_ring[static_cast<size_t>(j)][ref_in.tick() % 64];
-      const runtime::SupervisorRank rank{ref_in.epoch(), static_cast<int32_t>(ref_in.strength())};
-      if (!runtime::replaces(static_cast<long>(ref_in.tick()), rank, slot.tick, slot.rank)) continue;  // as robots
-      slot.tick = static_cast<long>(ref_in.tick());
-      slot.rank = rank;
-      slot.x = model::Vec2(ref_in.x()[0], ref_in.x()[1]);
+    // Tracking error as the world sees it (from the plan the robots follow), and the windows after owner switches.
+    while (plans.take(plan_in)) {
+      if (plan_in.module_id() == opt.module) follower.offer(runtime::from_wire(plan_in));
     }
+    report_normal_min = std::min({report_normal_min, contact.normal[0], contact.normal[1]});
     TickRecord& rec = history[static_cast<size_t>(k) % kHistory];
     for (int j = 0; j < 2; ++j) {
-      const RefSlot& slot = ref_ring[static_cast<size_t>(j)][static_cast<size_t>(k) % 64];
-      if (slot.tick == k) ep[j] = (slot.x - plant.end_effector(j).head<2>()).norm();
+      if (follower.has_plan()) ep[j] = (follower.reference(j, k).x.head<2>() - plant.end_effector(j).head<2>()).norm();
       rec.ep[static_cast<size_t>(j)] = ep[j];
     }
     rec.hn_min = std::min(contact.normal[0], contact.normal[1]);
@@ -213,10 +224,21 @@ int main(int argc, char** argv) {
         s.h()[0] = contact.h[j](0);
         s.h()[1] = contact.h[j](1);
         s.braked(link[j].braked);
-        sensors.write(s);
+        sensors[static_cast<size_t>(j)]->write(s);
       }
     };
     publish_samples();
+    if (report_now || k % kReportEvery == 0 || k + 1 == m.steps) {
+      rep.tick(static_cast<uint64_t>(k));
+      rep.braked()[0] = link[0].braked;
+      rep.braked()[1] = link[1].braked;
+      rep.braked_since(braked_since);
+      rep.released_at(released_at);
+      rep.normal_min(report_normal_min);
+      report.write(rep);
+      report_normal_min = 1e300;
+      report_now = false;
+    }
     // Real time: the tick ends at an absolute deadline; lockstep: when every arm that is not braked has its
     // command in (a braked arm's robot may answer too: that releases it).
     timespec deadline = tick_start;

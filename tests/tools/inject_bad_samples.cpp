@@ -1,6 +1,6 @@
 // Test participant: joins a running deployment's domain and publishes invalid samples for a while:
-// torque commands with NaN, over the torque limit, and for an unknown arm; references with inf and a
-// negative force. It follows the world's tick so that the bad samples compete with the good ones.
+// torque commands with NaN, over the torque limit, and for an unknown arm; module plans with a NaN waypoint
+// and with a strength out of range (every robot and the world must reject them). It follows the world's tick so that the bad samples compete with the good ones.
 // usage: tandem_inject --domain ID --module NAME --seconds S
 #include <tandemPubSubTypes.h>
 
@@ -31,13 +31,14 @@ int main(int argc, char** argv) {
     return 2;
   }
   bus::Participant part(domain, "test-injector", bus::Transport::SharedMemory);
-  bus::Reader<msg::ArmSensors, msg::ArmSensorsPubSubType> sensors(part, bus::module_topic(bus::kSensorsTopic, module), bus::TopicKind::Sensors);
+  bus::Reader<msg::ArmSensors, msg::ArmSensorsPubSubType> sensors(part, bus::arm_topic(bus::kSensorsTopic, module + "/left"),
+                                                                  bus::TopicKind::Sensors);
   // Stronger than any robot: under EXCLUSIVE ownership the world hears only this writer while it is alive,
   // so every invalid command really reaches the world's checks (and the world must not apply any).
   bus::Writer<msg::TorqueCommand, msg::TorqueCommandPubSubType> torques(part, bus::module_topic(bus::kTorquesTopic, module),
                                                                          bus::TopicKind::Torques, 1000);
-  bus::Writer<msg::ArmReference, msg::ArmReferencePubSubType> refs(part, bus::module_topic(bus::kReferencesTopic, module),
-                                                                   bus::TopicKind::References);
+  bus::Writer<msg::SupervisorPlan, msg::SupervisorPlanPubSubType> plans(part, bus::module_topic(bus::kSupervisorPlanTopic, module),
+                                                                        bus::TopicKind::Task);
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const double inf = std::numeric_limits<double>::infinity();
   msg::ArmSensors s;
@@ -64,16 +65,17 @@ int main(int argc, char** argv) {
     c.arm_id(module + "/ghost");
     c.tau({1.0, 1.0, 1.0});
     torques.write(c);
-    msg::ArmReference r;
-    r.tick(tick);
-    r.arm_id(module + "/left");
-    r.x({inf, 0.8, 1.5});
-    r.force(29.0);
-    refs.write(r);
-    r.arm_id(module + "/right");
-    r.x({0.5, 0.8, -1.5});
-    r.force(-5.0);
-    refs.write(r);
+    msg::SupervisorPlan p;  // outranks every supervisor (epoch 7), but malformed: must be rejected
+    p.module_id(module);
+    p.supervisor_id("injector");
+    p.strength(100);
+    p.epoch(7);
+    p.version(1000 + sent);
+    p.waypoints({inf, 0.8, 0.0, 1.0});
+    plans.write(p);
+    p.waypoints({});
+    p.strength(1000);  // out of [1, 100]
+    plans.write(p);
     sent += 5;
     sent_torques += 3;
   }

@@ -5,8 +5,7 @@ namespace fdds = eprosima::fastdds::dds;
 
 namespace {
 // Per-tick topics: reliable (lockstep must not lose a tick), keep-last 32 (a reader that is one or two
-// ticks behind still gets everything; nothing older matters; references 128, as every supervisor of the
-// module, up to four, sends every tick once: 32 ticks each), volatile (a late joiner starts from the next
+// ticks behind still gets everything; nothing older matters), volatile (a late joiner starts from the next
 // tick). Summaries and status: reliable, transient-local, keep-last 1 per key, so a launcher or a
 // `tandem status` that looks late still sees the latest value; the same for task assignments and task
 // states, so a supervisor that (re)joins gets its module's current task. Control requests: reliable, keep-last 32,
@@ -18,8 +17,11 @@ void apply(Q& q, TopicKind kind) {
   if (kind == TopicKind::Summary || kind == TopicKind::Status || kind == TopicKind::Task) {
     q.history().depth = 1;
     q.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
-  } else if (kind == TopicKind::References) {
-    q.history().depth = 128;  // every tick comes once per supervisor (a leader and up to three standbys)
+  } else if (kind == TopicKind::SensorsRealtime) {
+    // Real time: a sample that is late is worthless (the world has stepped on), so no repair traffic
+    // (HEARTBEAT/ACKNACK) and no queue: best effort, the newest only.
+    q.reliability().kind = fdds::BEST_EFFORT_RELIABILITY_QOS;
+    q.history().depth = 1;
     q.durability().kind = fdds::VOLATILE_DURABILITY_QOS;
   } else {
     q.history().depth = 32;

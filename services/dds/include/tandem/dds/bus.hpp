@@ -8,6 +8,7 @@
 #include <fastdds/dds/publisher/DataWriter.hpp>
 #include <fastdds/dds/publisher/Publisher.hpp>
 #include <fastdds/dds/subscriber/DataReader.hpp>
+#include <fastdds/dds/subscriber/DataReaderListener.hpp>
 #include <fastdds/dds/subscriber/SampleInfo.hpp>
 #include <fastdds/dds/subscriber/Subscriber.hpp>
 #include <fastdds/dds/topic/Topic.hpp>
@@ -80,9 +81,14 @@ class Writer {
 template <class T, class PubSubType>
 class Reader {
  public:
-  Reader(Participant& p, const std::string& topic_name, TopicKind kind) : p_(p) {
+  /// With a listener, its on_data_available runs in the DDS thread that received the sample (no hand-off to
+  /// another thread); the listener must outlive the reader.
+  Reader(Participant& p, const std::string& topic_name, TopicKind kind, fdds::DataReaderListener* listener = nullptr)
+      : p_(p) {
     fdds::Topic* t = p.topic(topic_name, new PubSubType());
-    reader_ = p.subscriber()->create_datareader(t, reader_qos(kind));
+    reader_ = listener == nullptr ? p.subscriber()->create_datareader(t, reader_qos(kind))
+                                  : p.subscriber()->create_datareader(t, reader_qos(kind), listener,
+                                                                      fdds::StatusMask::data_available());
     if (reader_ == nullptr) throw std::runtime_error("cannot create a DDS reader on " + topic_name);
   }
   ~Reader() { p_.subscriber()->delete_datareader(reader_); }

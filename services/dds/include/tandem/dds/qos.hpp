@@ -8,8 +8,8 @@
 namespace tandem::dds {
 
 enum class TopicKind {
-  Sensors,     ///< world -> robots, supervisor: every tick
-  References,  ///< supervisor -> robots: every tick
+  Sensors,          ///< world -> one robot, every tick, lockstep: reliable, nothing lost
+  SensorsRealtime,  ///< world -> one robot, every tick, real time: best effort, only the newest matters
   Torques,     ///< robots -> world: every tick
   Summary,     ///< end-of-run results for the launcher
   Status,      ///< lifecycle and live figures of every process
@@ -27,12 +27,14 @@ inline constexpr int kLivelinessLeaseMs = 20;
 inline constexpr int kLivelinessAssertMs = 4;
 eprosima::fastdds::dds::DataReaderQos reader_qos(TopicKind kind);
 
-/// Topic names. The per-tick topics are per module ("<base>/<module>"), so that a world, its supervisor and
-/// its robots receive only their own module's samples, however many modules share the domain.
+/// Topic names. The per-tick topics are per module ("<base>/<module>"), so that a world and its robots receive
+/// only their own module's samples, however many modules share the domain; sensor samples are per arm
+/// ("<base>/<module>/<robot>"), so that each robot receives only its own arm's.
 inline std::string module_topic(const char* base, const std::string& module) { return std::string(base) + "/" + module; }
+inline std::string arm_topic(const char* base, const std::string& arm_id) { return std::string(base) + "/" + arm_id; }
 
 inline constexpr const char* kSensorsTopic = "tandem/arm_sensors";
-inline constexpr const char* kReferencesTopic = "tandem/arm_references";
+inline constexpr const char* kWorldReportTopic = "tandem/world_report";
 inline constexpr const char* kTorquesTopic = "tandem/torque_commands";
 inline constexpr const char* kRobotSummaryTopic = "tandem/robot_summary";
 inline constexpr const char* kWorldSummaryTopic = "tandem/world_summary";

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "tandem/dds/bus.hpp"
+#include "tandem/plan/plan.hpp"
 #include "tandem/sim/module_setup.hpp"
 #include "tandem/sim/scenario.hpp"
 
@@ -57,35 +58,9 @@ bool start_role(const char* role, int argc, char** argv, bool needs_arm, RoleOpt
 extern std::atomic<bool> g_stop;
 void install_stop_handlers();
 
-/// Rank of a supervisor and of what it publishes: the latest epoch it led (0 until it first takes over; a
-/// takeover starts the epoch after the highest one heard), then its strength. The highest rank leads: a
-/// supervisor that was only stalled comes back with its old epoch, below the one that took over from it.
-/// docs/architecture.md, Hot standby (supervisors).
-struct SupervisorRank {
-  uint64_t epoch = 0;
-  int32_t strength = 0;
-  bool outranks(const SupervisorRank& o) const { return epoch != o.epoch ? epoch > o.epoch : strength > o.strength; }
-};
-
-/// The per-tick reference rings of robots and the world: whether a copy of `tick` from a supervisor of `rank`
-/// replaces a slot holding `slot_tick` from `slot_rank`. A late copy of an older tick never overwrites a newer
-/// one; within a tick, the highest rank stands.
-inline bool replaces(long tick, const SupervisorRank& rank, long slot_tick, const SupervisorRank& slot_rank) {
-  return tick > slot_tick || (tick == slot_tick && !slot_rank.outranks(rank));
-}
-
-/// A supervisor strength on the wire is in [1, RoleOptions::kPrimaryStrength]; an epoch below 2^32.
-inline bool valid_rank(int64_t strength, uint64_t epoch) {
-  return strength >= 1 && strength <= RoleOptions::kPrimaryStrength && epoch < (1ULL << 32);
-}
-
-/// True if every value is finite.
-template <class Array>
-bool all_finite(const Array& a) {
-  for (double v : a) {
-    if (!(v == v) || v > 1e300 || v < -1e300) return false;
-  }
-  return true;
-}
+// Ranks and wire checks live with the plan (services/plan); the role processes use them under these names.
+using plan::SupervisorRank;
+using plan::valid_rank;
+using plan::all_finite;
 
 }  // namespace tandem::runtime

@@ -1,0 +1,139 @@
+// The module's plan: what decides every reference of a module (docs/architecture.md, "Per-tick data flow").
+// The supervisor makes it (ModulePlan: tasks, pause/resume/brake retargets of the time scale, drain) and
+// publishes it when it changes; every robot and the world follow it (PlanFollower) and evaluate eq. (15) for
+// any tick themselves, so the supervisor is off the per-tick path. Plain data and logic, no DDS.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <cmath>
+#include <vector>
+
+#include "tandem/model/reference.hpp"
+#include "tandem/sim/module_setup.hpp"
+
+namespace tandem::plan {
+
+/// Rank of a supervisor and of the plans it publishes: the latest epoch it led (0 until it first takes over;
+/// a takeover starts the epoch after the highest one heard), then its strength. The highest rank leads: a
+/// supervisor that was only stalled comes back with its old epoch, below the one that took over from it.
+struct SupervisorRank {
+  uint64_t epoch = 0;
+  int32_t strength = 0;
+  bool outranks(const SupervisorRank& o) const { return epoch != o.epoch ? epoch > o.epoch : strength > o.strength; }
+};
+
+inline constexpr int kPrimaryStrength = 100;
+
+/// A supervisor strength on the wire is in [1, kPrimaryStrength]; an epoch below 2^32.
+inline bool valid_rank(int64_t strength, uint64_t epoch) {
+  return strength >= 1 && strength <= kPrimaryStrength && epoch < (1ULL << 32);
+}
+
+/// True if every value is finite.
+template <class Array>
+bool all_finite(const Array& a) {
+  for (double v : a) {
+    if (!(v == v) || v > 1e300 || v < -1e300) return false;
+  }
+  return true;
+}
+
+/// Task state of a module as the coordinator sees it (TaskState.state on the wire).
+enum class TaskStateCode : uint8_t { Idle = 0, Running = 1, Done = 2, Paused = 3, Draining = 4, Left = 5 };
+
+/// The plan as it travels (SupervisorPlan on the wire; services/runtime converts).
+struct PlanData {
+  std::string supervisor_id;
+  int32_t strength = kPrimaryStrength;
+  uint64_t epoch = 0;
+  uint64_t version = 0;
+  uint64_t task_id = 0;
+  uint64_t tasks_done = 0;
+  bool running = false;
+  int64_t start_tick = 0;
+  double tau_start = 0.0;
+  double rest[3] = {0.0, 0.0, 0.0};
+  double path_start[3] = {0.0, 0.0, 0.0};
+  std::vector<double> waypoints;  ///< (x, y, phi_E, duration) per waypoint
+  std::vector<double> breaks;     ///< time scale: (t0, tau0, r0, r1, ramp) per retarget
+  bool pause_requested = false;
+  bool draining = false;
+  uint8_t state = 0;
+  int64_t heard_tick = -1;        ///< the newest world tick its supervisor had heard when it published
+  SupervisorRank rank() const { return {epoch, strength}; }
+};
+
+/// The object's planned pose as a function of the tick: the scenario's path, or (continuous) a chain of
+/// assigned tasks, each starting where the previous left the object, all sampled through one time scale.
+class ModulePlan {
+ public:
+  ModulePlan(const sim::ModuleSetup& m, bool continuous);
+  model::PoseSample sample(long k) const;
+  /// eq. (15) for arm j at tick k with the grasp force (eq. 16).
+  model::ArmReference reference(int j, long k) const {
+    return model::arm_reference(j, sample(k), m_->geometry, m_->reference_force);
+  }
+  /// Starts a task at tick `start` from the current rest pose.
+  void assign(uint64_t id, const std::vector<double>& waypoints, long start);
+  /// True once the running task's motion is over at tick `k` (then the object rests at its end).
+  bool finish_if_done(long k);
+  /// Scenario mode: the path's motion is over by tick k.
+  bool motion_over(long k) const;
+  /// From tick `from` on the path runs at `rate` (0 paused, 1 normal), reached over `ramp` seconds.
+  /// `from` is raised to the latest retarget's tick if it is earlier (a retarget never rewrites the past).
+  void set_rate(long from, double rate, double ramp);
+  double target_rate() const { return scale_.target(); }
+  bool paused_at(long k) const { return scale_.target() == 0.0 && scale_.settled(time(k)); }
+  bool running() const { return running_; }
+  uint64_t task_id() const { return task_id_; }
+  uint64_t done() const { return done_; }
+  uint64_t version() const { return version_; }
+  /// The plan's content (the latest 64 retargets of the time scale); rank, flags and ids are the caller's.
+  void export_to(PlanData& p) const;
+  /// Adopts a published plan; false (and nothing changed) if it is malformed (see `check`).
+  bool import_from(const PlanData& p);
+  /// Why a plan cannot be followed ("" if it can): non-finite numbers, a waypoint list that is not
+  /// (x, y, phi, duration > 0) groups, a start tick or path time out of range, a state out of range,
+  /// a bad rank, or time-scale retargets that are not finite, ordered and with ramps >= 0.
+  static std::string check(const PlanData& p);
+
+ private:
+  double time(long k) const { return static_cast<double>(k) * m_->period; }
+  void build_path(const model::Vec3& from, const std::vector<double>& waypoints);
+  const sim::ModuleSetup* m_;
+  bool continuous_;
+  model::TimeScale scale_;
+  model::Vec3 rest_ = model::Vec3::Zero(), end_pose_ = model::Vec3::Zero(), path_start_ = model::Vec3::Zero();
+  model::ObjectPath path_;
+  std::vector<double> waypoints_;
+  uint64_t task_id_ = 0, done_ = 0, version_ = 0;
+  long start_ = 0;
+  long last_retarget_ = 0;
+  double tau_start_ = 0.0;
+  bool running_ = false;
+};
+
+/// A robot's or the world's copy of the module's plan: keeps the highest-ranked plan heard (epoch, then
+/// strength), and within one rank the newest version, so a stalled former leader's plan never replaces its
+/// successor's. Until a plan is heard, the follower holds the plan every supervisor starts from.
+class PlanFollower {
+ public:
+  PlanFollower(const sim::ModuleSetup& m, bool continuous) : plan_(m, continuous) {}
+  enum class Offer { Adopted, Ignored, Rejected };
+  /// Ignored: lower rank, or an old version of the current rank. Rejected: malformed (`why` says how).
+  Offer offer(const PlanData& p, std::string* why = nullptr);
+  bool has_plan() const { return have_; }
+  model::ArmReference reference(int j, long k) const { return plan_.reference(j, k); }
+  const ModulePlan& plan() const { return plan_; }
+  SupervisorRank rank() const { return rank_; }
+  uint64_t version() const { return version_; }
+
+ private:
+  ModulePlan plan_;
+  bool have_ = false;
+  SupervisorRank rank_{};
+  uint64_t version_ = 0;
+};
+
+}  // namespace tandem::plan

@@ -1,0 +1,129 @@
+#include "tandem/plan/plan.hpp"
+
+#include <algorithm>
+
+namespace tandem::plan {
+
+ModulePlan::ModulePlan(const sim::ModuleSetup& m, bool continuous) : m_(&m), continuous_(continuous) {
+  rest_ = m.path.sample(0.0).pose;
+}
+
+model::PoseSample ModulePlan::sample(long k) const {
+  const model::TimeScale::Sample s = scale_.at(time(k));
+  if (!continuous_) return model::sample_scaled(m_->path, s);
+  if (task_id_ == 0 || k < start_) {
+    model::PoseSample p;
+    p.pose = rest_;
+    return p;
+  }
+  return model::sample_scaled(path_, s, tau_start_);
+}
+
+void ModulePlan::assign(uint64_t id, const std::vector<double>& waypoints, long start) {
+  build_path(rest_, waypoints);
+  task_id_ = id;
+  start_ = start;
+  tau_start_ = scale_.at(time(start)).tau;
+  running_ = true;
+  ++version_;
+}
+
+bool ModulePlan::finish_if_done(long k) {
+  if (!running_ || k < start_ || scale_.at(time(k)).tau - tau_start_ < path_.motion_end()) return false;
+  running_ = false;
+  rest_ = end_pose_;
+  ++done_;
+  ++version_;
+  return true;
+}
+
+bool ModulePlan::motion_over(long k) const { return scale_.at(time(k)).tau >= m_->path.motion_end(); }
+
+void ModulePlan::set_rate(long from, double rate, double ramp) {
+  if (scale_.target() == rate) return;
+  from = std::max(from, last_retarget_);
+  scale_.retarget(time(from), rate, ramp);
+  last_retarget_ = from;
+  ++version_;
+}
+
+void ModulePlan::export_to(PlanData& p) const {
+  p.version = version_;
+  p.task_id = task_id_;
+  p.tasks_done = done_;
+  p.running = running_;
+  p.start_tick = start_;
+  p.tau_start = tau_start_;
+  for (int i = 0; i < 3; ++i) {
+    p.rest[i] = rest_(i);
+    p.path_start[i] = path_start_(i);
+  }
+  p.waypoints = waypoints_;
+  p.breaks = scale_.export_breaks(64);
+}
+
+std::string ModulePlan::check(const PlanData& p) {
+  const std::vector<double>& w = p.waypoints;
+  if (!valid_rank(p.strength, p.epoch)) return "strength not in [1, 100] or epoch not below 2^32";
+  if (w.size() % 4 != 0) return "waypoints are not (x, y, phi_E, duration) groups";
+  if (!all_finite(w) || !all_finite(p.rest) || !all_finite(p.path_start) || !all_finite(p.breaks)) {
+    return "a number is not finite";
+  }
+  for (size_t i = 3; i < w.size(); i += 4) {
+    if (!(w[i] > 0.0)) return "a waypoint's duration is not positive";
+  }
+  if (!(p.tau_start >= 0.0 && p.tau_start < 1e9)) return "path time at the start not in [0, 1e9)";
+  if (p.start_tick < 0 || p.start_tick >= (1LL << 40)) return "start tick not in [0, 2^40)";
+  if (p.state > static_cast<uint8_t>(TaskStateCode::Left)) return "state not in [0, 5]";
+  model::TimeScale scale;
+  if (!scale.restore(p.breaks)) return "time-scale retargets malformed";
+  return "";
+}
+
+bool ModulePlan::import_from(const PlanData& p) {
+  if (!check(p).empty()) return false;
+  model::TimeScale scale;
+  scale.restore(p.breaks);
+  scale_ = scale;
+  last_retarget_ = 0;
+  if (p.breaks.size() >= 5) {
+    last_retarget_ = static_cast<long>(std::ceil(p.breaks[p.breaks.size() - 5] / m_->period - 1e-6));
+  }
+  rest_ = model::Vec3(p.rest[0], p.rest[1], p.rest[2]);
+  build_path(model::Vec3(p.path_start[0], p.path_start[1], p.path_start[2]), p.waypoints);
+  task_id_ = p.task_id;
+  done_ = p.tasks_done;
+  running_ = p.running;
+  start_ = static_cast<long>(p.start_tick);
+  tau_start_ = p.tau_start;
+  version_ = p.version;
+  return true;
+}
+
+void ModulePlan::build_path(const model::Vec3& from, const std::vector<double>& waypoints) {
+  std::vector<model::ObjectPath::Segment> segs;
+  for (size_t i = 0; i + 3 < waypoints.size(); i += 4) {
+    segs.push_back({model::Vec3(waypoints[i], waypoints[i + 1], waypoints[i + 2]), waypoints[i + 3]});
+  }
+  path_ = model::ObjectPath(from, 0.0, segs);
+  path_start_ = from;
+  waypoints_ = waypoints;
+  end_pose_ = segs.empty() ? from : segs.back().to;
+}
+
+PlanFollower::Offer PlanFollower::offer(const PlanData& p, std::string* why) {
+  const std::string problem = ModulePlan::check(p);
+  if (!problem.empty()) {
+    if (why != nullptr) *why = problem;
+    return Offer::Rejected;
+  }
+  const SupervisorRank r = p.rank();
+  if (have_ && (rank_.outranks(r) || (!r.outranks(rank_) && p.version <= version_))) return Offer::Ignored;
+  plan_.import_from(p);
+  have_ = true;
+  rank_ = r;
+  version_ = p.version;
+  return Offer::Adopted;
+}
+
+}  // namespace tandem::plan

@@ -14,6 +14,9 @@
 
 #include <algorithm>
 #include <chrono>
+#include <condition_variable>
+#include <deque>
+#include <mutex>
 #include <cmath>
 #include <vector>
 #include <cstdio>
@@ -43,8 +46,47 @@ int main(int argc, char** argv) {
   bus::Writer<msg::ArmSensors, msg::ArmSensorsPubSubType> sensors0(part, bus::arm_topic(bus::kSensorsTopic, ctx.arm_id(0)), sensor_kind);
   bus::Writer<msg::ArmSensors, msg::ArmSensorsPubSubType> sensors1(part, bus::arm_topic(bus::kSensorsTopic, ctx.arm_id(1)), sensor_kind);
   std::array<bus::Writer<msg::ArmSensors, msg::ArmSensorsPubSubType>*, 2> sensors{&sensors0, &sensors1};
+  // Torque commands are taken in the DDS thread that received them and queued with their arrival time; the
+  // world's own thread is not woken for each (real time: it sleeps to the tick's deadline and then reads the
+  // queue; lockstep: it is woken when a command comes, as it waits for them).
+  struct Inbox : eprosima::fastdds::dds::DataReaderListener {
+    struct Item {
+      msg::TorqueCommand cmd;
+      long long at_ns = 0;
+    };
+    std::mutex mu;
+    std::condition_variable cv;
+    std::deque<Item> items;
+    bool notify = false;  // lockstep: the world thread waits on cv
+    msg::TorqueCommand scratch;
+    void on_data_available(eprosima::fastdds::dds::DataReader* r) override {
+      eprosima::fastdds::dds::SampleInfo info;
+      std::unique_lock<std::mutex> lock(mu);
+      while (r->take_next_sample(&scratch, &info) == ReturnCode_t::RETCODE_OK) {
+        if (!info.valid_data) continue;
+        timespec now{};
+        ::clock_gettime(CLOCK_MONOTONIC, &now);
+        items.push_back({scratch, static_cast<long long>(now.tv_sec) * 1000000000LL + now.tv_nsec});
+      }
+      lock.unlock();
+      if (notify) cv.notify_one();
+    }
+    bool pop(msg::TorqueCommand& out, long long& at_ns) {
+      std::lock_guard<std::mutex> lock(mu);
+      if (items.empty()) return false;
+      out = std::move(items.front().cmd);
+      at_ns = items.front().at_ns;
+      items.pop_front();
+      return true;
+    }
+    void wait(double seconds) {
+      std::unique_lock<std::mutex> lock(mu);
+      cv.wait_for(lock, std::chrono::duration<double>(seconds), [&] { return !items.empty(); });
+    }
+  } inbox;
+  inbox.notify = !opt.realtime;
   bus::Reader<msg::TorqueCommand, msg::TorqueCommandPubSubType> torques(part, bus::module_topic(bus::kTorquesTopic, opt.module),
-                                                                         bus::TopicKind::Torques);
+                                                                         bus::TopicKind::Torques, &inbox);
   // The module's plan, to measure each arm's tracking error |x_d - x| as the world sees it (the same
   // evaluation of eq. 15 as the robots'), and the report its supervisor plans from.
   bus::Reader<msg::SupervisorPlan, msg::SupervisorPlanPubSubType> plans(part, bus::module_topic(bus::kSupervisorPlanTopic, opt.module),
@@ -253,14 +295,14 @@ int main(int argc, char** argv) {
     };
     int republished = 0;
     const auto wait_start = std::chrono::steady_clock::now();
+    long long cmd_at_ns = 0;
     while (!done_waiting() && !runtime::g_stop) {
-      if (!torques.take(cmd)) {
+      if (!inbox.pop(cmd, cmd_at_ns)) {
         if (opt.realtime) {
           timespec now{};
           ::clock_gettime(CLOCK_MONOTONIC, &now);
-          const long long left = to_ns(deadline) - to_ns(now);
-          if (left <= 0) break;
-          torques.wait(static_cast<double>(left) * 1e-9);
+          if (to_ns(now) >= to_ns(deadline)) break;
+          ::clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &deadline, nullptr);  // the commands queue meanwhile
         } else {
           const double waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - wait_start).count();
           bool gave_up = false;
@@ -280,14 +322,12 @@ int main(int argc, char** argv) {
             publish_samples();
             ++republished;
           }
-          torques.wait(0.01);
+          inbox.wait(0.01);
         }
         continue;
       }
       if (opt.realtime) {
-        timespec now{};
-        ::clock_gettime(CLOCK_MONOTONIC, &now);
-        if (to_ns(now) > to_ns(deadline)) {  // taken after the deadline: too late for this tick
+        if (cmd_at_ns > to_ns(deadline)) {  // arrived after the deadline: too late for this tick
           ++stale;
           const int jl = ctx.arm_index(cmd.arm_id());
           if (jl >= 0) link[jl].heard = std::chrono::steady_clock::now();  // late, but its controller lives
@@ -375,9 +415,7 @@ int main(int argc, char** argv) {
       L.last_at = now_fo;
       L.heard = now_fo;
       if (opt.realtime) {
-        timespec now{};
-        ::clock_gettime(CLOCK_MONOTONIC, &now);
-        const double us = static_cast<double>(to_ns(now) - to_ns(sent)) * 1e-3;
+        const double us = static_cast<double>(cmd_at_ns - to_ns(sent)) * 1e-3;
         latency_us.add(us);
         interval_worst_us = std::max(interval_worst_us, us);
       }

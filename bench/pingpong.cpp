@@ -52,7 +52,6 @@ int main(int argc, char** argv) {
   bus::Writer<TorqueCommand, TorqueCommandPubSubType> out(part, ping ? "bench/ping" : "bench/pong", bus::TopicKind::Torques);
   bus::Reader<TorqueCommand, TorqueCommandPubSubType> in(part, ping ? "bench/pong" : "bench/ping", bus::TopicKind::Torques);
   TorqueCommand msg;
-  msg.arm_id("bench");
   const auto t0 = std::chrono::steady_clock::now();
   auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
   if (!ping) {

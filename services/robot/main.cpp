@@ -53,7 +53,8 @@ int main(int argc, char** argv) {
   // The torque writer goes first when the robot stops (std::optional::reset below): deleting it tells the
   // world at once, so a standby takes over within a tick instead of after the liveliness lease.
   std::optional<bus::Writer<msg::TorqueCommand, msg::TorqueCommandPubSubType>> torque_writer;
-  torque_writer.emplace(part, bus::module_topic(bus::kTorquesTopic, opt.module), bus::TopicKind::Torques, opt.strength);
+  torque_writer.emplace(part, bus::arm_topic(bus::kTorquesTopic, my_arm),
+                        opt.realtime ? bus::TopicKind::TorquesRealtime : bus::TopicKind::Torques, opt.strength);
   auto& torques = *torque_writer;
   bus::Writer<msg::RobotSummary, msg::RobotSummaryPubSubType> summary(part, bus::kRobotSummaryTopic,
                                                                        bus::TopicKind::Summary);
@@ -65,8 +66,6 @@ int main(int argc, char** argv) {
   // State shared by the receiving thread (which computes) and the main thread (liveliness, status, exit).
   std::mutex mu;
   msg::TorqueCommand cmd;
-  cmd.arm_id(my_arm);
-  cmd.robot_id(robot_id);
   cmd.strength(opt.strength);
   long done = -1;
   bool activated = false;
@@ -194,9 +193,8 @@ int main(int argc, char** argv) {
   std::unique_lock<std::mutex> lock(mu);
   listener.fn = [](fdds::DataReader*) {};  // nothing more is computed
   lock.unlock();
-  torques.unregister(cmd);     // give the arm up: the world follows the next strongest robot at once
-  torques.wait_for_acks(0.1);  // the last command and the unregistration reach the world
-  torque_writer.reset();       // then leave the arm at once (graceful hand-over), then report
+  torques.wait_for_acks(0.1);  // lockstep: the last command reaches the world
+  torque_writer.reset();       // give the arm up: the world follows the next strongest robot at once, then report
   lock.lock();
   const sim::RobotMeter::Summary sm = meter.summary();
   msg::RobotSummary rs;

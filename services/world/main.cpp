@@ -52,29 +52,33 @@ int main(int argc, char** argv) {
   struct Inbox : eprosima::fastdds::dds::DataReaderListener {
     struct Item {
       msg::TorqueCommand cmd;
+      int arm = 0;
       long long at_ns = 0;
     };
     std::mutex mu;
     std::condition_variable cv;
     std::deque<Item> items;
     bool notify = false;  // lockstep: the world thread waits on cv
+    std::array<eprosima::fastdds::dds::DataReader*, 2> readers{nullptr, nullptr};
     msg::TorqueCommand scratch;
     void on_data_available(eprosima::fastdds::dds::DataReader* r) override {
       eprosima::fastdds::dds::SampleInfo info;
       std::unique_lock<std::mutex> lock(mu);
+      const int arm = r == readers[1] ? 1 : 0;
       while (r->take_next_sample(&scratch, &info) == ReturnCode_t::RETCODE_OK) {
         if (!info.valid_data) continue;
         timespec now{};
         ::clock_gettime(CLOCK_MONOTONIC, &now);
-        items.push_back({scratch, static_cast<long long>(now.tv_sec) * 1000000000LL + now.tv_nsec});
+        items.push_back({scratch, arm, static_cast<long long>(now.tv_sec) * 1000000000LL + now.tv_nsec});
       }
       lock.unlock();
       if (notify) cv.notify_one();
     }
-    bool pop(msg::TorqueCommand& out, long long& at_ns) {
+    bool pop(msg::TorqueCommand& out, int& arm, long long& at_ns) {
       std::lock_guard<std::mutex> lock(mu);
       if (items.empty()) return false;
-      out = std::move(items.front().cmd);
+      out = items.front().cmd;
+      arm = items.front().arm;
       at_ns = items.front().at_ns;
       items.pop_front();
       return true;
@@ -85,8 +89,20 @@ int main(int argc, char** argv) {
     }
   } inbox;
   inbox.notify = !opt.realtime;
-  bus::Reader<msg::TorqueCommand, msg::TorqueCommandPubSubType> torques(part, bus::module_topic(bus::kTorquesTopic, opt.module),
-                                                                         bus::TopicKind::Torques, &inbox);
+  const bus::TopicKind torque_kind = opt.realtime ? bus::TopicKind::TorquesRealtime : bus::TopicKind::Torques;
+  // A torque topic per arm (EXCLUSIVE ownership: the strongest live robot of the arm is heard).
+  bus::Reader<msg::TorqueCommand, msg::TorqueCommandPubSubType> torques0(part, bus::arm_topic(bus::kTorquesTopic, ctx.arm_id(0)),
+                                                                          torque_kind, &inbox);
+  bus::Reader<msg::TorqueCommand, msg::TorqueCommandPubSubType> torques1(part, bus::arm_topic(bus::kTorquesTopic, ctx.arm_id(1)),
+                                                                          torque_kind, &inbox);
+  {
+    std::lock_guard<std::mutex> lock(inbox.mu);
+    inbox.readers = {torques0.get(), torques1.get()};
+  }
+  // The robot that wrote a command, from its strength (100: the primary).
+  auto robot_name = [&](int j, int32_t strength) {
+    return strength == runtime::RoleOptions::kPrimaryStrength ? ctx.arm_id(j) : ctx.arm_id(j) + "@" + std::to_string(strength);
+  };
   // The module's plan, to measure each arm's tracking error |x_d - x| as the world sees it (the same
   // evaluation of eq. 15 as the robots'), and the report its supervisor plans from.
   bus::Reader<msg::SupervisorPlan, msg::SupervisorPlanPubSubType> plans(part, bus::module_topic(bus::kSupervisorPlanTopic, opt.module),
@@ -101,10 +117,12 @@ int main(int argc, char** argv) {
   status.set(runtime::Lifecycle::Inactive, "waiting for the supervisor and two robots");
   // Peers: a robot per arm reads its sensors and writes torques; the supervisor reads the report.
   const auto t0 = std::chrono::steady_clock::now();
-  while (!runtime::g_stop && (sensors0.matched() < 1 || sensors1.matched() < 1 || torques.matched() < 2 || report.matched() < 1)) {
+  while (!runtime::g_stop && (sensors0.matched() < 1 || sensors1.matched() < 1 || torques0.matched() < 1 || torques1.matched() < 1 ||
+                              report.matched() < 1)) {
     if (std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() > opt.timeout) {
       std::fprintf(stderr, "tandem-world: peers not found within %.1f s (sensor readers %d+%d/2, torque writers %d/2, "
-                   "supervisor %d/1)\n", opt.timeout, sensors0.matched(), sensors1.matched(), torques.matched(), report.matched());
+                   "supervisor %d/1)\n", opt.timeout, sensors0.matched(), sensors1.matched(),
+                   torques0.matched() + torques1.matched(), report.matched());
       status.set(runtime::Lifecycle::Error, "peers not found");
       return 3;
     }
@@ -256,7 +274,6 @@ int main(int argc, char** argv) {
     }
     auto publish_samples = [&] {
       for (int j = 0; j < 2; ++j) {
-        s.arm_id(ctx.arm_id(j));
         s.tick(static_cast<uint64_t>(k));
         s.t(t);
         for (int i = 0; i < 3; ++i) {
@@ -296,8 +313,9 @@ int main(int argc, char** argv) {
     int republished = 0;
     const auto wait_start = std::chrono::steady_clock::now();
     long long cmd_at_ns = 0;
+    int cmd_arm = 0;
     while (!done_waiting() && !runtime::g_stop) {
-      if (!inbox.pop(cmd, cmd_at_ns)) {
+      if (!inbox.pop(cmd, cmd_arm, cmd_at_ns)) {
         if (opt.realtime) {
           timespec now{};
           ::clock_gettime(CLOCK_MONOTONIC, &now);
@@ -329,13 +347,13 @@ int main(int argc, char** argv) {
       if (opt.realtime) {
         if (cmd_at_ns > to_ns(deadline)) {  // arrived after the deadline: too late for this tick
           ++stale;
-          const int jl = ctx.arm_index(cmd.arm_id());
-          if (jl >= 0) link[jl].heard = std::chrono::steady_clock::now();  // late, but its controller lives
+          link[cmd_arm].heard = std::chrono::steady_clock::now();  // late, but its controller lives
           break;
         }
       }
-      const int j = ctx.arm_index(cmd.arm_id());
-      if (j < 0 || !runtime::all_finite(cmd.tau())) {
+      const int j = cmd_arm;
+      const std::string robot_id = robot_name(j, cmd.strength());
+      if (!runtime::all_finite(cmd.tau())) {
         ++rejected;
         continue;
       }
@@ -369,11 +387,11 @@ int main(int argc, char** argv) {
       ArmLink& L = link[j];
       if (L.braked) {
         std::printf("tandem-world %s: %s follows %s after %.0f ms braked\n", opt.module.c_str(), ctx.arm_id(j).c_str(),
-                    cmd.robot_id().c_str(), std::chrono::duration<double, std::milli>(now_fo - L.last_at).count());
-        L.owner = cmd.robot_id();
+                    robot_id.c_str(), std::chrono::duration<double, std::milli>(now_fo - L.last_at).count());
+        L.owner = robot_id;
         L.strength = cmd.strength();
         set_brake(j, false, "a robot answers again");
-      } else if (!L.owner.empty() && cmd.robot_id() != L.owner && k >= 50) {
+      } else if (!L.owner.empty() && robot_id != L.owner && k >= 50) {
         // A change of owner (EXCLUSIVE ownership picks the strongest live writer). To a weaker robot it is a
         // failover (the owner died or left); to a stronger one a takeover. In the first 50 ticks discovery
         // order decides which of a primary and its shadow the reader hears first: not a switch.
@@ -385,7 +403,7 @@ int main(int argc, char** argv) {
           failover_max_ms = std::max(failover_max_ms, gap_ms);
         }
         std::printf("tandem-world %s: %s now follows %s (was %s): %s %.1f ms after the last command of the old one\n",
-                    opt.module.c_str(), ctx.arm_id(j).c_str(), cmd.robot_id().c_str(), L.owner.c_str(),
+                    opt.module.c_str(), ctx.arm_id(j).c_str(), robot_id.c_str(), L.owner.c_str(),
                     failover ? "failover" : "takeover", gap_ms);
         std::fflush(stdout);
         if (ws.switch_gap_ms().size() < 512) {
@@ -401,12 +419,12 @@ int main(int argc, char** argv) {
           ws.switch_hn_min().push_back(hn_min);
           windows.push_back({j, k + kWindowTicks, ws.switch_gap_ms().size() - 1});
         }
-        L.owner = cmd.robot_id();
+        L.owner = robot_id;
         L.strength = cmd.strength();
         status.msg().serving(serving_text());
         status.publish();
-      } else if (L.owner != cmd.robot_id() || L.strength != cmd.strength()) {
-        L.owner = cmd.robot_id();
+      } else if (L.owner != robot_id || L.strength != cmd.strength()) {
+        L.owner = robot_id;
         L.strength = cmd.strength();
         status.msg().serving(serving_text());
         status.publish();

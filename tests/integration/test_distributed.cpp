@@ -46,11 +46,11 @@ std::string work_dir() {
 
 std::string write_deployment(const std::string& name, int domain, const std::string& case_name,
                              const std::string& timing = "lockstep", int standby = 0, const std::string& extra = "",
-                             const std::string& transport = "shm") {
+                             const std::string& transport = "shm", const std::string& scenario = "") {
   const std::string path = work_dir() + "/" + name + ".yaml";
   std::ofstream(path) << "name: " << name << "\ndomain_id: " << domain << "\ntransport: " << transport << "\ntiming: " << timing
                       << "\ntimeout: 10\nmodules:\n  - name: m1\n    scenario: "
-                      << kSrc << "/config/scenarios/paper.yaml\n    case: " << case_name << "\n    standby: " << standby
+                      << (scenario.empty() ? kSrc + "/config/scenarios/paper.yaml" : scenario) << "\n    case: " << case_name << "\n    standby: " << standby
                       << "\n" << extra;
   return path;
 }
@@ -120,6 +120,29 @@ const tandem::sim::CaseResult& embedded_sosm() {
   return result;
 }
 
+// The paper scenario lengthened to 15 s (the object held at its goal from 4.5 s on), for the tests that kill
+// a process mid-run in lockstep: 5000 ticks take about 1.5 s, less than a live command may take to reach the
+// launcher, so the kills land in the first third of 15 000 ticks instead. And its SOSM case embedded.
+std::string kill_scenario() {
+  static const std::string path = [] {
+    const std::string p = work_dir() + "/paper-15s.yaml";
+    (void)std::system(("sed 's/^  duration: 5.0 /  duration: 15.0 /' " + kSrc + "/config/scenarios/paper.yaml > " + p).c_str());
+    return p;
+  }();
+  return path;
+}
+
+const tandem::sim::CaseResult& embedded_sosm_15s() {
+  static const tandem::sim::CaseResult result = [] {
+    const auto sc = tandem::sim::load_scenario(kill_scenario());
+    for (const auto& c : sc.cases) {
+      if (c.name == "SOSM") return tandem::sim::run_case(sc, c);
+    }
+    throw std::runtime_error("paper-15s.yaml has no case SOSM");
+  }();
+  return result;
+}
+
 // A deployment with a coordinator and `pairs` out-and-back tasks of 1 s each (out-i to x = 0, back-i to
 // x = -0.2), lockstep; `coordinator_keys` and `modules` are YAML lines of their own.
 std::string write_task_deployment(const std::string& name, int domain, int pairs, const std::string& coordinator_keys,
@@ -144,6 +167,13 @@ std::string sosm_modules(int n, const std::string& extra = "") {
            extra + "}\n";
   }
   return out;
+}
+
+// Shell: waits (at most 10 s) until the world of the deployment logging to `log` has started ticking, then
+// `seconds` more: a fault lands mid-run however long start-up took (lockstep runs 5000 ticks in about 1.5 s).
+std::string after_first_tick(const std::string& log, double seconds) {
+  return "for i in $(seq 200); do grep -q \"first tick\" " + log + " && break; sleep 0.05; done; sleep " +
+         std::to_string(seconds) + "; ";
 }
 
 bool processes_left(int domain) {
@@ -310,11 +340,11 @@ TEST_CASE("a coordinator hands a task queue to four modules, which complete it",
 
 TEST_CASE("SIGKILL of a primary robot: its hot standby takes over and nothing changes", "[distributed]") {
   const int domain = test_domain(6);
-  const std::string deploy = write_deployment("standby", domain, "SOSM", "lockstep", 1, "", kCrashTransport);
+  const std::string deploy = write_deployment("standby", domain, "SOSM", "lockstep", 1, "", kCrashTransport, kill_scenario());
   const std::string summary = work_dir() + "/standby.summary";
   const std::string up_log = work_dir() + "/standby.log";
   const std::string cmd = kBin + "/tandem up " + deploy + " --summary " + summary + " > " + up_log +
-                          " 2>&1 & up=$!; sleep 1.2; " + kBin + "/tandem kill " + deploy +
+                          " 2>&1 & up=$!; " + after_first_tick(up_log, 0.4) + kBin + "/tandem kill " + deploy +
                           " m1/left && echo killed; wait $up; echo up_rc=$?";
   const Run r = run("bash -c '" + cmd + "'");
   std::ifstream log(up_log);
@@ -326,7 +356,7 @@ TEST_CASE("SIGKILL of a primary robot: its hot standby takes over and nothing ch
   CHECK(ss.str().find("fault injection: SIGKILL m1/left") != std::string::npos);
   CHECK(ss.str().find("m1/left now follows m1/left@50") != std::string::npos);
   const auto kv = read_summary(summary);
-  CHECK(kv.at("m1.ticks") == 5000);
+  CHECK(kv.at("m1.ticks") == 15000);
   CHECK(kv.at("m1.slip_events") == 0);
   CHECK(kv.at("m1.contact_lost") == 0);
   CHECK(kv.at("m1.failovers") >= 1);
@@ -335,7 +365,7 @@ TEST_CASE("SIGKILL of a primary robot: its hot standby takes over and nothing ch
   CHECK(kv.at("m1.failover_max_ms") > 1.0);
   CHECK(kv.at("m1.failover_max_ms") < 5000.0);
   // The standby ran the same controller in shadow on the same inputs: the run is exactly the embedded one.
-  const tandem::sim::CaseResult& e = embedded_sosm();
+  const tandem::sim::CaseResult& e = embedded_sosm_15s();
   CHECK(kv.at("m1/left@50.ep_pos_rms") == Approx(e.robots[0].ep_pos_rms).epsilon(1e-12));
   CHECK(kv.at("m1/left@50.eh_rms") == Approx(e.robots[0].eh_rms).epsilon(1e-12));
   CHECK(kv.at("m1.object_final0") == Approx(e.final_state.c(0)).margin(1e-12));
@@ -363,11 +393,11 @@ TEST_CASE("SIGKILL of the supervisor: its hot standby carries on with the same r
   const int domain = test_domain(13);
   const std::string deploy =
       write_deployment("supstandby", domain, "SOSM", "lockstep", 0,
-                       "    supervisor_standby: 1\n    restart: on-failure\n", kCrashTransport);
+                       "    supervisor_standby: 1\n    restart: on-failure\n", kCrashTransport, kill_scenario());
   const std::string summary = work_dir() + "/supstandby.summary", up_log = work_dir() + "/supstandby.log";
   const std::string t = kBin + "/tandem ";
-  const std::string cmd = t + "up " + deploy + " --summary " + summary + " > " + up_log + " 2>&1 & up=$!; sleep 1.2; " +
-                          t + "kill " + deploy + " m1/supervisor; echo kill_rc=$?; wait $up; echo up_rc=$?";
+  const std::string cmd = t + "up " + deploy + " --summary " + summary + " > " + up_log + " 2>&1 & up=$!; " +
+                          after_first_tick(up_log, 0.4) + t + "kill " + deploy + " m1/supervisor; echo kill_rc=$?; wait $up; echo up_rc=$?";
   const Run r = run("bash -c '" + cmd + "'");
   const std::string log = read_file(up_log);
   INFO(r.output << "\n--- tandem up ---\n" << log);
@@ -378,13 +408,13 @@ TEST_CASE("SIGKILL of the supervisor: its hot standby carries on with the same r
   CHECK(log.find("m1/supervisor@50: taking over in epoch 1") != std::string::npos);
   CHECK(log.find("restarting m1/supervisor") != std::string::npos);  // back as a standby (on-failure)
   const auto kv = read_summary(summary);
-  CHECK(kv.at("m1.ticks") == 5000);
+  CHECK(kv.at("m1.ticks") == 15000);
   CHECK(kv.at("m1.slip_events") == 0);
   CHECK(kv.at("m1.contact_lost") == 0);
   CHECK(kv.at("m1.braked_ticks") == 0);  // the robots never lacked a reference long enough to be braked
   // The standby published the same references all along, and the robots went on with them: the run is
   // exactly the embedded one.
-  const tandem::sim::CaseResult& e = embedded_sosm();
+  const tandem::sim::CaseResult& e = embedded_sosm_15s();
   CHECK(kv.at("m1/left.ep_pos_rms") == Approx(e.robots[0].ep_pos_rms).epsilon(1e-12));
   CHECK(kv.at("m1/right.eh_rms") == Approx(e.robots[1].eh_rms).epsilon(1e-12));
   CHECK(kv.at("m1.object_final0") == Approx(e.final_state.c(0)).margin(1e-12));
@@ -441,14 +471,14 @@ TEST_CASE("a supervisor stalled past its standby's takeover steps down when it c
   const std::string path = write_task_deployment("supstall", domain, 3, "", sosm_modules(1, ", supervisor_standby: 1"), kCrashTransport);
   const std::string summary = work_dir() + "/supstall.summary", up_log = work_dir() + "/supstall.log";
   const std::string t = kBin + "/tandem ";
-  // SIGSTOP of the leading supervisor for 1.5 s, from mid-task: the standby takes over (epoch 1) and carries
+  // SIGSTOP of the leading supervisor for 0.4 s (lockstep runs a 1 s task in about 0.3 s), from mid-task: the standby takes over (epoch 1) and carries
   // the module through at least one task boundary (the coordinator's next task goes to it). Then SIGCONT:
   // the old leader comes back with a stale plan and its old epoch; it must step down and adopt the new plan,
   // and no robot may follow its stale references (they would move the object along another path).
   const std::string cmd = t + "up " + path + " --summary " + summary + " > " + up_log + " 2>&1 & up=$!; " +
                           "for i in $(seq 400); do grep -q \"task back-0 -> m1\" " + up_log +
                           " && break; sleep 0.05; done; sleep 0.3; pid=$(pgrep -f \"tandem-[s]upervisor .*--domain " +
-                          std::to_string(domain) + " .*--strength 100\"); echo pid=$pid; kill -STOP $pid; sleep 1.5; " +
+                          std::to_string(domain) + " .*--strength 100\"); echo pid=$pid; kill -STOP $pid; sleep 0.4; " +
                           "kill -CONT $pid; wait $up; echo up_rc=$?";
   const Run r = run("bash -c '" + cmd + "'");
   const std::string log = read_file(up_log);
@@ -497,11 +527,12 @@ TEST_CASE("a restart still pending when the module's task ends is dropped, not w
   // The primary robot is killed mid-run; its restart waits 30 s of backoff, far past the end of the 5 s task
   // (the standby carries on). When the world finishes, the launcher must drop the restart and end at once.
   const std::string deploy = write_deployment("lateres", domain, "SOSM", "lockstep", 1,
-                                              "    restart: on-failure\n    restart_backoff: 30\n", kCrashTransport);
+                                              "    restart: on-failure\n    restart_backoff: 30\n", kCrashTransport,
+                                              kill_scenario());
   const std::string summary = work_dir() + "/lateres.summary", up_log = work_dir() + "/lateres.log";
   const std::string t = kBin + "/tandem ";
   const std::string cmd = "start=$(date +%s); " + t + "up " + deploy + " --summary " + summary + " > " + up_log +
-                          " 2>&1 & up=$!; sleep 1.2; " + t + "kill " + deploy +
+                          " 2>&1 & up=$!; " + after_first_tick(up_log, 0.4) + t + "kill " + deploy +
                           " m1/left; echo kill_rc=$?; wait $up; echo up_rc=$?; echo took=$(( $(date +%s) - start ))";
   const Run r = run("bash -c '" + cmd + "'");
   const std::string log = read_file(up_log);
@@ -514,7 +545,7 @@ TEST_CASE("a restart still pending when the module's task ends is dropped, not w
   REQUIRE(took != std::string::npos);
   CHECK(std::stoi(r.output.substr(took + 5)) < 25);  // well before the 30 s backoff would have ended
   const auto kv = read_summary(summary);
-  CHECK(kv.at("m1.ticks") == 5000);
+  CHECK(kv.at("m1.ticks") == 15000);
   CHECK(kv.at("m1.slip_events") == 0);
   CHECK_FALSE(processes_left(domain));
 }
@@ -683,7 +714,7 @@ TEST_CASE("a world stalled for 0.4 s re-anchors its clock instead of a catch-up 
 
 TEST_CASE("four modules: the coordinator is killed, one module killed and one unplugged, and every task is done once", "[distributed]") {
   const int domain = test_domain(12);
-  const std::string path = write_task_deployment("live4", domain, 8, "  standby: 1\n", sosm_modules(4), kCrashTransport);
+  const std::string path = write_task_deployment("live4", domain, 16, "  standby: 1\n", sosm_modules(4), kCrashTransport);
   const std::string summary = work_dir() + "/live4.summary", up_log = work_dir() + "/live4.log";
   const std::string t = kBin + "/tandem ";
   const std::string cmd = t + "up " + path + " --summary " + summary + " > " + up_log + " 2>&1 & up=$!; " +
@@ -706,8 +737,9 @@ TEST_CASE("four modules: the coordinator is killed, one module killed and one un
   CHECK(log.find("module m3 drained") != std::string::npos);
   const auto kv = read_summary(summary);
   const auto text = read_summary_text(summary);
-  // No task lost, none done twice, although the coordinator and a module with a task died.
-  CHECK(kv.at("coordinator.tasks_done") == 16);
+  // No task lost, none done twice, although the coordinator and a module with a task died. (32 tasks: lockstep
+  // runs a 1 s task in about 0.3 s, and the three live commands, one after the other, must land mid-run.)
+  CHECK(kv.at("coordinator.tasks_done") == 32);
   CHECK(kv.at("coordinator.duplicates") == 0);
   CHECK(text.at("m2.end") == "failed");
   CHECK(text.at("m3.end") == "unplugged");

@@ -1,5 +1,5 @@
 // Test participant: joins a running deployment's domain and publishes invalid samples for a while:
-// torque commands with NaN, over the torque limit, and for an unknown arm; module plans with a NaN waypoint
+// torque commands with NaN and over the torque limit; module plans with a NaN waypoint
 // and with a strength out of range (every robot and the world must reject them). It follows the world's tick so that the bad samples compete with the good ones.
 // usage: tandem_inject --domain ID --module NAME --seconds S
 #include <tandemPubSubTypes.h>
@@ -35,8 +35,10 @@ int main(int argc, char** argv) {
                                                                   bus::TopicKind::Sensors);
   // Stronger than any robot: under EXCLUSIVE ownership the world hears only this writer while it is alive,
   // so every invalid command really reaches the world's checks (and the world must not apply any).
-  bus::Writer<msg::TorqueCommand, msg::TorqueCommandPubSubType> torques(part, bus::module_topic(bus::kTorquesTopic, module),
-                                                                         bus::TopicKind::Torques, 1000);
+  bus::Writer<msg::TorqueCommand, msg::TorqueCommandPubSubType> left(part, bus::arm_topic(bus::kTorquesTopic, module + "/left"),
+                                                                      bus::TopicKind::Torques, 1000);
+  bus::Writer<msg::TorqueCommand, msg::TorqueCommandPubSubType> right(part, bus::arm_topic(bus::kTorquesTopic, module + "/right"),
+                                                                       bus::TopicKind::Torques, 1000);
   bus::Writer<msg::SupervisorPlan, msg::SupervisorPlanPubSubType> plans(part, bus::module_topic(bus::kSupervisorPlanTopic, module),
                                                                         bus::TopicKind::Task);
   const double nan = std::numeric_limits<double>::quiet_NaN();
@@ -55,16 +57,11 @@ int main(int argc, char** argv) {
     if (!got) continue;
     msg::TorqueCommand c;
     c.tick(tick);
-    c.robot_id("injector");
-    c.arm_id(module + "/left");
+    c.strength(1000);
     c.tau({nan, 0.0, 0.0});
-    torques.write(c);
-    c.arm_id(module + "/right");
+    left.write(c);
     c.tau({1e7, 0.0, 0.0});
-    torques.write(c);
-    c.arm_id(module + "/ghost");
-    c.tau({1.0, 1.0, 1.0});
-    torques.write(c);
+    right.write(c);
     msg::SupervisorPlan p;  // outranks every supervisor (epoch 7), but malformed: must be rejected
     p.module_id(module);
     p.supervisor_id("injector");
@@ -76,8 +73,8 @@ int main(int argc, char** argv) {
     p.waypoints({});
     p.strength(1000);  // out of [1, 100]
     plans.write(p);
-    sent += 5;
-    sent_torques += 3;
+    sent += 4;
+    sent_torques += 2;
   }
   std::printf("injected %llu invalid samples\ninjected_torques=%llu\n", sent, sent_torques);
   return sent > 0 ? 0 : 1;

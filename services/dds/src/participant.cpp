@@ -9,7 +9,7 @@
 
 namespace tandem::dds {
 
-Participant::Participant(int domain_id, const std::string& name, Transport transport) {
+Participant::Participant(int domain_id, const std::string& name, Transport transport) : transport_(transport) {
   fdds::DomainParticipantQos qos = fdds::PARTICIPANT_QOS_DEFAULT;
   qos.name(name);
   qos.transport().use_builtin_transports = false;

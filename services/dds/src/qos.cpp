@@ -17,7 +17,7 @@ void apply(Q& q, TopicKind kind) {
   if (kind == TopicKind::Summary || kind == TopicKind::Status || kind == TopicKind::Task) {
     q.history().depth = 1;
     q.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
-  } else if (kind == TopicKind::SensorsRealtime) {
+  } else if (kind == TopicKind::SensorsRealtime || kind == TopicKind::TorquesRealtime) {
     // Real time: a sample that is late is worthless (the world has stepped on), so no repair traffic
     // (HEARTBEAT/ACKNACK) and no queue: best effort, the newest only.
     q.reliability().kind = fdds::BEST_EFFORT_RELIABILITY_QOS;
@@ -29,32 +29,56 @@ void apply(Q& q, TopicKind kind) {
   }
   // Keyed topics carry one instance per arm, process or module: the default limit of 10 instances would
   // silently drop the 11th process of a large deployment.
-  if (kind == TopicKind::Torques) {
+  if (kind == TopicKind::Torques || kind == TopicKind::TorquesRealtime) {
     // Hot standby (DESIGN.md tier 1): EXCLUSIVE ownership keyed by arm, MANUAL_BY_TOPIC liveliness with a
     // short lease (AUTOMATIC liveliness waits for the 20 s participant lease and never fails over).
     q.ownership().kind = fdds::EXCLUSIVE_OWNERSHIP_QOS;
     q.liveliness().kind = fdds::MANUAL_BY_TOPIC_LIVELINESS_QOS;
     q.liveliness().lease_duration = eprosima::fastrtps::Duration_t(0, kLivelinessLeaseMs * 1000000u);
   }
-  q.resource_limits().max_instances = 1024;
-  q.resource_limits().max_samples_per_instance = q.history().depth;
-  q.resource_limits().max_samples = 1024 * q.history().depth;
+  if (per_tick(kind)) {
+    // One instance per topic (a topic per arm, unkeyed): a short history that can live in a preallocated,
+    // shared pool (data-sharing delivery needs both).
+    q.resource_limits().max_instances = 1;
+    q.resource_limits().max_samples_per_instance = q.history().depth;
+    q.resource_limits().max_samples = q.history().depth;
+  } else {
+    q.resource_limits().max_instances = 1024;
+    q.resource_limits().max_samples_per_instance = q.history().depth;
+    q.resource_limits().max_samples = 1024 * q.history().depth;
+  }
+}
+
+template <class Q>
+void apply_data_sharing(Q& q, TopicKind kind, bool data_sharing) {
+  if (per_tick(kind) && data_sharing) {
+    q.data_sharing().automatic();
+  } else {
+    q.data_sharing().off();
+  }
 }
 }  // namespace
 
-fdds::DataWriterQos writer_qos(TopicKind kind, int32_t strength) {
+fdds::DataWriterQos writer_qos(TopicKind kind, int32_t strength, bool data_sharing) {
   fdds::DataWriterQos q = fdds::DATAWRITER_QOS_DEFAULT;
   apply(q, kind);
-  if (kind == TopicKind::Torques) {
+  apply_data_sharing(q, kind, data_sharing);
+  if (per_tick(kind)) {
+    q.endpoint().history_memory_policy = eprosima::fastrtps::rtps::PREALLOCATED_MEMORY_MODE;
+    // Pool slots beyond the history, so that a write never waits for a slow reader to release one.
+    q.resource_limits().extra_samples = 8;
+  }
+  if (kind == TopicKind::Torques || kind == TopicKind::TorquesRealtime) {
     q.ownership_strength().value = static_cast<uint32_t>(strength);
     q.liveliness().announcement_period = eprosima::fastrtps::Duration_t(0, kLivelinessAssertMs * 1000000u);
   }
   return q;
 }
 
-fdds::DataReaderQos reader_qos(TopicKind kind) {
+fdds::DataReaderQos reader_qos(TopicKind kind, bool data_sharing) {
   fdds::DataReaderQos q = fdds::DATAREADER_QOS_DEFAULT;
   apply(q, kind);
+  apply_data_sharing(q, kind, data_sharing);
   return q;
 }
 

@@ -37,11 +37,14 @@ class Participant {
   fdds::Publisher* publisher() { return publisher_; }
   fdds::Subscriber* subscriber() { return subscriber_; }
   fdds::DomainParticipant* get() { return participant_; }
+  /// Per-tick topics use data-sharing delivery unless the deployment asked for UDP only.
+  bool data_sharing() const { return transport_ == Transport::SharedMemory; }
 
  private:
   fdds::DomainParticipant* participant_ = nullptr;
   fdds::Publisher* publisher_ = nullptr;
   fdds::Subscriber* subscriber_ = nullptr;
+  Transport transport_ = Transport::SharedMemory;
 };
 
 template <class T, class PubSubType>
@@ -49,7 +52,7 @@ class Writer {
  public:
   Writer(Participant& p, const std::string& topic_name, TopicKind kind, int32_t strength = 0) : p_(p) {
     fdds::Topic* t = p.topic(topic_name, new PubSubType());
-    writer_ = p.publisher()->create_datawriter(t, writer_qos(kind, strength));
+    writer_ = p.publisher()->create_datawriter(t, writer_qos(kind, strength, p.data_sharing()));
     if (writer_ == nullptr) throw std::runtime_error("cannot create a DDS writer on " + topic_name);
   }
   ~Writer() { p_.publisher()->delete_datawriter(writer_); }
@@ -86,8 +89,8 @@ class Reader {
   Reader(Participant& p, const std::string& topic_name, TopicKind kind, fdds::DataReaderListener* listener = nullptr)
       : p_(p) {
     fdds::Topic* t = p.topic(topic_name, new PubSubType());
-    reader_ = listener == nullptr ? p.subscriber()->create_datareader(t, reader_qos(kind))
-                                  : p.subscriber()->create_datareader(t, reader_qos(kind), listener,
+    reader_ = listener == nullptr ? p.subscriber()->create_datareader(t, reader_qos(kind, p.data_sharing()))
+                                  : p.subscriber()->create_datareader(t, reader_qos(kind, p.data_sharing()), listener,
                                                                       fdds::StatusMask::data_available());
     if (reader_ == nullptr) throw std::runtime_error("cannot create a DDS reader on " + topic_name);
   }
@@ -108,6 +111,7 @@ class Reader {
     const auto nsec = static_cast<uint32_t>((timeout_s - sec) * 1e9);
     return reader_->wait_for_unread_message(eprosima::fastrtps::Duration_t(sec, nsec));
   }
+  fdds::DataReader* get() { return reader_; }
   int matched() const {
     fdds::SubscriptionMatchedStatus st;
     reader_->get_subscription_matched_status(st);

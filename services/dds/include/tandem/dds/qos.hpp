@@ -10,7 +10,8 @@ namespace tandem::dds {
 enum class TopicKind {
   Sensors,          ///< world -> one robot, every tick, lockstep: reliable, nothing lost
   SensorsRealtime,  ///< world -> one robot, every tick, real time: best effort, only the newest matters
-  Torques,     ///< robots -> world: every tick
+  Torques,          ///< robot -> world, every tick, lockstep: reliable, nothing lost
+  TorquesRealtime,  ///< robot -> world, every tick, real time: best effort, only the newest matters
   Summary,     ///< end-of-run results for the launcher
   Status,      ///< lifecycle and live figures of every process
   Control,     ///< requests to a launcher (tandem down)
@@ -19,13 +20,21 @@ enum class TopicKind {
 
 /// strength: ownership strength of a torque writer (EXCLUSIVE ownership keyed by arm: the world follows the
 /// strongest live writer); ignored for other kinds.
-eprosima::fastdds::dds::DataWriterQos writer_qos(TopicKind kind, int32_t strength = 0);
+/// data_sharing: per-tick topics use Fast DDS data-sharing delivery between processes of one host (plain,
+/// unkeyed, bounded types; preallocated writer history); off for deployments that asked for UDP only.
+eprosima::fastdds::dds::DataWriterQos writer_qos(TopicKind kind, int32_t strength = 0, bool data_sharing = true);
 
 /// Liveliness lease of torque writers: a robot that wrote or asserted nothing for this long is taken for
 /// dead and the world follows the next strongest writer of the arm. Robots assert every kLivelinessAssertMs.
 inline constexpr int kLivelinessLeaseMs = 20;
 inline constexpr int kLivelinessAssertMs = 4;
-eprosima::fastdds::dds::DataReaderQos reader_qos(TopicKind kind);
+eprosima::fastdds::dds::DataReaderQos reader_qos(TopicKind kind, bool data_sharing = true);
+
+/// Per-tick topics (sensor samples, torque commands): one instance, a short preallocated history.
+inline bool per_tick(TopicKind kind) {
+  return kind == TopicKind::Sensors || kind == TopicKind::SensorsRealtime || kind == TopicKind::Torques ||
+         kind == TopicKind::TorquesRealtime;
+}
 
 /// Topic names. The per-tick topics are per module ("<base>/<module>"), so that a world and its robots receive
 /// only their own module's samples, however many modules share the domain; sensor samples are per arm

@@ -791,6 +791,7 @@ class Launcher {
                                "--transport", d_.transport, "--timeout", std::to_string(d_.timeout),
                                "--timing",   d_.timing,   "--deployment", d_.name};
     if (d_.coordinator) a.push_back("--continuous");
+    if (!d_.overload_brake) a.push_back("--no-overload-brake");
     return a;
   }
   void launch(Child& c, const char* note = "") {

@@ -1,8 +1,8 @@
-// tandem-robot: the controller of one arm (VLLC + LLC, docs/controller.md). It follows the module's plan
-// (plan::PlanFollower: the highest-ranked supervisor's, published when it changes) and, for every sensor
-// sample of its own arm, evaluates eq. (15) for that tick and answers with a torque command, in the DDS
-// thread that received the sample (no hand-off to another thread: docs/architecture.md, "Per-tick data flow").
-// Samples and plans with NaN/inf or out of range are rejected and counted.
+// tandem-robot: the controller of one arm, wiring only: robot::RobotCore (services/robot/include) follows the
+// module's plan and computes the law; this process feeds it its arm's sensor samples and the plans from DDS
+// and sends each command from the DDS thread that received the sample (no hand-off to another thread:
+// docs/architecture.md, "Per-tick data flow"). It also keeps the torque writer's liveliness, publishes status
+// every 100 ticks and the summary at the end.
 #include <tandemPubSubTypes.h>
 
 #include <algorithm>
@@ -15,6 +15,7 @@
 #include <thread>
 #include <unistd.h>
 
+#include "tandem/robot/robot_core.hpp"
 #include "tandem/runtime/plan_wire.hpp"
 #include "tandem/runtime/role.hpp"
 #include "tandem/runtime/status.hpp"
@@ -43,9 +44,7 @@ int main(int argc, char** argv) {
   // Process id: the arm for the primary, "<arm>@<strength>" for a standby (one per strength).
   const std::string robot_id =
       opt.strength == runtime::RoleOptions::kPrimaryStrength ? my_arm : my_arm + "@" + std::to_string(opt.strength);
-  model::HybridController ctl(m.plant.arms[j], m.control[j]);
-  sim::RobotMeter meter(m.control[j].selection_p, ctx.scenario.transient, m.path.motion_end());
-  plan::PlanFollower follower(m, opt.continuous);
+  robot::RobotCore core(m, j, opt.continuous, ctx.scenario.transient);
 
   bus::Participant part(opt.domain, "robot/" + my_arm, opt.transport);
   bus::Reader<msg::SupervisorPlan, msg::SupervisorPlanPubSubType> plans(
@@ -63,15 +62,12 @@ int main(int argc, char** argv) {
   status.msg().serving(std::to_string(opt.strength));
   status.set(runtime::Lifecycle::Inactive, "waiting for the plan and the first tick");
 
-  // State shared by the receiving thread (which computes) and the main thread (liveliness, status, exit).
+  // The core is shared by the receiving thread (which computes) and the main thread (liveliness, status, exit).
   std::mutex mu;
   msg::TorqueCommand cmd;
   cmd.strength(opt.strength);
-  long done = -1;
   bool activated = false;
-  model::Vec3 prev_q = model::Vec3::Zero();
-  double wear = 0.0, workload = 0.0, interval_worst_us = 0.0, tracking = 0.0;
-  unsigned long long rejected = 0;
+  double interval_worst_us = 0.0;
   auto last_write = Clock::now();
   auto last_input = last_write;
   msg::SupervisorPlan plan_in;
@@ -79,62 +75,29 @@ int main(int argc, char** argv) {
   auto take_plans = [&] {  // under mu
     while (plans.take(plan_in)) {
       if (plan_in.module_id() != opt.module) continue;
-      if (follower.offer(runtime::from_wire(plan_in), &why) == plan::PlanFollower::Offer::Rejected) {
-        ++rejected;
+      if (core.offer_plan(runtime::from_wire(plan_in), &why) == plan::PlanFollower::Offer::Rejected) {
         std::fprintf(stderr, "tandem-robot %s: plan from '%s' rejected: %s\n", robot_id.c_str(),
                      plan_in.supervisor_id().c_str(), why.c_str());
       }
     }
   };
-  // One tick: eq. (15) from the plan, the control law, the command out. Samples come in tick order from
-  // one writer; a repeated tick (lockstep: the world asks again for a robot that joined late) gets the same
-  // command again, an older one nothing.
+  // One tick, in the thread that received the sample: the core computes, the command goes out at once.
   msg::ArmSensors s;
   auto on_sample = [&](const msg::ArmSensors& smp) {  // under mu
     last_input = Clock::now();
-    if (!runtime::all_finite(smp.q()) || !runtime::all_finite(smp.qd()) || !runtime::all_finite(smp.h())) {
-      ++rejected;
-      return;
-    }
-    const long k = static_cast<long>(smp.tick());
-    if (k <= done) {
-      if (k == done) {
-        torques.write(cmd);
-        last_write = Clock::now();
-      }
-      return;
-    }
-    if (!follower.has_plan()) return;  // nothing to follow yet: the world asks again (lockstep) or ticks on
-    const auto compute_start = Clock::now();
     model::ArmSensors in;
     for (int i = 0; i < 3; ++i) {
       in.q(i) = smp.q()[static_cast<size_t>(i)];
       in.qd(i) = smp.qd()[static_cast<size_t>(i)];
     }
     in.h = model::Vec2(smp.h()[0], smp.h()[1]);
-    const model::ArmReference ref = follower.reference(j, k);
-    // While the brakes hold the arm, the law's memory (super-twisting integral, force history) must not
-    // wind up on an error the arm cannot act on: it starts afresh every braked tick.
-    if (smp.braked()) ctl.reset();
-    model::ControlOutput out = ctl.step(in, ref);
-    // Actuator limits: the command is saturated here as the drive would (the plant clips the same way).
-    const model::Vec3& lim = m.plant.arms[j].tau_max;
-    out.tau = out.tau.cwiseMax(-lim).cwiseMin(lim);
-    meter.add(static_cast<double>(k) * m.period, ref, out);
-    cmd.tick(static_cast<uint64_t>(k));
-    for (int i = 0; i < 3; ++i) cmd.tau()[static_cast<size_t>(i)] = out.tau(i);
+    const std::optional<model::Vec3> tau = core.on_sample(static_cast<long>(smp.tick()), in, smp.braked());
+    if (!tau) return;
+    cmd.tick(static_cast<uint64_t>(core.done()));
+    for (int i = 0; i < 3; ++i) cmd.tau()[static_cast<size_t>(i)] = (*tau)(i);
     torques.write(cmd);
     last_write = Clock::now();
-    interval_worst_us = std::max(interval_worst_us, std::chrono::duration<double, std::micro>(last_write - compute_start).count());
-    // Wear and workload, for the coordinator's balancing: joint travel and mechanical work so far.
-    if (done >= 0) {
-      const model::Vec3 dq = (in.q - prev_q).cwiseAbs();
-      wear += dq.sum();
-      workload += out.tau.cwiseAbs().dot(dq);
-    }
-    prev_q = in.q;
-    tracking = out.e_p.head<2>().norm();
-    done = k;
+    interval_worst_us = std::max(interval_worst_us, std::chrono::duration<double, std::micro>(last_write - last_input).count());
   };
   struct Listener : fdds::DataReaderListener {
     std::function<void(fdds::DataReader*)> fn;
@@ -157,6 +120,7 @@ int main(int argc, char** argv) {
     std::this_thread::sleep_for(std::chrono::milliseconds(bus::kLivelinessAssertMs));
     std::unique_lock<std::mutex> lock(mu);
     take_plans();
+    const long done = core.done();
     if (done + 1 >= m.steps) break;
     const auto now = Clock::now();
     // Liveliness (MANUAL_BY_TOPIC): every write asserts it; while no tick comes, assert it, so that a live
@@ -176,17 +140,17 @@ int main(int argc, char** argv) {
     if (done >= 0 && done / 100 != reported_tick / 100) {
       reported_tick = done;
       status.msg().tick(static_cast<uint64_t>(done));
-      status.msg().tracking_error(tracking);
-      status.msg().late(rejected);
-      status.msg().wear(wear);
-      status.msg().workload(workload);
+      status.msg().tracking_error(core.tracking_error());
+      status.msg().late(core.rejected());
+      status.msg().wear(core.wear());
+      status.msg().workload(core.workload());
       status.msg().latency_p99_us(interval_worst_us);  // worst control step + write of the interval
       interval_worst_us = 0.0;
       status.publish();
     }
     if (std::chrono::duration<double>(now - last_input).count() > opt.timeout) {
       std::fprintf(stderr, "tandem-robot %s: no input for %.1f s after tick %ld; stopping\n", my_arm.c_str(),
-                   opt.timeout, done);
+                   opt.timeout, core.done());
       break;
     }
   }
@@ -196,7 +160,8 @@ int main(int argc, char** argv) {
   torques.wait_for_acks(0.1);  // lockstep: the last command reaches the world
   torque_writer.reset();       // give the arm up: the world follows the next strongest robot at once, then report
   lock.lock();
-  const sim::RobotMeter::Summary sm = meter.summary();
+  const sim::RobotMeter::Summary sm = core.summary();
+  const long done = core.done();
   msg::RobotSummary rs;
   rs.arm_id(my_arm);
   rs.robot_id(robot_id);
@@ -207,12 +172,12 @@ int main(int argc, char** argv) {
   rs.eh_rms(sm.eh_rms);
   rs.min_normal_force(sm.min_normal_force);
   rs.max_normal_force(sm.max_normal_force);
-  rs.rejected(rejected);
+  rs.rejected(core.rejected());
   summary.write(rs);
   status.msg().tick(static_cast<uint64_t>(std::max(done, 0L)));
-  status.msg().wear(wear);
-  status.msg().workload(workload);
-  status.msg().late(rejected);
+  status.msg().wear(core.wear());
+  status.msg().workload(core.workload());
+  status.msg().late(core.rejected());
   const bool finished = done + 1 >= m.steps;
   if (finished) {
     status.set(runtime::Lifecycle::Finalized, "task done");

@@ -35,6 +35,7 @@ Deployment load_deployment(const std::string& path) {
   top.choice("timing", d.timing, {"lockstep", "realtime"});
   top.num("timeout", d.timeout, 0.1, 3600.0);
   top.integer("realtime_priority", d.realtime_priority, 0, 98);
+  top.boolean("overload_brake", d.overload_brake);
   YAML::Node mods = top.sequence("modules", true);
   std::set<std::string> names;
   for (size_t i = 0; i < mods.size(); ++i) {

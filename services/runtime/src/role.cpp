@@ -19,7 +19,7 @@ void usage(const char* role, bool needs_arm, std::FILE* f) {
   std::fprintf(f,
                "usage: tandem-%s --scenario FILE --case NAME [--module NAME]%s [--domain ID]\n"
                "       [--transport shm|udp] [--timeout SECONDS] [--timing lockstep|realtime]\n"
-               "       [--deployment NAME] [--continuous]%s\n"
+               "       [--deployment NAME] [--continuous] [--no-overload-brake]%s\n"
                "Started by 'tandem up'; one Fast DDS participant. Exit: 0 done, 2 bad arguments or\n"
                "configuration, 3 peers not found in time, 4 a tick timed out.\n",
                role, needs_arm ? " --arm ROBOT" : "",
@@ -44,6 +44,10 @@ bool parse_role_options(const char* role, int argc, char** argv, bool needs_arm,
     }
     if (a == "--continuous") {
       o.continuous = true;
+      continue;
+    }
+    if (a == "--no-overload-brake") {  // world, real time: keep stepping a module whose commands come late
+      o.overload_brake = false;
       continue;
     }
     if (i + 1 >= argc) {

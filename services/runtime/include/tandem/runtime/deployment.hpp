@@ -48,6 +48,7 @@ struct Deployment {
   /// tick; 0 = normal scheduling. Ignored in lockstep. Falls back to normal scheduling, with a note, where
   /// the system does not permit it (needs root or CAP_SYS_NICE / RLIMIT_RTPRIO).
   int realtime_priority = 20;
+  bool overload_brake = true;  ///< real time: brake and pause a module whose commands keep coming late
   std::vector<ModuleDeployment> modules;
   bool coordinator = false;        ///< a coordinator hands out `tasks`; modules run until it is done
   std::vector<TaskSpec> tasks;

@@ -26,6 +26,7 @@ struct RoleOptions {
   bool realtime = false;      ///< world: step on the wall clock (else lockstep)
   std::string deployment;     ///< name of the deployment (in status messages)
   bool continuous = false;    ///< run until stopped, tasks from the coordinator (else the scenario's task)
+  bool overload_brake = true; ///< world, real time: brake and pause a module whose commands keep coming late
   int strength = kPrimaryStrength;  ///< robot: ownership strength of its torque writer; supervisor: its rank (standby: lower)
   static constexpr int kPrimaryStrength = 100;
 };

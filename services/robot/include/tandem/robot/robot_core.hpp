@@ -1,0 +1,50 @@
+// The controller of one arm as a component (no DDS, no clock): the module's plan it follows, the hybrid
+// control law (VLLC + LLC, docs/controller.md), the RMS meter and the wear it reports. The process
+// (services/robot/main.cpp) feeds it sensor samples and plans from DDS; tests drive it tick by tick.
+#pragma once
+
+#include <optional>
+#include <string>
+
+#include "tandem/model/controller.hpp"
+#include "tandem/plan/plan.hpp"
+#include "tandem/sim/module_setup.hpp"
+
+namespace tandem::robot {
+
+class RobotCore {
+ public:
+  /// j: the arm (0 or 1) of module m; continuous: the plan is a chain of coordinator tasks.
+  RobotCore(const sim::ModuleSetup& m, int j, bool continuous, double transient);
+
+  /// A plan heard on the wire: adopted if it outranks the one followed (plan::PlanFollower); a malformed one
+  /// is rejected and counted (`why` says how).
+  plan::PlanFollower::Offer offer_plan(const plan::PlanData& p, std::string* why = nullptr);
+
+  /// One sensor sample of tick k. Returns the torque to send: for a new tick the law's output (eq. 15 from
+  /// the plan, saturated at tau_max); for a repeat of the last tick (lockstep asks again) the same command;
+  /// nothing for an older tick, a sample with NaN/inf (rejected, counted), or before any plan is heard.
+  std::optional<model::Vec3> on_sample(long k, const model::ArmSensors& in, bool braked);
+
+  long done() const { return done_; }                  ///< the last tick computed (-1: none)
+  const model::Vec3& last_tau() const { return tau_; }
+  double wear() const { return wear_; }                ///< joint travel sum |dq| [rad]
+  double workload() const { return workload_; }        ///< sum |tau| . |dq| [J]
+  double tracking_error() const { return tracking_; }  ///< |x_d - x| (x, y) at the last tick [m]
+  unsigned long long rejected() const { return rejected_; }
+  sim::RobotMeter::Summary summary() const { return meter_.summary(); }
+
+ private:
+  const sim::ModuleSetup& m_;
+  int j_;
+  plan::PlanFollower follower_;
+  model::HybridController ctl_;
+  sim::RobotMeter meter_;
+  long done_ = -1;
+  model::Vec3 tau_ = model::Vec3::Zero();
+  model::Vec3 prev_q_ = model::Vec3::Zero();
+  double wear_ = 0.0, workload_ = 0.0, tracking_ = 0.0;
+  unsigned long long rejected_ = 0;
+};
+
+}  // namespace tandem::robot

@@ -1,0 +1,44 @@
+#include "tandem/robot/robot_core.hpp"
+
+namespace tandem::robot {
+
+RobotCore::RobotCore(const sim::ModuleSetup& m, int j, bool continuous, double transient)
+    : m_(m), j_(j), follower_(m, continuous), ctl_(m.plant.arms[j], m.control[j]),
+      meter_(m.control[j].selection_p, transient, m.path.motion_end()) {}
+
+plan::PlanFollower::Offer RobotCore::offer_plan(const plan::PlanData& p, std::string* why) {
+  const plan::PlanFollower::Offer o = follower_.offer(p, why);
+  if (o == plan::PlanFollower::Offer::Rejected) ++rejected_;
+  return o;
+}
+
+std::optional<model::Vec3> RobotCore::on_sample(long k, const model::ArmSensors& in, bool braked) {
+  if (!plan::all_finite(in.q) || !plan::all_finite(in.qd) || !plan::all_finite(in.h)) {
+    ++rejected_;
+    return std::nullopt;
+  }
+  if (k < done_) return std::nullopt;
+  if (k == done_) return tau_;                         // the world asks again: the same answer
+  if (!follower_.has_plan()) return std::nullopt;      // nothing to follow yet
+  const model::ArmReference ref = follower_.reference(j_, k);
+  // While the brakes hold the arm, the law's memory (super-twisting integral, force history) must not wind
+  // up on an error the arm cannot act on: it starts afresh every braked tick.
+  if (braked) ctl_.reset();
+  model::ControlOutput out = ctl_.step(in, ref);
+  // Actuator limits: the command is saturated here as the drive would (the plant clips the same way).
+  const model::Vec3& lim = m_.plant.arms[j_].tau_max;
+  out.tau = out.tau.cwiseMax(-lim).cwiseMin(lim);
+  meter_.add(static_cast<double>(k) * m_.period, ref, out);
+  if (done_ >= 0) {  // wear and workload, for the coordinator's balancing
+    const model::Vec3 dq = (in.q - prev_q_).cwiseAbs();
+    wear_ += dq.sum();
+    workload_ += out.tau.cwiseAbs().dot(dq);
+  }
+  prev_q_ = in.q;
+  tracking_ = out.e_p.head<2>().norm();
+  tau_ = out.tau;
+  done_ = k;
+  return tau_;
+}
+
+}  // namespace tandem::robot

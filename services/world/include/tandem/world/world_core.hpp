@@ -1,0 +1,176 @@
+// The simulated hardware of one basic module as a component (no DDS, no clock of its own): both arms'
+// dynamics, the object and the contacts (model::ModulePlant), the brakes, which robot each arm follows, the
+// checks on incoming commands, late and braked arm-ticks, the windows after a change of owner, the report its
+// supervisor plans from, and the overload rule. Times are passed in (steady clock, ns), so the same object runs
+// in lockstep, in real time and in unit tests that drive it tick by tick. The process
+// (services/world/main.cpp) adds the timing policy (deadlines, waits, re-publishing) and DDS.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "tandem/model/plant.hpp"
+#include "tandem/plan/plan.hpp"
+#include "tandem/sim/module_setup.hpp"
+
+namespace tandem::world {
+
+/// Overload (real time): an arm whose commands keep arriving late is braked, with its partner, so that the
+/// object is held still between two locked arms, and the module pauses (docs/failure-model.md, "Overload").
+/// While paused for load the world sends each arm a sample only every `probe_every` ticks (so the paused
+/// module sheds most of its load); it releases both arms once `resume_probes` probes in a row were answered in
+/// time and the backoff has passed. The backoff doubles (up to `backoff_max_s`) when a module is paused for load
+/// again within 10 s of its last release, so modules that come back into an overloaded machine retry less often.
+struct OverloadRule {
+  int window = 100;         ///< ticks in the sliding window
+  int max_late = 20;        ///< late arm-ticks of one arm in the window that brake the module (20%)
+  int probe_every = 10;     ///< while paused for load: a sample every this many ticks
+  int resume_probes = 10;   ///< probes in a row answered in time before the release
+  double backoff_s = 0.5;   ///< first backoff after a pause for load [s]
+  double backoff_max_s = 8.0;
+  bool enabled = true;
+};
+
+struct WorldOptions {
+  std::array<std::string, 2> arm_ids;    ///< "<module>/<robot>"
+  std::array<std::string, 2> arm_names;  ///< "<robot>"
+  bool realtime = false;
+  bool continuous = false;
+  OverloadRule overload;
+};
+
+/// One arm's sample for the tick (what the world publishes).
+struct SampleOut {
+  bool publish = true;  ///< false: a module paused for load sends no sample this tick (not a probe)
+  double t = 0.0;
+  model::Vec3 q = model::Vec3::Zero(), qd = model::Vec3::Zero();
+  model::Vec2 h = model::Vec2::Zero();
+  bool braked = false;
+};
+
+/// What the supervisor plans from (WorldReport on the wire).
+struct ReportOut {
+  long tick = 0;
+  std::array<bool, 2> braked{false, false};
+  long braked_since = -1, released_at = -1;
+  double normal_min = 0.0;
+};
+
+/// A change of the robot an arm follows, and the worst tracking error and lowest normal force over the
+/// kWindowTicks after it (from the old owner's last command on).
+struct Switch {
+  double gap_ms = 0.0;
+  bool failover = false;  ///< to a weaker robot (the owner died or left); else a takeover by a stronger one
+  double ep_max = 0.0;
+  double hn_min = 0.0;
+};
+
+class WorldCore {
+ public:
+  static constexpr long kReportEvery = 10;
+  static constexpr long kWindowTicks = 300;
+  static constexpr size_t kMaxSwitches = 512;
+
+  WorldCore(const sim::ModuleSetup& m, const WorldOptions& o);
+  /// Log lines ("m1/left braked (...)"), for the process to print.
+  void set_log(std::function<void(const std::string&)> log) { log_ = std::move(log); }
+
+  void offer_plan(const plan::PlanData& p) { follower_.offer(p); }
+
+  /// Starts tick k at `now_ns`: applies pending releases, measures the tracking error (the plan's eq. 15 as
+  /// the robots evaluate it) and the contact forces, and fills both arms' samples.
+  void begin_tick(long k, int64_t now_ns, std::array<SampleOut, 2>& out);
+  /// True when the report is due (every kReportEvery ticks, at once after a brake change, the last tick).
+  bool report_due(long steps) const { return report_now_ || k_ % kReportEvery == 0 || k_ + 1 == steps; }
+  ReportOut take_report();
+
+  enum class Verdict { Applied, Rejected, Stale };
+  /// A torque command for arm j from the robot of ownership strength `strength`, arrived at `at_ns` (the
+  /// robot's name is "<arm>" for 100, else "<arm>@<strength>"). Real time: `late` is true if it arrived after
+  /// the tick's deadline. Rejected: not finite or over tau_max (never applied); Stale: for an earlier tick,
+  /// too late, or a second one for this tick.
+  Verdict on_command(int j, long tick, const model::Vec3& tau, int32_t strength, int64_t at_ns, bool late);
+  bool have(int j) const { return have_[static_cast<size_t>(j)]; }
+  /// Lockstep: every arm the world waits for has its command.
+  bool lockstep_done() const;
+  /// Lockstep: the tick has waited `waited_s` for commands; brakes an arm whose robot fell silent (after
+  /// `brake_after_s`). False if an arm that never answered has still not answered after `timeout_s`.
+  bool lockstep_waited(double waited_s, double timeout_s);
+  /// Ends the tick at `now_ns`: counts late and braked arm-ticks, brakes an arm with no live controller, and
+  /// applies the overload rule. False (lockstep) if a robot never answered: the run stops.
+  bool end_tick(int64_t now_ns);
+  /// Steps the plant over the period with the torques applied (held from the last applied command).
+  void step();
+
+  const model::ModulePlant& plant() const { return plant_; }
+  std::string serving_text() const;  ///< "left=m1/left@50,right=braked"
+  bool braked(int j) const { return link_[static_cast<size_t>(j)].braked; }
+  bool paused_for_load() const { return load_paused_; }
+  bool answered_once() const { return link_[0].last_tick >= 0 && link_[1].last_tick >= 0; }
+  bool serving_changed() { const bool c = serving_changed_; serving_changed_ = false; return c; }
+  double tracking_error() const { return std::max(ep_[0], ep_[1]); }
+  double normal_min_since_status();  ///< lowest normal force since the last call
+
+  unsigned long long late = 0, timeouts = 0, rejected = 0, stale = 0, braked_ticks = 0, failovers = 0,
+                     load_pauses = 0, load_paused_ticks = 0;
+  double failover_max_ms = 0.0, failover_last_ms = 0.0;
+  std::vector<Switch> switches;
+
+ private:
+  struct ArmLink {
+    std::string owner;
+    int32_t strength = 0;
+    long last_tick = -1;      // tick of the last applied command
+    int64_t last_at = 0;      // when it was applied
+    bool braked = false;
+    bool release = false;     // lockstep: a robot answered while braked: wait for it again from the next tick
+    int64_t heard = 0;        // last valid command of any tick: a controller is alive
+    std::array<bool, 256> late_ring{};  // real time: the last OverloadRule::window ticks, late or not
+    int late_count = 0;
+  };
+  void set_brake(int j, bool on, const std::string& why);
+  std::string robot_name(int j, int32_t strength) const;
+  void log(const std::string& s) const { if (log_) log_(s); }
+
+  const sim::ModuleSetup& m_;
+  WorldOptions o_;
+  model::ModulePlant plant_;
+  plan::PlanFollower follower_;
+  std::function<void(const std::string&)> log_;
+  std::array<ArmLink, 2> link_{};
+  std::array<bool, 2> have_{false, false};
+  std::array<bool, 2> expect_{true, true};  // a sample went out this tick: a command is due
+  std::array<model::Vec3, 2> tau_{model::Vec3::Zero(), model::Vec3::Zero()};
+  std::array<double, 2> ep_{0.0, 0.0};
+  long k_ = 0;
+  double t_ = 0.0;
+  double brake_after_s_;
+  // The last 256 ticks' tracking error per arm and lowest normal force, and the open windows after a switch.
+  struct TickRecord {
+    std::array<double, 2> ep{0.0, 0.0};
+    double hn_min = 0.0;
+  };
+  static constexpr size_t kHistory = 256;
+  std::array<TickRecord, kHistory> history_{};
+  struct Window {
+    int arm;
+    long end;
+    size_t index;
+  };
+  std::vector<Window> windows_;
+  // Report state.
+  long braked_since_ = -1, released_at_ = -1;
+  double report_normal_min_ = 1e300, status_normal_min_ = 1e300;
+  bool report_now_ = true;
+  bool serving_changed_ = true;
+  // Overload state.
+  bool load_paused_ = false;
+  int good_probes_ = 0;
+  int64_t load_until_ns_ = 0, load_released_ns_ = 0;
+  double backoff_s_;
+};
+
+}  // namespace tandem::world

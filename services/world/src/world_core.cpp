@@ -1,0 +1,291 @@
+#include "tandem/world/world_core.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+namespace tandem::world {
+
+namespace {
+std::string ms_text(double ms) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.0f ms", ms);
+  return b;
+}
+}  // namespace
+
+WorldCore::WorldCore(const sim::ModuleSetup& m, const WorldOptions& o)
+    : m_(m), o_(o), plant_(m.plant), follower_(m, o.continuous),
+      // An arm whose controller has gone quiet for this long is braked (real time: time without a command
+      // while the world ticks on; lockstep: time the tick waited). Longer than a standby's failover (the 20 ms
+      // liveliness lease plus a few ticks), so a failover never brakes.
+      brake_after_s_(o.realtime ? 0.1 : 1.0),
+      backoff_s_(o.overload.backoff_s) {
+  plant_.reset(m.initial);
+  o_.overload.window = std::clamp(o_.overload.window, 1, 256);
+  o_.overload.probe_every = std::max(o_.overload.probe_every, 1);
+}
+
+std::string WorldCore::robot_name(int j, int32_t strength) const {
+  const std::string& arm = o_.arm_ids[static_cast<size_t>(j)];
+  return strength == plan::kPrimaryStrength ? arm : arm + "@" + std::to_string(strength);
+}
+
+std::string WorldCore::serving_text() const {
+  std::string out;
+  for (size_t j = 0; j < 2; ++j) {
+    out += (j ? "," : "") + o_.arm_names[j] + "=" +
+           (link_[j].braked ? (load_paused_ ? "braked(load)" : "braked") : link_[j].owner);
+  }
+  return out;
+}
+
+void WorldCore::set_brake(int j, bool on, const std::string& why) {
+  ArmLink& L = link_[static_cast<size_t>(j)];
+  if (L.braked == on) return;
+  const bool was = link_[0].braked || link_[1].braked;
+  L.braked = on;
+  plant_.set_brake(j, on);
+  const bool now = link_[0].braked || link_[1].braked;
+  if (now && !was) braked_since_ = k_;
+  if (!now && was) {
+    braked_since_ = -1;
+    released_at_ = k_;
+  }
+  report_now_ = true;
+  serving_changed_ = true;
+  log(o_.arm_ids[static_cast<size_t>(j)] + (on ? " braked (" : " released (") + why + ")");
+}
+
+void WorldCore::begin_tick(long k, int64_t /*now_ns*/, std::array<SampleOut, 2>& out) {
+  k_ = k;
+  t_ = static_cast<double>(k) * m_.period;
+  const model::ContactReading contact = plant_.contacts();
+  const double hn = std::min(contact.normal[0], contact.normal[1]);
+  status_normal_min_ = std::min(status_normal_min_, hn);
+  report_normal_min_ = std::min(report_normal_min_, hn);
+  for (int j = 0; j < 2; ++j) {
+    if (link_[static_cast<size_t>(j)].release) {
+      link_[static_cast<size_t>(j)].release = false;
+      set_brake(j, false, "a robot answers again");
+    }
+  }
+  // Tracking error as the world sees it (from the plan the robots follow), and the windows after switches.
+  TickRecord& rec = history_[static_cast<size_t>(k) % kHistory];
+  for (int j = 0; j < 2; ++j) {
+    if (follower_.has_plan()) {
+      ep_[static_cast<size_t>(j)] = (follower_.reference(j, k).x.head<2>() - plant_.end_effector(j).head<2>()).norm();
+    }
+    rec.ep[static_cast<size_t>(j)] = ep_[static_cast<size_t>(j)];
+  }
+  rec.hn_min = hn;
+  for (auto it = windows_.begin(); it != windows_.end();) {
+    Switch& s = switches[it->index];
+    s.ep_max = std::max(s.ep_max, ep_[static_cast<size_t>(it->arm)]);
+    s.hn_min = std::min(s.hn_min, hn);
+    it = k >= it->end ? windows_.erase(it) : it + 1;
+  }
+  have_ = {false, false};
+  // Paused for load: a probe sample every probe_every ticks only.
+  const bool probe = !load_paused_ || k % o_.overload.probe_every == 0;
+  for (size_t j = 0; j < 2; ++j) {
+    SampleOut& s = out[j];
+    s.publish = probe;
+    s.t = t_;
+    s.q = plant_.state().q[j];
+    s.qd = plant_.state().qd[j];
+    s.h = contact.h[j];
+    s.braked = link_[j].braked;
+    expect_[j] = probe;
+  }
+}
+
+ReportOut WorldCore::take_report() {
+  ReportOut r;
+  r.tick = k_;
+  r.braked = {link_[0].braked, link_[1].braked};
+  r.braked_since = braked_since_;
+  r.released_at = released_at_;
+  r.normal_min = report_normal_min_;
+  report_normal_min_ = 1e300;
+  report_now_ = false;
+  return r;
+}
+
+double WorldCore::normal_min_since_status() {
+  const double v = status_normal_min_;
+  status_normal_min_ = 1e300;
+  return v;
+}
+
+WorldCore::Verdict WorldCore::on_command(int j, long tick, const model::Vec3& tau, int32_t strength, int64_t at_ns,
+                                         bool late_arrival) {
+  ArmLink& L = link_[static_cast<size_t>(j)];
+  if (o_.realtime && late_arrival) {  // after the deadline: too late for this tick, but its controller lives
+    ++stale;
+    L.heard = at_ns;
+    return Verdict::Stale;
+  }
+  if (!plan::all_finite(tau) || tick > k_) {  // a future tick is invalid
+    ++rejected;
+    return Verdict::Rejected;
+  }
+  if (have_[static_cast<size_t>(j)] && tick == k_) {
+    // A second command for an arm that has this tick's already: a liveliness repeat, or the next strongest
+    // robot's answer after the owner left within the tick. The first one stands.
+    ++stale;
+    return Verdict::Stale;
+  }
+  if ((tau.cwiseAbs().array() > m_.plant.arms[static_cast<size_t>(j)].tau_max.array()).any()) {
+    ++rejected;
+    return Verdict::Rejected;
+  }
+  L.heard = at_ns;
+  if (tick != k_) {
+    // An older tick is a late answer or a liveliness repeat: dropped. From a braked arm's robot it means a
+    // controller is back: lockstep waits for it again from the next tick.
+    ++stale;
+    if (L.braked && !o_.realtime && tick + 64 > k_) L.release = true;
+    return Verdict::Stale;
+  }
+  tau_[static_cast<size_t>(j)] = tau;
+  have_[static_cast<size_t>(j)] = true;
+  const std::string name = robot_name(j, strength);
+  if (L.braked && !load_paused_) {
+    log(o_.arm_ids[static_cast<size_t>(j)] + " follows " + name + " after " +
+        ms_text(static_cast<double>(at_ns - L.last_at) * 1e-6) + " braked");
+    L.owner = name;
+    L.strength = strength;
+    set_brake(j, false, "a robot answers again");
+  } else if (!L.owner.empty() && name != L.owner && k_ >= 50) {
+    // A change of owner (EXCLUSIVE ownership picks the strongest live writer). To a weaker robot it is a
+    // failover (the owner died or left); to a stronger one a takeover. In the first 50 ticks discovery order
+    // decides which of a primary and its shadow the reader hears first: not a switch.
+    const double gap_ms = static_cast<double>(at_ns - L.last_at) * 1e-6;
+    const bool failover = strength < L.strength;
+    if (failover) {
+      ++failovers;
+      failover_last_ms = gap_ms;
+      failover_max_ms = std::max(failover_max_ms, gap_ms);
+    }
+    char line[256];
+    std::snprintf(line, sizeof line, "%s now follows %s (was %s): %s %.1f ms after the last command of the old one",
+                  o_.arm_ids[static_cast<size_t>(j)].c_str(), name.c_str(), L.owner.c_str(),
+                  failover ? "failover" : "takeover", gap_ms);
+    log(line);
+    if (switches.size() < kMaxSwitches) {
+      // The window starts at the old owner's last command: the gap, held on its last torque, counts.
+      Switch s;
+      s.gap_ms = gap_ms;
+      s.failover = failover;
+      s.ep_max = 0.0;
+      s.hn_min = 1e300;
+      for (long kk = std::max({L.last_tick, k_ - static_cast<long>(kHistory) + 1, 0L}); kk <= k_; ++kk) {
+        s.ep_max = std::max(s.ep_max, history_[static_cast<size_t>(kk) % kHistory].ep[static_cast<size_t>(j)]);
+        s.hn_min = std::min(s.hn_min, history_[static_cast<size_t>(kk) % kHistory].hn_min);
+      }
+      switches.push_back(s);
+      windows_.push_back({j, k_ + kWindowTicks, switches.size() - 1});
+    }
+    L.owner = name;
+    L.strength = strength;
+    serving_changed_ = true;
+  } else if (L.owner != name || L.strength != strength) {
+    L.owner = name;
+    L.strength = strength;
+    serving_changed_ = true;
+  }
+  L.last_tick = k_;
+  L.last_at = at_ns;
+  return Verdict::Applied;
+}
+
+bool WorldCore::lockstep_done() const {
+  return (have_[0] || link_[0].braked) && (have_[1] || link_[1].braked);
+}
+
+bool WorldCore::lockstep_waited(double waited_s, double timeout_s) {
+  bool give_up = false;
+  for (int j = 0; j < 2; ++j) {
+    const ArmLink& L = link_[static_cast<size_t>(j)];
+    if (have_[static_cast<size_t>(j)] || L.braked) continue;
+    if (L.last_tick >= 0 && waited_s > brake_after_s_) {
+      set_brake(j, true, "no command for " + ms_text(waited_s * 1e3));
+      ++timeouts;
+    } else if (L.last_tick < 0 && waited_s > timeout_s) {
+      give_up = true;
+    }
+  }
+  return !give_up;
+}
+
+bool WorldCore::end_tick(int64_t now_ns) {
+  bool go_on = true;
+  const OverloadRule& rule = o_.overload;
+  for (int j = 0; j < 2; ++j) {
+    ArmLink& L = link_[static_cast<size_t>(j)];
+    const bool had = have_[static_cast<size_t>(j)];
+    if (L.braked) ++braked_ticks;
+    if (o_.realtime && expect_[static_cast<size_t>(j)] && !L.braked) {
+      // The sliding window of late arm-ticks (overload rule).
+      bool& slot = L.late_ring[static_cast<size_t>(k_ % rule.window)];
+      L.late_count += (had ? 0 : 1) - (slot ? 1 : 0);
+      slot = !had;
+    }
+    if (had || L.braked) continue;
+    if (o_.realtime) {
+      // A late or missing command: the arm keeps its previous torque for this tick (counted). An arm from
+      // which no command at all (late ones included) came for brake_after_s has no live controller: braked.
+      ++late;
+      const double quiet = static_cast<double>(now_ns - L.heard) * 1e-9;
+      if (L.last_tick >= 0 && quiet > brake_after_s_) set_brake(j, true, "no live controller");
+    } else if (L.last_tick < 0) {
+      ++timeouts;
+      go_on = false;
+    }
+  }
+  if (!o_.realtime || !rule.enabled) return go_on;
+  auto clear_rings = [&] {
+    for (ArmLink& L : link_) {
+      L.late_ring.fill(false);
+      L.late_count = 0;
+    }
+  };
+  if (!load_paused_) {
+    const int worst = std::max(link_[0].late_count, link_[1].late_count);
+    if (worst > rule.max_late) {
+      // Overload: brake both arms (the object is held still between them) and shed the module's load.
+      backoff_s_ = now_ns - load_released_ns_ < 10'000'000'000LL && load_pauses > 0
+                       ? std::min(backoff_s_ * 2.0, rule.backoff_max_s)
+                       : rule.backoff_s;
+      load_paused_ = true;
+      ++load_pauses;
+      good_probes_ = 0;
+      load_until_ns_ = now_ns + static_cast<int64_t>(backoff_s_ * 1e9);
+      const std::string why = "overload: " + std::to_string(worst) + " late commands in the last " +
+                              std::to_string(rule.window) + " ticks; paused for load";
+      for (int j = 0; j < 2; ++j) set_brake(j, true, why);
+      serving_changed_ = true;
+      clear_rings();
+    }
+    return go_on;
+  }
+  ++load_paused_ticks;
+  if (expect_[0] && expect_[1]) {  // a probe tick
+    good_probes_ = have_[0] && have_[1] ? good_probes_ + 1 : 0;
+  }
+  if (good_probes_ >= rule.resume_probes && now_ns >= load_until_ns_) {
+    load_paused_ = false;
+    load_released_ns_ = now_ns;
+    char why[96];
+    std::snprintf(why, sizeof why, "back in time: %d probes answered in time after %.1f s", good_probes_, backoff_s_);
+    for (int j = 0; j < 2; ++j) set_brake(j, false, why);
+    serving_changed_ = true;
+    clear_rings();
+  }
+  return go_on;
+}
+
+void WorldCore::step() { plant_.step(tau_, t_, m_.period, m_.substeps); }
+
+}  // namespace tandem::world

@@ -46,6 +46,7 @@ for n in "${ns[@]}"; do
     done
   } > "$dep"
   log="$work/up$n.log"
+  : > "$log"
   start=$(date +%s.%N)
   "$bin/tandem" up "$dep" --summary "$work/sum$n.txt" > "$log" 2>&1 &
   up=$!

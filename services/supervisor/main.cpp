@@ -43,6 +43,12 @@ namespace {
 
 constexpr double kPauseRamp = 0.3;   // requested pause / resume [s]
 constexpr double kBrakeRamp = 0.02;  // an arm braked: stop the path now [s]
+// Overload (the world's report says hold): stop the path smoothly, from a few ticks ahead; the world brakes
+// both arms once the object is still. A 0.15 s smoothstep from 0.19 m/s (the paper task's top speed) needs
+// about 2 m/s^2, 4 N on the 2 kg object, well inside the grasp's friction margin, and a plan that reaches a
+// robot a few ticks late changes its reference by micrometres (the ramp starts flat).
+constexpr double kHoldRamp = 0.15;
+constexpr long kHoldLeadTicks = 5;
 constexpr long kReleaseSettleTicks = 200;  // both arms controlled again for this long before resuming
 // A change of the plan applies this many ticks after the newest tick heard from the world: the world
 // reports every 10 ticks, and plan delivery takes well under a tick, so in real time the robots hold the
@@ -92,6 +98,7 @@ int main(int argc, char** argv) {
   plan::ModulePlan plan(m, opt.continuous);
   bool pause_requested = false, draining = false;
   std::array<bool, 2> braked{false, false};
+  bool hold = false;  // the world asks for the path to stop (overload), before it brakes
   long braked_since = -1, released_at = -1;
   long heard_tick = -1;  // the newest tick the world reported
   msg::TaskState ts;
@@ -151,7 +158,7 @@ int main(int argc, char** argv) {
     if (st != reported) {
       static const char* names[] = {"idle", "running", "done", "paused", "draining", "left"};
       std::string detail = names[static_cast<int>(st)];
-      if (st == TaskStateCode::Paused) detail += braked[0] || braked[1] ? " (arm braked)" : " (requested)";
+      if (st == TaskStateCode::Paused) detail += hold ? " (for load)" : braked[0] || braked[1] ? " (arm braked)" : " (requested)";
       if (opt.continuous) detail += ", " + std::to_string(plan.done()) + " task(s) done";
       status.msg().detail(detail);
       status.publish();
@@ -299,6 +306,7 @@ int main(int argc, char** argv) {
       }
       heard_tick = std::max(heard_tick, k);
       braked = {rep.braked()[0], rep.braked()[1]};
+      hold = rep.hold();
       braked_since = static_cast<long>(rep.braked_since());
       released_at = static_cast<long>(rep.released_at());
       if (rep.normal_min() < m.safe_grasp_force && k > static_cast<long>(ctx.scenario.transient / m.period) &&
@@ -315,7 +323,9 @@ int main(int argc, char** argv) {
       // A braking stops the path from the tick it began (the robots of a braked arm hold still anyway).
       const long next = heard_tick + kLeadTicks;
       if (braked[0] || braked[1]) {
-        plan.set_rate(std::max(braked_since, 0L), 0.0, kBrakeRamp);
+        plan.set_rate(std::max(braked_since, 0L), 0.0, hold ? kHoldRamp : kBrakeRamp);
+      } else if (hold) {
+        plan.set_rate(heard_tick + kHoldLeadTicks, 0.0, kHoldRamp);
       } else if (released_at >= 0 && heard_tick - released_at < kReleaseSettleTicks) {
         // Just released: the new controller settles on the still reference first.
       } else {

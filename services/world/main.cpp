@@ -224,6 +224,7 @@ int main(int argc, char** argv) {
       rep.tick(static_cast<uint64_t>(r.tick));
       rep.braked()[0] = r.braked[0];
       rep.braked()[1] = r.braked[1];
+      rep.hold(r.hold);
       rep.braked_since(r.braked_since);
       rep.released_at(r.released_at);
       rep.normal_min(r.normal_min);

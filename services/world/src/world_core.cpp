@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 
 namespace tandem::world {
 
@@ -22,8 +23,18 @@ WorldCore::WorldCore(const sim::ModuleSetup& m, const WorldOptions& o)
       brake_after_s_(o.realtime ? 0.1 : 1.0),
       backoff_s_(o.overload.backoff_s) {
   plant_.reset(m.initial);
+  if (o.realtime) {
+    // As a real arm at power-on: the brakes hold it until its controller answers a tick in time (a first
+    // command that comes late would otherwise leave the arm on zero torque, and drop the object).
+    for (int j = 0; j < 2; ++j) {
+      link_[static_cast<size_t>(j)].braked = true;
+      link_[static_cast<size_t>(j)].start_brake = true;
+      plant_.set_brake(j, true);
+    }
+  }
   o_.overload.window = std::clamp(o_.overload.window, 1, 256);
   o_.overload.probe_every = std::max(o_.overload.probe_every, 1);
+  jitter_ = static_cast<double>(std::hash<std::string>{}(o.arm_ids[0]) % 1000) / 1000.0;
 }
 
 std::string WorldCore::robot_name(int j, int32_t strength) const {
@@ -42,19 +53,24 @@ std::string WorldCore::serving_text() const {
 
 void WorldCore::set_brake(int j, bool on, const std::string& why) {
   ArmLink& L = link_[static_cast<size_t>(j)];
-  if (L.braked == on) return;
-  const bool was = link_[0].braked || link_[1].braked;
+  if (L.braked == on && !L.start_brake) return;
+  auto any = [&] {
+    return (link_[0].braked && !link_[0].start_brake) || (link_[1].braked && !link_[1].start_brake);
+  };
+  const bool was = any();
   L.braked = on;
+  L.start_brake = false;
   plant_.set_brake(j, on);
-  const bool now = link_[0].braked || link_[1].braked;
-  if (now && !was) braked_since_ = k_;
+  const bool now = any();
+  if (now && !was && !load_pending_) braked_since_ = k_;
   if (!now && was) {
     braked_since_ = -1;
     released_at_ = k_;
   }
   report_now_ = true;
   serving_changed_ = true;
-  log(o_.arm_ids[static_cast<size_t>(j)] + (on ? " braked (" : " released (") + why + ")");
+  log(o_.arm_ids[static_cast<size_t>(j)] + (on ? " braked at tick " : " released at tick ") + std::to_string(k_) + " (" +
+      why + ")");
 }
 
 void WorldCore::begin_tick(long k, int64_t /*now_ns*/, std::array<SampleOut, 2>& out) {
@@ -103,7 +119,8 @@ void WorldCore::begin_tick(long k, int64_t /*now_ns*/, std::array<SampleOut, 2>&
 ReportOut WorldCore::take_report() {
   ReportOut r;
   r.tick = k_;
-  r.braked = {link_[0].braked, link_[1].braked};
+  r.braked = {link_[0].braked && !link_[0].start_brake, link_[1].braked && !link_[1].start_brake};
+  r.hold = load_pending_ || load_paused_;
   r.braked_since = braked_since_;
   r.released_at = released_at_;
   r.normal_min = report_normal_min_;
@@ -151,7 +168,16 @@ WorldCore::Verdict WorldCore::on_command(int j, long tick, const model::Vec3& ta
   tau_[static_cast<size_t>(j)] = tau;
   have_[static_cast<size_t>(j)] = true;
   const std::string name = robot_name(j, strength);
-  if (L.braked && !load_paused_) {
+  if (L.start_brake) {
+    L.start_brake = false;
+    L.braked = false;
+    plant_.set_brake(j, false);
+    L.owner = name;
+    L.strength = strength;
+    serving_changed_ = true;
+    log(o_.arm_ids[static_cast<size_t>(j)] + " brakes off at tick " + std::to_string(k_) + ": " + name +
+        " answered in time");
+  } else if (L.braked && !load_paused_) {
     log(o_.arm_ids[static_cast<size_t>(j)] + " follows " + name + " after " +
         ms_text(static_cast<double>(at_ns - L.last_at) * 1e-6) + " braked");
     L.owner = name;
@@ -225,12 +251,13 @@ bool WorldCore::end_tick(int64_t now_ns) {
   for (int j = 0; j < 2; ++j) {
     ArmLink& L = link_[static_cast<size_t>(j)];
     const bool had = have_[static_cast<size_t>(j)];
-    if (L.braked) ++braked_ticks;
+    if (L.braked && !L.start_brake) ++braked_ticks;
     if (o_.realtime && expect_[static_cast<size_t>(j)] && !L.braked) {
       // The sliding window of late arm-ticks (overload rule).
       bool& slot = L.late_ring[static_cast<size_t>(k_ % rule.window)];
       L.late_count += (had ? 0 : 1) - (slot ? 1 : 0);
       slot = !had;
+      L.late_run = had ? 0 : L.late_run + 1;
     }
     if (had || L.braked) continue;
     if (o_.realtime) {
@@ -249,24 +276,49 @@ bool WorldCore::end_tick(int64_t now_ns) {
     for (ArmLink& L : link_) {
       L.late_ring.fill(false);
       L.late_count = 0;
+      L.late_run = 0;
     }
   };
-  if (!load_paused_) {
-    const int worst = std::max(link_[0].late_count, link_[1].late_count);
-    if (worst > rule.max_late) {
-      // Overload: brake both arms (the object is held still between them) and shed the module's load.
-      backoff_s_ = now_ns - load_released_ns_ < 10'000'000'000LL && load_pauses > 0
-                       ? std::min(backoff_s_ * 2.0, rule.backoff_max_s)
-                       : rule.backoff_s;
+  if (load_pending_) {
+    // Holding: the supervisor stops the path; brake once the object is still (braking a moving object makes
+    // it slip: the arms stop at once, the object does not), or after hold_max_s at the latest.
+    const model::ModuleState& st = plant_.state();
+    still_count_ = st.cd.norm() < rule.still_speed && std::abs(st.psid) < 10.0 * rule.still_speed ? still_count_ + 1 : 0;
+    const double held_s = static_cast<double>(now_ns - load_pending_ns_) * 1e-9;
+    const bool losing = std::max(link_[0].late_run, link_[1].late_run) >= rule.hold_late_run;
+    if (still_count_ >= rule.still_ticks || held_s > rule.hold_max_s || losing) {
+      load_pending_ = false;
       load_paused_ = true;
-      ++load_pauses;
       good_probes_ = 0;
-      load_until_ns_ = now_ns + static_cast<int64_t>(backoff_s_ * 1e9);
-      const std::string why = "overload: " + std::to_string(worst) + " late commands in the last " +
-                              std::to_string(rule.window) + " ticks; paused for load";
+      load_until_ns_ = now_ns + static_cast<int64_t>(backoff_s_ * (1.0 + 0.5 * jitter_) * 1e9);
+      char why[192];
+      std::snprintf(why, sizeof why, "%s; paused for load, object %s after %.0f ms%s", load_why_.c_str(),
+                    still_count_ >= rule.still_ticks ? "still" : "still moving", held_s * 1e3,
+                    losing && still_count_ < rule.still_ticks ? " (commands missed while holding)" : "");
       for (int j = 0; j < 2; ++j) set_brake(j, true, why);
       serving_changed_ = true;
       clear_rings();
+    }
+    return go_on;
+  }
+  if (!load_paused_) {
+    const int worst = std::max(link_[0].late_count, link_[1].late_count);
+    const int run = std::max(link_[0].late_run, link_[1].late_run);
+    if (worst > rule.max_late || run >= rule.max_consecutive) {
+      // Overload: hold the object still, then brake both arms and shed the module's load.
+      backoff_s_ = now_ns - load_released_ns_ < 10'000'000'000LL && load_pauses > 0
+                       ? std::min(backoff_s_ * 2.0, rule.backoff_max_s)
+                       : rule.backoff_s;
+      load_pending_ = true;
+      load_pending_ns_ = now_ns;
+      still_count_ = 0;
+      ++load_pauses;
+      if (braked_since_ < 0) braked_since_ = k_;
+      report_now_ = true;
+      serving_changed_ = true;
+      load_why_ = "overload: " + std::to_string(worst) + " late commands in the last " + std::to_string(rule.window) +
+                  " ticks, " + std::to_string(run) + " in a row";
+      log(load_why_ + " at tick " + std::to_string(k_) + "; stopping the path, the brakes follow once the object is still");
     }
     return go_on;
   }
@@ -286,6 +338,17 @@ bool WorldCore::end_tick(int64_t now_ns) {
   return go_on;
 }
 
-void WorldCore::step() { plant_.step(tau_, t_, m_.period, m_.substeps); }
+void WorldCore::step() {
+  plant_.step(tau_, t_, m_.period, m_.substeps);
+  const long slips = plant_.counters().slip_events;
+  if (slips > slips_seen_ && k_ - slip_logged_ >= 100) {  // at most one line per 100 ticks
+    char line[160];
+    std::snprintf(line, sizeof line, "slip at tick %ld (%ld so far)%s%s", k_, slips, load_paused_ ? ", paused for load" : "",
+                  link_[0].braked || link_[1].braked ? ", braked" : "");
+    log(line);
+    slip_logged_ = k_;
+  }
+  slips_seen_ = slips;
+}
 
 }  // namespace tandem::world

@@ -18,19 +18,31 @@
 
 namespace tandem::world {
 
-/// Overload (real time): an arm whose commands keep arriving late is braked, with its partner, so that the
+/// Overload (real time): when an arm's commands keep arriving late (more than `max_late` of the last `window`
+/// ticks, or `max_consecutive` in a row), the world asks its supervisor to stop the path at once (the report's
+/// `hold`), and once the object is still (speed below `still_speed` for `still_ticks`, or after `hold_max_s`)
+/// it brakes both arms, so that the
 /// object is held still between two locked arms, and the module pauses (docs/failure-model.md, "Overload").
 /// While paused for load the world sends each arm a sample only every `probe_every` ticks (so the paused
 /// module sheds most of its load); it releases both arms once `resume_probes` probes in a row were answered in
 /// time and the backoff has passed. The backoff doubles (up to `backoff_max_s`) when a module is paused for load
-/// again within 10 s of its last release, so modules that come back into an overloaded machine retry less often.
+/// again within 10 s of its last release, so modules that come back into an overloaded machine retry less often,
+/// and each module's backoff is stretched by up to 50% (from its name), so that paused modules do not all
+/// come back at the same tick. Braking a moving object makes it slip, losing control of it drops it: the hold
+/// ends in braking when the object is still, after `hold_max_s`, or when an arm misses `hold_late_run` ticks
+/// in a row, whichever comes first.
 struct OverloadRule {
   int window = 100;         ///< ticks in the sliding window
-  int max_late = 20;        ///< late arm-ticks of one arm in the window that brake the module (20%)
+  int max_late = 10;        ///< more late arm-ticks of one arm in the window than this brake the module (10%)
+  int max_consecutive = 5;  ///< or this many late ticks in a row
   int probe_every = 10;     ///< while paused for load: a sample every this many ticks
   int resume_probes = 10;   ///< probes in a row answered in time before the release
   double backoff_s = 0.5;   ///< first backoff after a pause for load [s]
   double backoff_max_s = 8.0;
+  double still_speed = 0.003;  ///< object speed under which it counts as still [m/s]
+  int still_ticks = 5;
+  double hold_max_s = 0.2;     ///< brake after this long even if the object still moves
+  int hold_late_run = 3;       ///< or as soon as an arm misses this many ticks in a row while holding
   bool enabled = true;
 };
 
@@ -55,6 +67,7 @@ struct SampleOut {
 struct ReportOut {
   long tick = 0;
   std::array<bool, 2> braked{false, false};
+  bool hold = false;  ///< overload: stop the path now (the brakes follow once the object is still)
   long braked_since = -1, released_at = -1;
   double normal_min = 0.0;
 };
@@ -108,7 +121,7 @@ class WorldCore {
   const model::ModulePlant& plant() const { return plant_; }
   std::string serving_text() const;  ///< "left=m1/left@50,right=braked"
   bool braked(int j) const { return link_[static_cast<size_t>(j)].braked; }
-  bool paused_for_load() const { return load_paused_; }
+  bool paused_for_load() const { return load_paused_ || load_pending_; }
   bool answered_once() const { return link_[0].last_tick >= 0 && link_[1].last_tick >= 0; }
   bool serving_changed() { const bool c = serving_changed_; serving_changed_ = false; return c; }
   double tracking_error() const { return std::max(ep_[0], ep_[1]); }
@@ -127,9 +140,11 @@ class WorldCore {
     int64_t last_at = 0;      // when it was applied
     bool braked = false;
     bool release = false;     // lockstep: a robot answered while braked: wait for it again from the next tick
+    bool start_brake = false; // real time: braked from power-on until its robot first answers a tick in time
     int64_t heard = 0;        // last valid command of any tick: a controller is alive
     std::array<bool, 256> late_ring{};  // real time: the last OverloadRule::window ticks, late or not
     int late_count = 0;
+    int late_run = 0;         // late ticks in a row
   };
   void set_brake(int j, bool on, const std::string& why);
   std::string robot_name(int j, int32_t strength) const;
@@ -167,10 +182,16 @@ class WorldCore {
   bool report_now_ = true;
   bool serving_changed_ = true;
   // Overload state.
+  bool load_pending_ = false;  // holding: the path stops, the brakes follow once the object is still
+  int64_t load_pending_ns_ = 0;
+  int still_count_ = 0;
+  std::string load_why_;
   bool load_paused_ = false;
   int good_probes_ = 0;
   int64_t load_until_ns_ = 0, load_released_ns_ = 0;
   double backoff_s_;
+  long slips_seen_ = 0, slip_logged_ = -1000;
+  double jitter_ = 0.0;  // in [0, 1): stretches this module's backoff
 };
 
 }  // namespace tandem::world

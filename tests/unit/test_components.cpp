@@ -1,0 +1,357 @@
+// The role components without DDS (services/plan, services/robot, services/world), driven tick by tick:
+// - the plan a robot follows gives the embedded supervisor's references bit for bit, keeps the highest-ranked
+//   plan, and rejects malformed ones;
+// - a world and two robots run in one process (lockstep order, no DDS) reproduce the embedded simulation of
+//   the paper's SOSM case exactly (the claim behind "lockstep equals embedded");
+// - the world's command checks, its failover bookkeeping, the start brake in real time, and the overload
+//   rule: late commands stop the path, brake both arms once the object is still, shed load with probes and
+//   resume after the backoff, with no slip.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "tandem/plan/plan.hpp"
+#include "tandem/robot/robot_core.hpp"
+#include "tandem/sim/embedded.hpp"
+#include "tandem/sim/module_setup.hpp"
+#include "tandem/sim/scenario_yaml.hpp"
+#include "tandem/world/world_core.hpp"
+
+namespace ts = tandem::sim;
+namespace tp = tandem::plan;
+namespace tmo = tandem::model;
+using tandem::robot::RobotCore;
+using tandem::world::WorldCore;
+
+namespace {
+
+const ts::Scenario& paper() {
+  static const ts::Scenario sc = ts::load_scenario(std::string(TANDEM_SOURCE_DIR) + "/config/scenarios/paper.yaml");
+  return sc;
+}
+
+const ts::CaseConfig& sosm_case() {
+  for (const auto& c : paper().cases) {
+    if (c.name == "SOSM") return c;
+  }
+  throw std::runtime_error("paper.yaml has no SOSM case");
+}
+
+const ts::ModuleSetup& sosm() {
+  static const ts::ModuleSetup m = ts::make_module(paper(), sosm_case());
+  return m;
+}
+
+// The plan a primary supervisor starts from (rank: epoch 0, strength 100).
+tp::PlanData initial_plan(const ts::ModuleSetup& m, bool continuous) {
+  tp::ModulePlan plan(m, continuous);
+  tp::PlanData p;
+  plan.export_to(p);
+  p.supervisor_id = "m1/supervisor";
+  return p;
+}
+
+tandem::world::WorldOptions world_options(bool realtime) {
+  tandem::world::WorldOptions o;
+  o.arm_ids = {"m1/left", "m1/right"};
+  o.arm_names = {"left", "right"};
+  o.realtime = realtime;
+  return o;
+}
+
+tmo::ArmSensors sensors_of(const tandem::world::SampleOut& s) {
+  tmo::ArmSensors in;
+  in.q = s.q;
+  in.qd = s.qd;
+  in.h = s.h;
+  return in;
+}
+
+}  // namespace
+
+TEST_CASE("a plan follower gives the embedded supervisor's references bit for bit", "[components]") {
+  const ts::ModuleSetup& m = sosm();
+  tp::PlanFollower f(m, false);
+  CHECK_FALSE(f.has_plan());
+  REQUIRE(f.offer(initial_plan(m, false)) == tp::PlanFollower::Offer::Adopted);
+  REQUIRE(f.has_plan());
+  for (long k : {0L, 1L, 499L, 500L, 1234L, 2500L, 4499L, 4999L}) {
+    for (int j = 0; j < 2; ++j) {
+      const tmo::ArmReference a = f.reference(j, k);
+      const tmo::ArmReference b = ts::supervisor_reference(m, j, k);  // the embedded simulation's eq. (15)
+      CHECK(a.x == b.x);
+      CHECK(a.xd == b.xd);
+      CHECK(a.xdd == b.xdd);
+      CHECK(a.force == b.force);
+    }
+  }
+}
+
+TEST_CASE("a plan follower keeps the highest-ranked plan and rejects malformed ones", "[components]") {
+  const ts::ModuleSetup& m = sosm();
+  tp::PlanFollower f(m, true);
+  tp::PlanData leader = initial_plan(m, true);
+  leader.version = 3;
+  REQUIRE(f.offer(leader) == tp::PlanFollower::Offer::Adopted);
+  tp::PlanData older = leader;
+  older.version = 2;
+  CHECK(f.offer(older) == tp::PlanFollower::Offer::Ignored);  // an old version of the same leader
+  CHECK(f.offer(leader) == tp::PlanFollower::Offer::Ignored);  // a heartbeat: nothing new
+  tp::PlanData standby = leader;                                 // took over: epoch 1, strength 50
+  standby.epoch = 1;
+  standby.strength = 50;
+  standby.version = 0;
+  CHECK(f.offer(standby) == tp::PlanFollower::Offer::Adopted);
+  leader.version = 99;  // the stalled former leader comes back with its old epoch
+  CHECK(f.offer(leader) == tp::PlanFollower::Offer::Ignored);
+  CHECK(f.rank().epoch == 1);
+  CHECK(f.rank().strength == 50);
+
+  std::string why;
+  tp::PlanData bad = standby;
+  bad.epoch = 2;
+  bad.waypoints = {std::numeric_limits<double>::infinity(), 0.8, 0.0, 1.0};
+  CHECK(f.offer(bad, &why) == tp::PlanFollower::Offer::Rejected);
+  CHECK(why == "a number is not finite");
+  bad.waypoints = {0.0, 0.8, 0.0, -1.0};
+  CHECK(f.offer(bad, &why) == tp::PlanFollower::Offer::Rejected);
+  CHECK(why == "a waypoint's duration is not positive");
+  bad.waypoints = {};
+  bad.strength = 1000;
+  CHECK(f.offer(bad, &why) == tp::PlanFollower::Offer::Rejected);
+  CHECK(why.find("strength") != std::string::npos);
+  bad.strength = 50;
+  bad.breaks = {0.0, 0.0, 1.0};  // not (t0, tau0, r0, r1, ramp) groups
+  CHECK(f.offer(bad, &why) == tp::PlanFollower::Offer::Rejected);
+  CHECK(f.rank().epoch == 1);  // nothing rejected was adopted
+}
+
+TEST_CASE("a paused plan published to a follower stops the object smoothly, as the supervisor planned it", "[components]") {
+  const ts::ModuleSetup& m = sosm();
+  tp::ModulePlan sup(m, false);
+  sup.set_rate(2000, 0.0, 0.15);  // pause from tick 2000 over 0.15 s
+  tp::PlanData p;
+  sup.export_to(p);
+  p.version = sup.version();
+  tp::PlanFollower f(m, false);
+  REQUIRE(f.offer(p) == tp::PlanFollower::Offer::Adopted);
+  for (long k = 1990; k < 2400; k += 7) {
+    CHECK(f.plan().sample(k).pose == sup.sample(k).pose);
+  }
+  // Before the pause the path is the scenario's; after the ramp it stands still, and it got there with a
+  // bounded acceleration (smoothstep: no jump).
+  tp::PlanFollower plain(m, false);
+  plain.offer(initial_plan(m, false));
+  CHECK(f.plan().sample(1999).pose == plain.plan().sample(1999).pose);
+  const tmo::PoseSample a = f.plan().sample(2200), b = f.plan().sample(2300);
+  CHECK((a.pose - b.pose).norm() == Approx(0.0).margin(1e-15));
+  CHECK(b.vel.norm() == Approx(0.0).margin(1e-15));
+  double acc_max = 0.0;
+  for (long k = 2000; k < 2200; ++k) acc_max = std::max(acc_max, f.plan().sample(k).acc.head<2>().norm());
+  CHECK(acc_max < 3.0);  // m/s^2; the path's own peak is about 0.1 m/s^2 x rate changes
+}
+
+TEST_CASE("a world and two robots as components reproduce the embedded simulation exactly", "[components]") {
+  const ts::ModuleSetup& m = sosm();
+  const ts::CaseResult e = ts::run_case(paper(), sosm_case(), ts::RunOptions{false});
+  WorldCore world(m, world_options(false));
+  RobotCore left(m, 0, false, paper().transient), right(m, 1, false, paper().transient);
+  const tp::PlanData p = initial_plan(m, false);
+  world.offer_plan(p);
+  left.offer_plan(p);
+  right.offer_plan(p);
+  std::array<tandem::world::SampleOut, 2> out{};
+  for (long k = 0; k < m.steps; ++k) {
+    world.begin_tick(k, 0, out);
+    RobotCore* robots[2] = {&left, &right};
+    for (int j = 0; j < 2; ++j) {
+      const auto tau = robots[j]->on_sample(k, sensors_of(out[static_cast<size_t>(j)]), out[static_cast<size_t>(j)].braked);
+      REQUIRE(tau.has_value());
+      REQUIRE(world.on_command(j, k, *tau, 100, 0, false) == WorldCore::Verdict::Applied);
+    }
+    REQUIRE(world.lockstep_done());
+    REQUIRE(world.end_tick(0));
+    world.step();
+  }
+  CHECK(left.summary().ep_pos_rms == Approx(e.robots[0].ep_pos_rms).epsilon(1e-12));
+  CHECK(right.summary().eh_rms == Approx(e.robots[1].eh_rms).epsilon(1e-12));
+  CHECK(right.summary().ep_sel_rms == Approx(e.robots[1].ep_sel_rms).epsilon(1e-12));
+  for (int j = 0; j < 2; ++j) {
+    for (int i = 0; i < 3; ++i) CHECK(world.plant().state().q[j](i) == Approx(e.final_state.q[j](i)).margin(1e-12));
+  }
+  CHECK(world.plant().counters().slip_events == 0);
+  CHECK(world.late == 0);
+}
+
+TEST_CASE("a robot component answers new ticks, repeats the last one, and rejects bad samples", "[components]") {
+  const ts::ModuleSetup& m = sosm();
+  RobotCore r(m, 1, false, paper().transient);
+  tmo::ArmSensors in;
+  in.q = m.initial.q[1];
+  CHECK_FALSE(r.on_sample(0, in, false).has_value());  // no plan heard yet: nothing to follow
+  r.offer_plan(initial_plan(m, false));
+  const auto t0 = r.on_sample(0, in, false);
+  REQUIRE(t0.has_value());
+  const auto again = r.on_sample(0, in, false);  // lockstep asks again: the same answer
+  REQUIRE(again.has_value());
+  CHECK(*again == *t0);
+  REQUIRE(r.on_sample(1, in, false).has_value());
+  CHECK_FALSE(r.on_sample(0, in, false).has_value());  // older than the last: nothing
+  tmo::ArmSensors bad = in;
+  bad.qd(1) = std::numeric_limits<double>::quiet_NaN();
+  CHECK_FALSE(r.on_sample(2, bad, false).has_value());
+  CHECK(r.rejected() == 1);
+  CHECK(r.done() == 1);
+  const auto t2 = r.on_sample(2, in, false);
+  REQUIRE(t2.has_value());
+  CHECK((t2->cwiseAbs().array() <= m.plant.arms[1].tau_max.array()).all());  // saturated at the drive's limit
+}
+
+TEST_CASE("the world component rejects bad commands and tells a failover from a takeover", "[components]") {
+  const ts::ModuleSetup& m = sosm();
+  WorldCore w(m, world_options(false));
+  std::string log;
+  w.set_log([&](const std::string& l) { log += l + "\n"; });
+  std::array<tandem::world::SampleOut, 2> out{};
+  const tmo::Vec3 ok(1.0, 1.0, 1.0);
+  const int64_t ms = 1000000;
+  for (long k = 0; k < 60; ++k) {
+    w.begin_tick(k, k * ms, out);
+    CHECK(w.on_command(0, k + 1, ok, 100, k * ms, false) == WorldCore::Verdict::Rejected);  // a future tick
+    CHECK(w.on_command(0, k, tmo::Vec3(std::nan(""), 0, 0), 100, k * ms, false) == WorldCore::Verdict::Rejected);
+    CHECK(w.on_command(0, k, tmo::Vec3(1e7, 0, 0), 100, k * ms, false) == WorldCore::Verdict::Rejected);  // > tau_max
+    // The primary of the left arm until tick 54, then its standby (strength 50) after a 5 ms gap.
+    const int32_t left_strength = k < 55 ? 100 : 50;
+    CHECK(w.on_command(0, k, ok, left_strength, k * ms, false) == WorldCore::Verdict::Applied);
+    CHECK(w.on_command(0, k, ok, left_strength, k * ms, false) == WorldCore::Verdict::Stale);  // a second one
+    CHECK(w.on_command(1, k, ok, k < 57 ? 50 : 100, k * ms, false) == WorldCore::Verdict::Applied);
+    REQUIRE(w.end_tick(k * ms));
+    w.step();
+  }
+  CHECK(w.rejected == 180);
+  REQUIRE(w.switches.size() == 2);
+  CHECK(w.switches[0].failover);            // left: 100 -> 50
+  CHECK(w.switches[0].gap_ms == Approx(1.0));
+  CHECK_FALSE(w.switches[1].failover);      // right: 50 -> 100, a takeover
+  CHECK(w.failovers == 1);
+  CHECK(log.find("m1/left now follows m1/left@50 (was m1/left): failover") != std::string::npos);
+  CHECK(w.serving_text() == "left=m1/left@50,right=m1/right");
+}
+
+TEST_CASE("in real time the arms start braked and are released by their robot's first command in time", "[components]") {
+  const ts::ModuleSetup& m = sosm();
+  WorldCore w(m, world_options(true));
+  std::array<tandem::world::SampleOut, 2> out{};
+  w.begin_tick(0, 0, out);
+  CHECK(out[0].braked);
+  CHECK(out[1].braked);
+  CHECK_FALSE(w.take_report().braked[0]);  // a start brake is no braking to plan around
+  w.on_command(0, 0, tmo::Vec3::Zero(), 100, 0, true);  // late: the arm stays braked
+  CHECK(w.braked(0));
+  w.on_command(1, 0, tmo::Vec3::Zero(), 100, 0, false);
+  CHECK_FALSE(w.braked(1));
+  w.end_tick(0);
+  CHECK(w.late == 0);          // a start-braked arm is not late
+  CHECK(w.braked_ticks == 0);  // nor braked in the counts
+}
+
+namespace {
+struct OverloadRun {
+  bool held = false, braked_both = false, probes_only = false, released = false;
+  unsigned long long load_pauses = 0;
+  long slips = 0, contact_lost = 0;
+  double object_y = 0.0;
+  bool paused_at_end = true;
+  std::string log;
+};
+
+// A module in real time whose left robot misses every third deadline from tick 1500 to 2500 (mid-motion),
+// with the supervisor's part played as its process plays it: stop the path smoothly when the world asks to
+// hold, resume 200 ticks after the release.
+OverloadRun run_overload(const tandem::world::OverloadRule& rule) {
+  const ts::ModuleSetup& m = sosm();
+  tandem::world::WorldOptions o = world_options(true);
+  o.overload = rule;
+  WorldCore w(m, o);
+  OverloadRun run;
+  w.set_log([&](const std::string& l) { run.log += l + "\n"; });
+  RobotCore left(m, 0, false, paper().transient), right(m, 1, false, paper().transient);
+  RobotCore* robots[2] = {&left, &right};
+  tp::ModulePlan sup(m, false);
+  auto publish = [&] {
+    tp::PlanData p;
+    sup.export_to(p);
+    p.version = sup.version();
+    w.offer_plan(p);
+    left.offer_plan(p);
+    right.offer_plan(p);
+  };
+  publish();
+  const int64_t ms = 1000000;
+  std::array<tandem::world::SampleOut, 2> out{};
+  for (long k = 0; k < 6000; ++k) {
+    const int64_t now = k * ms;
+    w.begin_tick(k, now, out);
+    if (w.report_due(m.steps)) {
+      const tandem::world::ReportOut r = w.take_report();
+      if (r.hold || r.braked[0] || r.braked[1]) {
+        run.held = run.held || r.hold;
+        sup.set_rate(k + 5, 0.0, 0.15);
+      } else if (r.released_at >= 0 && k - r.released_at >= 200) {
+        sup.set_rate(k + 5, 1.0, 0.3);
+      }
+      publish();
+    }
+    if (w.braked(0) && w.braked(1) && w.paused_for_load()) {
+      run.braked_both = true;
+      if (!out[0].publish && !out[1].publish) run.probes_only = true;
+    }
+    for (int j = 0; j < 2; ++j) {
+      if (!out[static_cast<size_t>(j)].publish) continue;
+      const auto tau = robots[j]->on_sample(k, sensors_of(out[static_cast<size_t>(j)]), out[static_cast<size_t>(j)].braked);
+      if (!tau) continue;
+      const bool late = j == 0 && k >= 1500 && k < 2500 && k % 3 == 0;
+      w.on_command(j, k, *tau, 100, now, late);
+    }
+    const bool was_paused = w.paused_for_load();
+    w.end_tick(now);
+    if (was_paused && !w.paused_for_load()) run.released = true;
+    w.step();
+  }
+  run.load_pauses = w.load_pauses;
+  run.slips = w.plant().counters().slip_events;
+  run.contact_lost = w.plant().counters().contact_lost;
+  run.object_y = w.plant().state().c(1);
+  run.paused_at_end = w.paused_for_load();
+  return run;
+}
+}  // namespace
+
+TEST_CASE("overload: late commands stop the path, both arms are braked once still, and the module resumes", "[components]") {
+  const OverloadRun run = run_overload(tandem::world::OverloadRule{});
+  INFO(run.log);
+  CHECK(run.held);
+  CHECK(run.braked_both);
+  CHECK(run.probes_only);
+  CHECK(run.released);
+  CHECK(run.load_pauses >= 1);
+  CHECK(run.log.find("object still") != std::string::npos);
+  CHECK(run.log.find("back in time") != std::string::npos);
+  CHECK(run.slips == 0);
+  CHECK(run.contact_lost == 0);
+  CHECK(run.object_y == Approx(0.8).margin(2e-3));  // the object is still held at its height
+  CHECK_FALSE(run.paused_at_end);
+}
+
+TEST_CASE("overload: braking at once, without stopping the path first, makes the moving object slip", "[components]") {
+  // Why the world holds before it brakes: the same run with the hold cut to nothing.
+  tandem::world::OverloadRule rule;
+  rule.hold_max_s = 0.0;
+  const OverloadRun run = run_overload(rule);
+  INFO(run.log);
+  CHECK(run.braked_both);
+  CHECK(run.log.find("object still moving") != std::string::npos);
+  CHECK(run.slips > 0);
+}

@@ -100,7 +100,9 @@ int main(int argc, char** argv) {
   std::array<bool, 2> braked{false, false};
   bool hold = false;  // the world asks for the path to stop (overload), before it brakes
   long braked_since = -1, released_at = -1;
-  long heard_tick = -1;  // the newest tick the world reported
+  long heard_tick = -1;
+  model::Vec2 object_xy = model::Vec2::Zero();
+  long rebased_for = -1;  // the braking whose object pose the plan was rebased to  // the newest tick the world reported
   msg::TaskState ts;
   ts.module_id(opt.module);
   ts.deployment(opt.deployment);
@@ -307,6 +309,7 @@ int main(int argc, char** argv) {
       heard_tick = std::max(heard_tick, k);
       braked = {rep.braked()[0], rep.braked()[1]};
       hold = rep.hold();
+      object_xy = model::Vec2(rep.object()[0], rep.object()[1]);
       braked_since = static_cast<long>(rep.braked_since());
       released_at = static_cast<long>(rep.released_at());
       if (rep.normal_min() < m.safe_grasp_force && k > static_cast<long>(ctx.scenario.transient / m.period) &&
@@ -322,6 +325,18 @@ int main(int argc, char** argv) {
       // Pause while an arm is braked or a pause is asked for, from kLeadTicks after the newest tick heard.
       // A braking stops the path from the tick it began (the robots of a braked arm hold still anyway).
       const long next = heard_tick + kLeadTicks;
+      if (braked[0] && braked[1] && hold && braked_since != rebased_for && plan.target_rate() == 0.0 &&
+          plan.paused_at(heard_tick)) {
+        // Paused for load, both arms braked: the brakes may have stopped the object before the path did.
+        // Rebase the path to where the object is, so that the robots resume from it (not from a jump).
+        rebased_for = braked_since;
+        const double back = plan.rebase_to(heard_tick + kLeadTicks, object_xy);
+        if (back > 0.0) {
+          std::printf("tandem-supervisor %s: path rebased %.0f ms back, to where the braked object stands\n",
+                      self_id.c_str(), back * 1e3);
+          std::fflush(stdout);
+        }
+      }
       if (braked[0] || braked[1]) {
         plan.set_rate(std::max(braked_since, 0L), 0.0, hold ? kHoldRamp : kBrakeRamp);
       } else if (hold) {

@@ -228,6 +228,7 @@ int main(int argc, char** argv) {
       rep.braked_since(r.braked_since);
       rep.released_at(r.released_at);
       rep.normal_min(r.normal_min);
+      for (int i = 0; i < 3; ++i) rep.object()[static_cast<size_t>(i)] = r.object(i);
       report.write(rep);
     }
     // Real time: the tick ends at an absolute deadline; lockstep: when every arm that is not braked has its

@@ -47,6 +47,28 @@ void ModulePlan::set_rate(long from, double rate, double ramp) {
   ++version_;
 }
 
+double ModulePlan::rebase_to(long from, const model::Vec2& object_xy, double window_s) {
+  from = std::max(from, last_retarget_);
+  const double now_tau = scale_.at(time(from)).tau;
+  const double offset = continuous_ ? tau_start_ : 0.0;
+  if (continuous_ && (task_id_ == 0 || !running_)) return 0.0;  // resting: nothing to rebase
+  const model::ObjectPath& path = continuous_ ? path_ : m_->path;
+  const double lo = std::max(offset, now_tau - window_s);
+  double best_tau = now_tau, best = 1e300;
+  for (double tau = now_tau; tau >= lo; tau -= m_->period) {
+    const double d = (path.sample(tau - offset).pose.head<2>() - object_xy).norm();
+    if (d < best) {
+      best = d;
+      best_tau = tau;
+    }
+  }
+  if (best_tau == now_tau) return 0.0;
+  scale_.rebase(time(from), best_tau);
+  last_retarget_ = from;
+  ++version_;
+  return now_tau - best_tau;
+}
+
 void ModulePlan::export_to(PlanData& p) const {
   p.version = version_;
   p.task_id = task_id_;

@@ -102,8 +102,8 @@ void WorldCore::begin_tick(long k, int64_t /*now_ns*/, std::array<SampleOut, 2>&
     it = k >= it->end ? windows_.erase(it) : it + 1;
   }
   have_ = {false, false};
-  // Paused for load: a probe sample every probe_every ticks only.
-  const bool probe = !load_paused_ || k % o_.overload.probe_every == 0;
+  // Paused for load: a probe sample every probe_every ticks only (during the trial before a release: all).
+  const bool probe = !load_paused_ || trial_ticks_ >= 0 || k % o_.overload.probe_every == 0;
   for (size_t j = 0; j < 2; ++j) {
     SampleOut& s = out[j];
     s.publish = probe;
@@ -124,6 +124,7 @@ ReportOut WorldCore::take_report() {
   r.braked_since = braked_since_;
   r.released_at = released_at_;
   r.normal_min = report_normal_min_;
+  r.object = model::Vec3(plant_.state().c(0), plant_.state().c(1), plant_.state().psi);
   report_normal_min_ = 1e300;
   report_now_ = false;
   return r;
@@ -290,6 +291,7 @@ bool WorldCore::end_tick(int64_t now_ns) {
       load_pending_ = false;
       load_paused_ = true;
       good_probes_ = 0;
+      trial_ticks_ = -1;
       load_until_ns_ = now_ns + static_cast<int64_t>(backoff_s_ * (1.0 + 0.5 * jitter_) * 1e9);
       char why[192];
       std::snprintf(why, sizeof why, "%s; paused for load, object %s after %.0f ms%s", load_why_.c_str(),
@@ -323,17 +325,36 @@ bool WorldCore::end_tick(int64_t now_ns) {
     return go_on;
   }
   ++load_paused_ticks;
+  if (trial_ticks_ >= 0) {
+    // The trial: full-rate samples with the arms still braked. Released only if the robots kept up.
+    trial_late_ += (have_[0] ? 0 : 1) + (have_[1] ? 0 : 1);
+    if (++trial_ticks_ < rule.trial_ticks) return go_on;
+    if (trial_late_ <= rule.trial_max_late) {
+      load_paused_ = false;
+      load_released_ns_ = now_ns;
+      char why[128];
+      std::snprintf(why, sizeof why, "back in time: %d of %d full-rate ticks answered in time after %.1f s braked",
+                    2 * rule.trial_ticks - trial_late_, 2 * rule.trial_ticks, backoff_s_);
+      for (int j = 0; j < 2; ++j) set_brake(j, false, why);
+      serving_changed_ = true;
+      clear_rings();
+    } else {
+      // Not yet: back to probes, and try again after a longer backoff.
+      backoff_s_ = std::min(backoff_s_ * 2.0, rule.backoff_max_s);
+      load_until_ns_ = now_ns + static_cast<int64_t>(backoff_s_ * (1.0 + 0.5 * jitter_) * 1e9);
+      log("still overloaded: " + std::to_string(trial_late_) + " late commands in a " + std::to_string(rule.trial_ticks) +
+          "-tick trial at tick " + std::to_string(k_) + "; next try in " + std::to_string(backoff_s_).substr(0, 4) + " s");
+      good_probes_ = 0;
+    }
+    trial_ticks_ = -1;
+    return go_on;
+  }
   if (expect_[0] && expect_[1]) {  // a probe tick
     good_probes_ = have_[0] && have_[1] ? good_probes_ + 1 : 0;
   }
   if (good_probes_ >= rule.resume_probes && now_ns >= load_until_ns_) {
-    load_paused_ = false;
-    load_released_ns_ = now_ns;
-    char why[96];
-    std::snprintf(why, sizeof why, "back in time: %d probes answered in time after %.1f s", good_probes_, backoff_s_);
-    for (int j = 0; j < 2; ++j) set_brake(j, false, why);
-    serving_changed_ = true;
-    clear_rings();
+    trial_ticks_ = 0;  // from the next tick: the full-rate trial
+    trial_late_ = 0;
   }
   return go_on;
 }

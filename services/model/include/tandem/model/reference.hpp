@@ -52,6 +52,10 @@ class TimeScale {
   /// (ramp 0: at once).
   void retarget(double t0, double rate, double ramp);
   Sample at(double t) const noexcept;
+  /// From time t0 on (t0 not before the latest retarget) the path stands paused at path time tau0: a jump in
+  /// path time, for a module whose arms were braked while the path still ran (the object stopped behind its
+  /// plan); the next retarget resumes from tau0.
+  void rebase(double t0, double tau0) { breaks_.push_back({t0, tau0, 0.0, 0.0, 0.0}); }
   double target() const noexcept { return breaks_.empty() ? 1.0 : breaks_.back().r1; }
   /// True once the latest ramp is over at time t.
   bool settled(double t) const noexcept {

@@ -83,6 +83,11 @@ class ModulePlan {
   /// From tick `from` on the path runs at `rate` (0 paused, 1 normal), reached over `ramp` seconds.
   /// `from` is raised to the latest retarget's tick if it is earlier (a retarget never rewrites the past).
   void set_rate(long from, double rate, double ramp);
+  /// A paused module whose arms were braked (for load) while the path still ran: from tick `from` the path
+  /// stands at the path time, within `window_s` behind its present one, whose pose is nearest to where the
+  /// object actually is (x, y), so that the robots resume from the object instead of chasing the plan.
+  /// Returns the jump in path time [s] (0: nothing changed).
+  double rebase_to(long from, const model::Vec2& object_xy, double window_s = 3.0);
   double target_rate() const { return scale_.target(); }
   bool paused_at(long k) const { return scale_.target() == 0.0 && scale_.settled(time(k)); }
   bool running() const { return running_; }

@@ -24,8 +24,10 @@ namespace tandem::world {
 /// it brakes both arms, so that the
 /// object is held still between two locked arms, and the module pauses (docs/failure-model.md, "Overload").
 /// While paused for load the world sends each arm a sample only every `probe_every` ticks (so the paused
-/// module sheds most of its load); it releases both arms once `resume_probes` probes in a row were answered in
-/// time and the backoff has passed. The backoff doubles (up to `backoff_max_s`) when a module is paused for load
+/// module sheds most of its load). Once `resume_probes` probes in a row were answered in time and the backoff
+/// has passed, it tries the full rate for `trial_ticks` with the arms still braked, and releases them only if
+/// the robots kept up (at most `trial_max_late` late arm-ticks): probes alone cost a tenth of the load and pass
+/// on a machine that cannot carry the module. The backoff doubles (up to `backoff_max_s`) when a module is paused for load
 /// again within 10 s of its last release, so modules that come back into an overloaded machine retry less often,
 /// and each module's backoff is stretched by up to 50% (from its name), so that paused modules do not all
 /// come back at the same tick. Braking a moving object makes it slip, losing control of it drops it: the hold
@@ -36,7 +38,9 @@ struct OverloadRule {
   int max_late = 10;        ///< more late arm-ticks of one arm in the window than this brake the module (10%)
   int max_consecutive = 5;  ///< or this many late ticks in a row
   int probe_every = 10;     ///< while paused for load: a sample every this many ticks
-  int resume_probes = 10;   ///< probes in a row answered in time before the release
+  int resume_probes = 10;   ///< probes in a row answered in time before the trial
+  int trial_ticks = 100;    ///< the trial: full-rate samples, arms still braked, before the release
+  int trial_max_late = 2;   ///< late arm-ticks allowed in the trial (else back to probes, longer backoff)
   double backoff_s = 0.5;   ///< first backoff after a pause for load [s]
   double backoff_max_s = 8.0;
   double still_speed = 0.003;  ///< object speed under which it counts as still [m/s]
@@ -70,6 +74,7 @@ struct ReportOut {
   bool hold = false;  ///< overload: stop the path now (the brakes follow once the object is still)
   long braked_since = -1, released_at = -1;
   double normal_min = 0.0;
+  model::Vec3 object = model::Vec3::Zero();  ///< x, y, psi now
 };
 
 /// A change of the robot an arm follows, and the worst tracking error and lowest normal force over the
@@ -188,6 +193,8 @@ class WorldCore {
   std::string load_why_;
   bool load_paused_ = false;
   int good_probes_ = 0;
+  int trial_ticks_ = -1;  // >= 0: in the full-rate trial before a release
+  int trial_late_ = 0;
   int64_t load_until_ns_ = 0, load_released_ns_ = 0;
   double backoff_s_;
   long slips_seen_ = 0, slip_logged_ = -1000;

@@ -1043,11 +1043,13 @@ int up_command(const std::vector<std::string>& args) {
     }
     if (ws.realtime()) {
       std::printf("%s: real time: sample->command latency p50 %.0f us, p99 %.0f us, max %.0f us; late arm-ticks %llu "
-                  "of %llu (%.2f%%); world tick start late p99 %.0f us, world overruns %llu\n",
+                  "of %llu (%.2f%%); world tick start late p99 %.0f us, world overruns %llu; paused for load %llu "
+                  "time(s), %.1f s\n",
                   name.c_str(), ws.latency_p50_us(), ws.latency_p99_us(), ws.latency_max_us(),
                   static_cast<unsigned long long>(ws.late_commands()), 2ULL * ws.ticks(),
                   ws.ticks() > 0 ? 50.0 * static_cast<double>(ws.late_commands()) / static_cast<double>(ws.ticks()) : 0.0,
-                  ws.wake_late_p99_us(), static_cast<unsigned long long>(ws.overruns()));
+                  ws.wake_late_p99_us(), static_cast<unsigned long long>(ws.overruns()),
+                  static_cast<unsigned long long>(ws.load_pauses()), static_cast<double>(ws.load_paused_ticks()) * 1e-3);
     }
     if (counted && (ws.slip_events() > 0 || ws.contact_lost() > 0)) grasp_ok = false;
     if (out) {
@@ -1057,7 +1059,9 @@ int up_command(const std::vector<std::string>& args) {
           << ".late_commands=" << ws.late_commands() << "\n" << name << ".latency_p50_us=" << ws.latency_p50_us()
           << "\n" << name << ".latency_p99_us=" << ws.latency_p99_us() << "\n" << name
           << ".failovers=" << ws.failovers() << "\n" << name << ".failover_max_ms=" << ws.failover_max_ms() << "\n"
-          << name << ".braked_ticks=" << ws.braked_ticks() << "\n" << name << ".overruns=" << ws.overruns() << "\n";
+          << name << ".braked_ticks=" << ws.braked_ticks() << "\n" << name << ".overruns=" << ws.overruns() << "\n"
+          << name << ".load_pauses=" << ws.load_pauses() << "\n" << name << ".load_paused_ticks=" << ws.load_paused_ticks()
+          << "\n";
       auto list = [&](const char* key, const auto& seq) {
         out << name << "." << key << "=";
         for (size_t i = 0; i < seq.size(); ++i) out << (i ? "," : "") << static_cast<double>(seq[i]);

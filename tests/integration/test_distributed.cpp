@@ -712,6 +712,42 @@ TEST_CASE("a world stalled for 0.4 s re-anchors its clock instead of a catch-up 
   CHECK_FALSE(processes_left(domain));
 }
 
+TEST_CASE("both cores loaded mid-task: the modules pause for load with the object held, and resume", "[distributed]") {
+  const int domain = test_domain(19);
+  const std::string deploy = work_dir() + "/overload.yaml";
+  // Normal scheduling for the modules (where 5 late ticks in a row also happen now and then without the hog:
+  // a pause for load more), so that four busy processes (two per core, 2 s of the motion) starve their robots: commands come late, each module holds the object still, brakes both arms,
+  // sheds its load, and resumes when a full-rate trial shows its robots keep up again.
+  std::ofstream(deploy) << "name: overload\ndomain_id: " << domain << "\ntransport: shm\ntiming: realtime\n"
+                        << "realtime_priority: 0\ntimeout: 20\nmodules:\n"
+                        << "  - {name: m1, scenario: " << kill_scenario() << ", case: SOSM}\n"
+                        << "  - {name: m2, scenario: " << kill_scenario() << ", case: SOSM}\n";
+  const std::string summary = work_dir() + "/overload.summary", up_log = work_dir() + "/overload.log";
+  const std::string cmd = kBin + "/tandem up " + deploy + " --summary " + summary + " > " + up_log + " 2>&1 & up=$!; " +
+                          after_first_tick(up_log, 1.5) + kBin + "/tandem_hog --cores 4 --busy 1000 --idle 0 --seconds 2; " +
+                          "wait $up; echo up_rc=$?";
+  const Run r = run("bash -c '" + cmd + "'");
+  const std::string log = read_file(up_log);
+  INFO(r.output << "\n--- tandem up ---\n" << log);
+  CHECK(r.output.find("up_rc=0") != std::string::npos);
+  CHECK(log.find("stopping the path, the brakes follow once the object is still") != std::string::npos);
+  CHECK(log.find("paused for load") != std::string::npos);
+  CHECK(log.find("back in time") != std::string::npos);  // and resumed
+  const auto kv = read_summary(summary);
+  CHECK(kv.at("m1.load_pauses") + kv.at("m2.load_pauses") >= 1);
+  for (const char* m : {"m1", "m2"}) {
+    INFO(m);
+    const std::string id(m);
+    CHECK(kv.at(id + ".ticks") == 15000);
+    CHECK(kv.at(id + ".slip_events") == 0);
+    CHECK(kv.at(id + ".contact_lost") == 0);
+    // The task was finished after the pauses (15 s for a 4 s move): the object at its goal, at its height.
+    CHECK(kv.at(id + ".object_final0") == Approx(0.2).margin(2e-3));
+    CHECK(kv.at(id + ".object_final1") == Approx(0.8).margin(2e-3));
+  }
+  CHECK_FALSE(processes_left(domain));
+}
+
 TEST_CASE("four modules: the coordinator is killed, one module killed and one unplugged, and every task is done once", "[distributed]") {
   const int domain = test_domain(12);
   const std::string path = write_task_deployment("live4", domain, 16, "  standby: 1\n", sosm_modules(4), kCrashTransport);

@@ -98,9 +98,12 @@ ModulePlant::StateVec ModulePlant::derivative(const StateVec& x, const std::arra
   StateVec dx;
   for (int j = 0; j < 2; ++j) {
     const Vec3 h(c.h[j](0), c.h[j](1), 0.0);  // point contacts transmit no moment
-    if (braked_[static_cast<size_t>(j)]) {  // locked joints: the brake takes whatever torque holds them
-      dx.segment<3>(3 * j).setZero();
-      dx.segment<3>(6 + 3 * j).setZero();
+    if (braked_[static_cast<size_t>(j)]) {
+      // Braked joints: the brake takes whatever torque it needs and stops them along qdd = -qd / T_b, as a
+      // real holding brake stops a moving arm over a short distance (an instant stop of an arm moving with
+      // the object jolts the object against it and makes it slip); at rest they stay locked.
+      dx.segment<3>(3 * j) = s.qd[j];
+      dx.segment<3>(6 + 3 * j) = -s.qd[j] / kBrakeTimeConstant;
       continue;
     }
     const Vec3 qdd = forward_dynamics(params_.arms[j], s.q[j], s.qd[j], tau[j], h) + params_.disturbance[j](t);
@@ -180,10 +183,7 @@ void ModulePlant::step(const std::array<Vec3, 2>& tau_cmd, double t, double dt, 
   }
 }
 
-void ModulePlant::set_brake(int j, bool on) noexcept {
-  braked_[static_cast<size_t>(j)] = on;
-  if (on) state_.qd[static_cast<size_t>(j)].setZero();
-}
+void ModulePlant::set_brake(int j, bool on) noexcept { braked_[static_cast<size_t>(j)] = on; }
 
 double ModulePlant::mechanical_energy() const noexcept {
   double e = 0.0;

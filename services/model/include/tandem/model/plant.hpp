@@ -86,7 +86,10 @@ class ModulePlant {
 
   /// Brakes of arm j (an arm without a live controller): an ideal lock, the joints stop at once and are
   /// held where they are (q' = 0, q'' = 0) until released; the contacts and the object stay dynamic.
+  /// Brakes of arm j: while on, its joints decelerate as qdd = -qd / kBrakeTimeConstant whatever the
+  /// torques (the brake takes them), and stay locked once at rest.
   void set_brake(int j, bool on) noexcept;
+  static constexpr double kBrakeTimeConstant = 0.05;  ///< T_b [s]: 95% of the speed gone in 0.15 s
   bool braked(int j) const noexcept { return braked_[static_cast<size_t>(j)]; }
 
   const ModuleState& state() const noexcept { return state_; }

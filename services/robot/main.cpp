@@ -2,7 +2,7 @@
 // module's plan and computes the law; this process feeds it its arm's sensor samples and the plans from DDS
 // and sends each command from the DDS thread that received the sample (no hand-off to another thread:
 // docs/architecture.md, "Per-tick data flow"). It also keeps the torque writer's liveliness, publishes status
-// every 100 ticks and the summary at the end.
+// every 100 ticks and the summary at the end; its last command says it is leaving.
 #include <tandemPubSubTypes.h>
 
 #include <algorithm>
@@ -49,8 +49,7 @@ int main(int argc, char** argv) {
   bus::Participant part(opt.domain, "robot/" + my_arm, opt.transport);
   bus::Reader<msg::SupervisorPlan, msg::SupervisorPlanPubSubType> plans(
       part, bus::module_topic(bus::kSupervisorPlanTopic, opt.module), bus::TopicKind::Task);
-  // The torque writer goes first when the robot stops (std::optional::reset below): deleting it tells the
-  // world at once, so a standby takes over within a tick instead of after the liveliness lease.
+  // The torque writer: the world hears every robot of the arm and follows the strongest that answers.
   std::optional<bus::Writer<msg::TorqueCommand, msg::TorqueCommandPubSubType>> torque_writer;
   torque_writer.emplace(part, bus::arm_topic(bus::kTorquesTopic, my_arm),
                         opt.realtime ? bus::TopicKind::TorquesRealtime : bus::TopicKind::Torques, opt.strength);
@@ -117,22 +116,12 @@ int main(int argc, char** argv) {
 
   long reported_tick = -1;
   while (!runtime::g_stop) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(bus::kLivelinessAssertMs));
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
     std::unique_lock<std::mutex> lock(mu);
     take_plans();
     const long done = core.done();
     if (done + 1 >= m.steps) break;
     const auto now = Clock::now();
-    // Liveliness (MANUAL_BY_TOPIC): every write asserts it; while no tick comes, assert it, so that a live
-    // robot is never taken for dead, and repeat the last command: after a failover the new owner's earlier
-    // sample was filtered out by the world's reader, and this repeat is what reaches it.
-    if (now - last_write > std::chrono::milliseconds(bus::kLivelinessAssertMs)) {
-      torques.assert_liveliness();
-      if (done >= 0 && now - last_input > std::chrono::milliseconds(2 * bus::kLivelinessAssertMs)) {
-        torques.write(cmd);
-        last_write = now;
-      }
-    }
     if (done >= 0 && !activated) {
       activated = true;
       status.set(runtime::Lifecycle::Active, "controlling");
@@ -157,6 +146,8 @@ int main(int argc, char** argv) {
   std::unique_lock<std::mutex> lock(mu);
   listener.fn = [](fdds::DataReader*) {};  // nothing more is computed
   lock.unlock();
+  cmd.leaving(true);           // the last word: the world follows the next robot of the arm at once
+  torques.write(cmd);
   torques.wait_for_acks(0.1);  // lockstep: the last command reaches the world
   torque_writer.reset();       // give the arm up: the world follows the next strongest robot at once, then report
   lock.lock();

@@ -253,7 +253,7 @@ int main(int argc, char** argv) {
           ::clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &deadline, nullptr);  // the commands queue meanwhile
         } else {
           const double waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - wait_start).count();
-          if (!core.lockstep_waited(waited, opt.timeout)) {
+          if (!core.lockstep_waited(waited, opt.timeout, now_ns())) {
             gave_up = true;
             break;
           }
@@ -270,8 +270,8 @@ int main(int argc, char** argv) {
       }
       const bool late_arrival = opt.realtime && cmd_at_ns > deadline_ns;
       const model::Vec3 tau(cmd.tau()[0], cmd.tau()[1], cmd.tau()[2]);
-      if (core.on_command(cmd_arm, static_cast<long>(cmd.tick()), tau, cmd.strength(), cmd_at_ns, late_arrival) ==
-              world::WorldCore::Verdict::Applied &&
+      if (core.on_command(cmd_arm, static_cast<long>(cmd.tick()), tau, cmd.strength(), cmd_at_ns, late_arrival,
+                          cmd.leaving()) == world::WorldCore::Verdict::Applied &&
           opt.realtime) {
         const double us = static_cast<double>(cmd_at_ns - sent) * 1e-3;
         latency_us.add(us);

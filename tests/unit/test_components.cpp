@@ -215,29 +215,74 @@ TEST_CASE("the world component rejects bad commands and tells a failover from a 
   std::string log;
   w.set_log([&](const std::string& l) { log += l + "\n"; });
   std::array<tandem::world::SampleOut, 2> out{};
-  const tmo::Vec3 ok(1.0, 1.0, 1.0);
+  const tmo::Vec3 ok(1.0, 1.0, 1.0), shadow(1.0, 1.0, 1.0);
   const int64_t ms = 1000000;
-  for (long k = 0; k < 60; ++k) {
+  for (long k = 0; k < 80; ++k) {
     w.begin_tick(k, k * ms, out);
     CHECK(w.on_command(0, k + 1, ok, 100, k * ms, false) == WorldCore::Verdict::Rejected);  // a future tick
     CHECK(w.on_command(0, k, tmo::Vec3(std::nan(""), 0, 0), 100, k * ms, false) == WorldCore::Verdict::Rejected);
     CHECK(w.on_command(0, k, tmo::Vec3(1e7, 0, 0), 100, k * ms, false) == WorldCore::Verdict::Rejected);  // > tau_max
-    // The primary of the left arm until tick 54, then its standby (strength 50) after a 5 ms gap.
-    const int32_t left_strength = k < 55 ? 100 : 50;
-    CHECK(w.on_command(0, k, ok, left_strength, k * ms, false) == WorldCore::Verdict::Applied);
-    CHECK(w.on_command(0, k, ok, left_strength, k * ms, false) == WorldCore::Verdict::Stale);  // a second one
-    CHECK(w.on_command(1, k, ok, k < 57 ? 50 : 100, k * ms, false) == WorldCore::Verdict::Applied);
+    CHECK(w.on_command(0, k, ok, 1000, k * ms, false) == WorldCore::Verdict::Rejected);  // no robot is that strong
+    // Left: the primary answers until tick 54 and then falls silent; its standby answers every tick.
+    if (k < 55) {
+      CHECK(w.on_command(0, k, ok, 100, k * ms, false) == WorldCore::Verdict::Applied);
+      CHECK(w.on_command(0, k, ok, 100, k * ms, false) == WorldCore::Verdict::Stale);  // a second one
+    }
+    const WorldCore::Verdict v = w.on_command(0, k, shadow, 50, k * ms, false);
+    if (k < 55) CHECK(v == WorldCore::Verdict::Stale);  // the tick is served already
+    // Right: the standby serves from the start; the primary appears at tick 57 and takes over.
+    w.on_command(1, k, ok, 50, k * ms, false);
+    if (k >= 57) w.on_command(1, k, ok, 100, k * ms, false);
+    REQUIRE(w.lockstep_waited(k >= 55 ? 0.03 : 0.0, 10.0, k * ms + 30 * ms));  // the silent owner's tick waited 30 ms
+    CHECK(w.lockstep_done());
     REQUIRE(w.end_tick(k * ms));
     w.step();
   }
-  CHECK(w.rejected == 180);
+  CHECK(w.rejected == 320);
   REQUIRE(w.switches.size() == 2);
-  CHECK(w.switches[0].failover);            // left: 100 -> 50
-  CHECK(w.switches[0].gap_ms == Approx(1.0));
+  CHECK(w.switches[0].failover);            // left: 100 -> 50 at tick 55 (30 ms of waiting > 20 ms)
+  CHECK(w.switches[0].gap_ms == Approx(31.0));  // from the last command of tick 54 to the decision
   CHECK_FALSE(w.switches[1].failover);      // right: 50 -> 100, a takeover
   CHECK(w.failovers == 1);
   CHECK(log.find("m1/left now follows m1/left@50 (was m1/left): failover") != std::string::npos);
   CHECK(w.serving_text() == "left=m1/left@50,right=m1/right");
+}
+
+TEST_CASE("in real time a silent owner's ticks are served by its standby, which it fails over to after 10 ticks", "[components]") {
+  const ts::ModuleSetup& m = sosm();
+  WorldCore w(m, world_options(true));
+  std::array<tandem::world::SampleOut, 2> out{};
+  const tmo::Vec3 ok(1.0, 1.0, 1.0);
+  const int64_t ms = 1000000;
+  long failover_tick = -1;
+  for (long k = 0; k < 120; ++k) {
+    w.begin_tick(k, k * ms, out);
+    for (int j = 0; j < 2; ++j) {
+      if (!(j == 0 && k >= 80)) w.on_command(j, k, ok, 100, k * ms, false);  // the left primary dies at tick 80
+      w.on_command(j, k, ok, 50, k * ms + 100, false);                        // every standby answers
+    }
+    w.end_tick(k * ms + 500000);
+    if (failover_tick < 0 && w.failovers == 1) failover_tick = k;
+    w.step();
+  }
+  CHECK(failover_tick == 80 + WorldCore::kFailoverTicks - 1);
+  CHECK(w.covered == static_cast<unsigned long long>(WorldCore::kFailoverTicks - 1));  // the ticks in between
+  CHECK(w.late == 0);  // no tick went without a command
+  REQUIRE(w.switches.size() == 1);
+  CHECK(w.switches[0].gap_ms == Approx(10.4).margin(0.2));  // tick 80 + 9, decided at its end
+  // A robot that says it leaves is followed by the next one at once.
+  WorldCore g(m, world_options(true));
+  for (long k = 0; k < 70; ++k) {
+    g.begin_tick(k, k * ms, out);
+    g.on_command(0, k, ok, 50, k * ms, false);
+    if (k < 60) g.on_command(0, k, ok, 100, k * ms + 100, false);
+    if (k == 60) g.on_command(0, k, ok, 100, k * ms + 100, false, true);  // its last word
+    g.on_command(1, k, ok, 100, k * ms, false);
+    g.end_tick(k * ms + 500000);
+    g.step();
+  }
+  REQUIRE(g.switches.size() == 1);
+  CHECK(g.switches[0].gap_ms == Approx(1.0).margin(0.2));  // at tick 60, not after 10 silent ticks
 }
 
 TEST_CASE("in real time the arms start braked and are released by their robot's first command in time", "[components]") {

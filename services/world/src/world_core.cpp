@@ -102,6 +102,7 @@ void WorldCore::begin_tick(long k, int64_t /*now_ns*/, std::array<SampleOut, 2>&
     it = k >= it->end ? windows_.erase(it) : it + 1;
   }
   have_ = {false, false};
+  fallback_ = {};
   // Paused for load: a probe sample every probe_every ticks only (during the trial before a release: all).
   const bool probe = !load_paused_ || trial_ticks_ >= 0 || k % o_.overload.probe_every == 0;
   for (size_t j = 0; j < 2; ++j) {
@@ -137,8 +138,22 @@ double WorldCore::normal_min_since_status() {
 }
 
 WorldCore::Verdict WorldCore::on_command(int j, long tick, const model::Vec3& tau, int32_t strength, int64_t at_ns,
-                                         bool late_arrival) {
+                                         bool late_arrival, bool leaving) {
   ArmLink& L = link_[static_cast<size_t>(j)];
+  if (strength < 1 || strength > plan::kPrimaryStrength) {  // robots are 1 (weakest standby) .. 100 (primary)
+    ++rejected;
+    return Verdict::Rejected;
+  }
+  if (leaving) {
+    // A robot's last word (unplugged or stopped): if it served the arm, follow the next one at once.
+    if (!L.owner.empty() && strength == L.strength) {
+      L.owner_gone = true;
+      Fallback& f = fallback_[static_cast<size_t>(j)];
+      if (f.has && !have_[static_cast<size_t>(j)]) apply(j, f.tau, f.strength, f.at_ns, at_ns);
+    }
+    ++stale;
+    return Verdict::Stale;
+  }
   if (o_.realtime && late_arrival) {  // after the deadline: too late for this tick, but its controller lives
     ++stale;
     L.heard = at_ns;
@@ -148,9 +163,9 @@ WorldCore::Verdict WorldCore::on_command(int j, long tick, const model::Vec3& ta
     ++rejected;
     return Verdict::Rejected;
   }
-  if (have_[static_cast<size_t>(j)] && tick == k_) {
-    // A second command for an arm that has this tick's already: a liveliness repeat, or the next strongest
-    // robot's answer after the owner left within the tick. The first one stands.
+  if (have_[static_cast<size_t>(j)] && tick == k_ && !(strength > L.strength && !L.braked)) {
+    // A second command for an arm that has this tick's already (a repeat, or a standby's answer after the
+    // owner's). The first one stands, unless a stronger robot's comes: it takes the arm over at once.
     ++stale;
     return Verdict::Stale;
   }
@@ -166,6 +181,18 @@ WorldCore::Verdict WorldCore::on_command(int j, long tick, const model::Vec3& ta
     if (L.braked && !o_.realtime && tick + 64 > k_) L.release = true;
     return Verdict::Stale;
   }
+  if (!L.owner.empty() && !L.braked && !L.owner_gone && strength < L.strength) {
+    // A weaker robot (a standby in shadow): kept for this tick, in case the owner falls silent.
+    Fallback& f = fallback_[static_cast<size_t>(j)];
+    if (!f.has || strength > f.strength) f = {true, tau, strength, at_ns};
+    return Verdict::Shadow;
+  }
+  apply(j, tau, strength, at_ns, at_ns);
+  return Verdict::Applied;
+}
+
+void WorldCore::apply(int j, const model::Vec3& tau, int32_t strength, int64_t at_ns, int64_t decided_ns) {
+  ArmLink& L = link_[static_cast<size_t>(j)];
   tau_[static_cast<size_t>(j)] = tau;
   have_[static_cast<size_t>(j)] = true;
   const std::string name = robot_name(j, strength);
@@ -185,10 +212,12 @@ WorldCore::Verdict WorldCore::on_command(int j, long tick, const model::Vec3& ta
     L.strength = strength;
     set_brake(j, false, "a robot answers again");
   } else if (!L.owner.empty() && name != L.owner && k_ >= 50) {
-    // A change of owner (EXCLUSIVE ownership picks the strongest live writer). To a weaker robot it is a
-    // failover (the owner died or left); to a stronger one a takeover. In the first 50 ticks discovery order
-    // decides which of a primary and its shadow the reader hears first: not a switch.
-    const double gap_ms = static_cast<double>(at_ns - L.last_at) * 1e-6;
+    // A change of owner: to a weaker robot it is a failover (the owner fell silent or left), to a stronger one
+    // a takeover (a robot plugged or restarted as primary). In the first 50 ticks discovery order decides which
+    // of a primary and its shadow is heard first: not a switch.
+    // The gap: from the old owner's last command to the moment the arm follows the new one (a standby's answer
+    // may have come earlier; in real time it served the ticks in between, see `covered`).
+    const double gap_ms = static_cast<double>(std::max(at_ns, decided_ns) - L.last_at) * 1e-6;
     const bool failover = strength < L.strength;
     if (failover) {
       ++failovers;
@@ -224,18 +253,25 @@ WorldCore::Verdict WorldCore::on_command(int j, long tick, const model::Vec3& ta
   }
   L.last_tick = k_;
   L.last_at = at_ns;
-  return Verdict::Applied;
+  L.owner_gone = false;
 }
+
+
 
 bool WorldCore::lockstep_done() const {
   return (have_[0] || link_[0].braked) && (have_[1] || link_[1].braked);
 }
 
-bool WorldCore::lockstep_waited(double waited_s, double timeout_s) {
+bool WorldCore::lockstep_waited(double waited_s, double timeout_s, int64_t now_ns) {
   bool give_up = false;
   for (int j = 0; j < 2; ++j) {
     const ArmLink& L = link_[static_cast<size_t>(j)];
     if (have_[static_cast<size_t>(j)] || L.braked) continue;
+    const Fallback& f = fallback_[static_cast<size_t>(j)];
+    if (f.has && (L.owner_gone || waited_s > kFailoverLockstepS)) {
+      apply(j, f.tau, f.strength, f.at_ns, now_ns);  // the owner fell silent: its standby's answer of this tick
+      continue;
+    }
     if (L.last_tick >= 0 && waited_s > brake_after_s_) {
       set_brake(j, true, "no command for " + ms_text(waited_s * 1e3));
       ++timeouts;
@@ -249,6 +285,19 @@ bool WorldCore::lockstep_waited(double waited_s, double timeout_s) {
 bool WorldCore::end_tick(int64_t now_ns) {
   bool go_on = true;
   const OverloadRule& rule = o_.overload;
+  for (int j = 0; j < 2; ++j) {
+    ArmLink& L = link_[static_cast<size_t>(j)];
+    const Fallback& f = fallback_[static_cast<size_t>(j)];
+    if (have_[static_cast<size_t>(j)] || !f.has || L.braked) continue;
+    if (L.owner_gone || k_ - L.last_tick >= kFailoverTicks) {
+      apply(j, f.tau, f.strength, f.at_ns, now_ns);  // the owner fell silent: follow its strongest standby
+    } else {
+      // The owner missed this tick: its standby's answer (the same law on the same samples) serves it.
+      tau_[static_cast<size_t>(j)] = f.tau;
+      have_[static_cast<size_t>(j)] = true;
+      ++covered;
+    }
+  }
   for (int j = 0; j < 2; ++j) {
     ArmLink& L = link_[static_cast<size_t>(j)];
     const bool had = have_[static_cast<size_t>(j)];

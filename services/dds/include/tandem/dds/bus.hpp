@@ -68,8 +68,6 @@ class Writer {
     const auto nsec = static_cast<uint32_t>((timeout_s - sec) * 1e9);
     return writer_->wait_for_acknowledgments(eprosima::fastrtps::Duration_t(sec, nsec)) == ReturnCode_t::RETCODE_OK;
   }
-  /// Manual liveliness: tells readers this writer is alive without writing a sample.
-  void assert_liveliness() { writer_->assert_liveliness(); }
   int matched() const {
     fdds::PublicationMatchedStatus st;
     writer_->get_publication_matched_status(st);

@@ -18,16 +18,9 @@ enum class TopicKind {
   Task,        ///< task assignments and task states (latest per module)
 };
 
-/// strength: ownership strength of a torque writer (EXCLUSIVE ownership keyed by arm: the world follows the
-/// strongest live writer); ignored for other kinds.
-/// data_sharing: per-tick topics use Fast DDS data-sharing delivery between processes of one host (plain,
-/// unkeyed, bounded types; preallocated writer history); off for deployments that asked for UDP only.
+/// strength: kept for the call sites; torque writers use SHARED ownership (the world picks by strength).
 eprosima::fastdds::dds::DataWriterQos writer_qos(TopicKind kind, int32_t strength = 0, bool data_sharing = true);
 
-/// Liveliness lease of torque writers: a robot that wrote or asserted nothing for this long is taken for
-/// dead and the world follows the next strongest writer of the arm. Robots assert every kLivelinessAssertMs.
-inline constexpr int kLivelinessLeaseMs = 20;
-inline constexpr int kLivelinessAssertMs = 4;
 eprosima::fastdds::dds::DataReaderQos reader_qos(TopicKind kind, bool data_sharing = true);
 
 /// Per-tick topics (sensor samples, torque commands): one instance, a short preallocated history.

@@ -105,18 +105,28 @@ class WorldCore {
   bool report_due(long steps) const { return report_now_ || k_ % kReportEvery == 0 || k_ + 1 == steps; }
   ReportOut take_report();
 
-  enum class Verdict { Applied, Rejected, Stale };
-  /// A torque command for arm j from the robot of ownership strength `strength`, arrived at `at_ns` (the
-  /// robot's name is "<arm>" for 100, else "<arm>@<strength>"). Real time: `late` is true if it arrived after
-  /// the tick's deadline. Rejected: not finite or over tau_max (never applied); Stale: for an earlier tick,
-  /// too late, or a second one for this tick.
-  Verdict on_command(int j, long tick, const model::Vec3& tau, int32_t strength, int64_t at_ns, bool late);
+  /// Failover by ticks (no liveliness lease): a robot that serves an arm and answers no tick for this many
+  /// ticks while a weaker one of the arm answers is given up for it (real time); in lockstep after this long of
+  /// waiting. A tick it misses meanwhile is served by the standby's answer (counted in `covered`).
+  static constexpr long kFailoverTicks = 10;
+  static constexpr double kFailoverLockstepS = 0.02;
+
+  enum class Verdict { Applied, Shadow, Rejected, Stale };
+  /// A torque command for arm j from the robot of strength `strength` (100: the primary, "<arm>"; a standby
+  /// "<arm>@<strength>"), arrived at `at_ns`. The arm follows the strongest robot that answers: a stronger one
+  /// takes over at once, a weaker one's answer is kept as the tick's Shadow (used if the owner misses the
+  /// tick, followed if the owner stays silent kFailoverTicks or leaves). Real time: `late` is true if it
+  /// arrived after the tick's deadline. Rejected: not finite, over tau_max, a strength outside [1, 100] (never
+  /// applied); Stale: for an earlier tick, too late, a second one for this tick, or a robot's last word
+  /// (`leaving`: it stops; if it served the arm, the next one is followed at once).
+  Verdict on_command(int j, long tick, const model::Vec3& tau, int32_t strength, int64_t at_ns, bool late,
+                     bool leaving = false);
   bool have(int j) const { return have_[static_cast<size_t>(j)]; }
   /// Lockstep: every arm the world waits for has its command.
   bool lockstep_done() const;
   /// Lockstep: the tick has waited `waited_s` for commands; brakes an arm whose robot fell silent (after
   /// `brake_after_s`). False if an arm that never answered has still not answered after `timeout_s`.
-  bool lockstep_waited(double waited_s, double timeout_s);
+  bool lockstep_waited(double waited_s, double timeout_s, int64_t now_ns);
   /// Ends the tick at `now_ns`: counts late and braked arm-ticks, brakes an arm with no live controller, and
   /// applies the overload rule. False (lockstep) if a robot never answered: the run stops.
   bool end_tick(int64_t now_ns);
@@ -133,7 +143,7 @@ class WorldCore {
   double normal_min_since_status();  ///< lowest normal force since the last call
 
   unsigned long long late = 0, timeouts = 0, rejected = 0, stale = 0, braked_ticks = 0, failovers = 0,
-                     load_pauses = 0, load_paused_ticks = 0;
+                     load_pauses = 0, load_paused_ticks = 0, covered = 0;
   double failover_max_ms = 0.0, failover_last_ms = 0.0;
   std::vector<Switch> switches;
 
@@ -146,12 +156,21 @@ class WorldCore {
     bool braked = false;
     bool release = false;     // lockstep: a robot answered while braked: wait for it again from the next tick
     bool start_brake = false; // real time: braked from power-on until its robot first answers a tick in time
+    bool owner_gone = false;  // the robot it follows said it leaves: follow the next one at once
     int64_t heard = 0;        // last valid command of any tick: a controller is alive
     std::array<bool, 256> late_ring{};  // real time: the last OverloadRule::window ticks, late or not
     int late_count = 0;
     int late_run = 0;         // late ticks in a row
   };
   void set_brake(int j, bool on, const std::string& why);
+  void apply(int j, const model::Vec3& tau, int32_t strength, int64_t at_ns, int64_t decided_ns);
+  struct Fallback {
+    bool has = false;
+    model::Vec3 tau = model::Vec3::Zero();
+    int32_t strength = 0;
+    int64_t at_ns = 0;
+  };
+  std::array<Fallback, 2> fallback_{};  // this tick's answer of the strongest weaker robot, per arm
   std::string robot_name(int j, int32_t strength) const;
   void log(const std::string& s) const { if (log_) log_(s); }
 

@@ -3,8 +3,9 @@
 # with a bare 1 kHz timer loop (bench/timer_loop.cpp) running beside them in the same run. Per N it prints
 # late arm-ticks (%), sample->command latency p50/p99 (mean of the modules' p50, worst p99), CPU per module
 # in steady state (from /proc, all role processes, over a window after every world has ticked), RSS per
-# process, start-up time until every world's first tick, slips, dropped objects, and the timer loop's late
-# fraction (ticks > 0.5 ms late).
+# process, start-up time until every world's first tick, slips, dropped objects, pauses for load (count and
+# module-seconds paused: an overloaded module holds its object and brakes, docs/failure-model.md), and the timer
+# loop's late fraction (ticks > 0.5 ms late).
 #
 # Usage: bash bench/scale.sh [N ...]        default: 1 2 4 8 16
 #   env: SECONDS_RUN (scenario duration, default 8), DOMAIN_BASE (default 170), PRIO (realtime_priority,
@@ -27,7 +28,7 @@ hz=$(getconf CLK_TCK)
 echo "machine: $(nproc) cores, $(lscpu | sed -n 's/^Model name: *//p'), kernel $(uname -r)"
 echo "command: bash bench/scale.sh ${ns[*]}  (duration ${dur} s, realtime_priority $prio, transport $transport, commit $(git rev-parse --short HEAD 2>/dev/null || echo '?'))"
 sed "s/^  duration: .*/  duration: $dur/" config/scenarios/paper.yaml > "$work/scenario.yaml"
-printf "%-4s %-8s %-10s %-10s %-10s %-10s %-9s %-8s %-6s %-8s %-10s\n" N late% p50_us p99_us cpu/mod rss_MB start_s slips drops timer% result
+printf "%-4s %-8s %-8s %-8s %-8s %-8s %-8s %-6s %-6s %-13s %-7s %-10s\n" N late% p50_us p99_us cpu/mod rss_MB start_s slips drops "paused(n/s)" timer% result
 idx=0
 for n in "${ns[@]}"; do
   domain=$(( ${DOMAIN_BASE:-170} + idx ))
@@ -77,18 +78,20 @@ for n in "${ns[@]}"; do
   # The timer loop was cut short: run a fresh one only if it printed nothing.
   sum="$work/sum$n.txt"
   startup=$(grep -o "first tick at wall [0-9.]*" "$log" | awk -v s="$start" '{v = $5 - s; if (v > m) m = v} END {printf "%.2f", m}')
-  read -r late ticks p50 p99 slips drops < <(awk -F= -v n="$n" '
+  read -r late ticks p50 p99 slips drops pauses paused_s < <(awk -F= -v n="$n" '
     /^m[0-9]+\.late_commands=/ {late += $2}
     /^m[0-9]+\.ticks=/ {ticks += $2}
     /^m[0-9]+\.latency_p50_us=/ {p50 += $2; c50++}
     /^m[0-9]+\.latency_p99_us=/ {if ($2 > p99) p99 = $2}
     /^m[0-9]+\.slip_events=/ {slips += $2}
     /^m[0-9]+\.object_final1=/ {if ($2 < 0.7) drops++}
-    END {printf "%d %d %.0f %.0f %d %d\n", late, ticks, c50 ? p50 / c50 : 0, p99, slips, drops}' "$sum" 2>/dev/null || echo "0 0 0 0 0 0")
+    /^m[0-9]+\.load_pauses=/ {pauses += $2}
+    /^m[0-9]+\.load_paused_ticks=/ {paused += $2}
+    END {printf "%d %d %.0f %.0f %d %d %d %.1f\n", late, ticks, c50 ? p50 / c50 : 0, p99, slips, drops, pauses, paused / 1000}' "$sum" 2>/dev/null || echo "0 0 0 0 0 0 0 0")
   pct=$(awk -v l="$late" -v t="$ticks" 'BEGIN {if (t > 0) printf "%.2f", 100 * l / (2 * t); else print "nan"}')
   tl=$(sed -n 's/^timer_late_fraction=//p' "$work/timer$n.txt" 2>/dev/null | awk '{printf "%.2f", 100 * $1}')
   result=$([ "$rc" -eq 0 ] && echo PASS || echo "FAIL($rc)")
-  printf "%-4s %-8s %-10s %-10s %-10s %-10s %-9s %-8s %-6s %-8s %-10s\n" "$n" "$pct" "$p50" "$p99" "$cpu" "$rss" "$startup" "$slips" "$drops" "${tl:-nan}" "$result"
+  printf "%-4s %-8s %-8s %-8s %-8s %-8s %-8s %-6s %-6s %-13s %-7s %-10s\n" "$n" "$pct" "$p50" "$p99" "$cpu" "$rss" "$startup" "$slips" "$drops" "$pauses/$paused_s" "${tl:-nan}" "$result"
   if [ -n "${KEEP:-}" ]; then mkdir -p "$KEEP"; cp "$log" "$sum" "$work/timer$n.txt" "$KEEP/" 2>/dev/null || true; fi
   sleep 1
 done

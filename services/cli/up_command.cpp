@@ -50,6 +50,12 @@ namespace bus = tandem::dds;
 using Clock = std::chrono::steady_clock;
 
 std::atomic<bool> g_stop{false};
+
+// Real-time cost figures for the capacity warning (bench/scale.sh, docs/benchmarks.md) and the share of the
+// machine above which `tandem up` warns.
+constexpr double kCorePerModule = 0.2;
+constexpr double kCorePerStandbyRobot = 0.05;
+constexpr double kUsableShare = 0.8;
 void on_signal(int) { g_stop = true; }
 
 struct Child {
@@ -802,11 +808,36 @@ class Launcher {
   }
 };
 
+// The real-time capacity estimate: "" in lockstep, else what the deployment needs against what the machine has,
+// a warning when it does not fit.
+std::string capacity_estimate(const Deployment& d) {
+  if (d.timing != "realtime") return "lockstep: no real-time load (it runs as fast as the machine allows)";
+  // The steady-state cost measured by bench/scale.sh on a 2-core machine (docs/benchmarks.md): about 0.2 core
+  // per basic module in real time, and a standby robot adds its own wake-ups per tick.
+  double need = 0.0;
+  for (const auto& m : d.modules) need += kCorePerModule + 2.0 * m.standby * kCorePerStandbyRobot;
+  const long cores = ::sysconf(_SC_NPROCESSORS_ONLN);
+  char text[512];
+  if (need > kUsableShare * static_cast<double>(cores)) {
+    std::snprintf(text, sizeof text,
+                  "warning: this deployment needs about %.1f cores in real time (%.2f per module, %.2f per standby "
+                  "robot, measured; docs/benchmarks.md) and this machine has %ld: expect modules to pause for load%s, "
+                  "or run it in lockstep",
+                  need, kCorePerModule, kCorePerStandbyRobot, cores,
+                  d.overload_brake ? " (the world holds the object and brakes; they resume when there is room)"
+                                   : "; overload_brake is off, so late commands may drop objects");
+  } else {
+    std::snprintf(text, sizeof text, "real time: about %.1f of %ld cores (%.2f per module, %.2f per standby robot, "
+                  "measured; docs/benchmarks.md)", need, cores, kCorePerModule, kCorePerStandbyRobot);
+  }
+  return text;
+}
+
 }  // namespace
 
 void up_usage(std::FILE* f) {
   std::fputs(
-      "usage: tandem up <deploy.yaml> [--summary FILE]\n"
+      "usage: tandem up <deploy.yaml> [--summary FILE] [--check]\n"
       "\n"
       "Starts every module of the deployment as separate processes over Fast DDS: tandem-world,\n"
       "tandem-supervisor and one tandem-robot per arm (plus standbys), and the coordinator if the file has\n"
@@ -818,6 +849,8 @@ void up_usage(std::FILE* f) {
       "go on (docs/failure-model.md). In real-time timing the world, supervisors and robots run SCHED_FIFO at the\n"
       "file's realtime_priority (default 20; a note says so if the system refuses it).\n"
       "--summary FILE also writes the summary as key=value lines (full precision).\n"
+      "--check validates the file and every scenario it names, prints the real-time capacity estimate (and a\n"
+      "warning when the deployment needs more cores than the machine has), and starts nothing.\n"
       "Ctrl-C or SIGTERM stops every process cleanly. Schema: docs/architecture.md.\n"
       "\n"
       "Exit: 0 every process finished (or the coordinator did every task) and every module kept the safe\n"
@@ -827,10 +860,13 @@ void up_usage(std::FILE* f) {
 
 int up_command(const std::vector<std::string>& args) {
   std::string file, summary_file;
+  bool check_only = false;
   for (size_t i = 0; i < args.size(); ++i) {
     if (args[i] == "--help" || args[i] == "-h") {
       up_usage(stdout);
       return 0;
+    } else if (args[i] == "--check") {
+      check_only = true;
     } else if (args[i] == "--summary" && i + 1 < args.size()) {
       summary_file = args[++i];
     } else if (!args[i].empty() && args[i][0] == '-') {
@@ -861,6 +897,12 @@ int up_command(const std::vector<std::string>& args) {
   } catch (const std::exception& e) {
     std::fprintf(stderr, "tandem up: %s\n", e.what());
     return 2;
+  }
+
+  if (check_only) {
+    std::printf("tandem up: %s is valid: %zu module(s), domain %d, %s timing\n%s\n", file.c_str(), d.modules.size(),
+                d.domain_id, d.timing.c_str(), capacity_estimate(d).c_str());
+    return 0;
   }
 
   struct sigaction sa {};
@@ -904,6 +946,8 @@ int up_command(const std::vector<std::string>& args) {
   std::printf("tandem up %s: %zu module(s), domain %d, %s, %s timing%s\n", d.name.c_str(), d.modules.size(),
               d.domain_id, d.transport.c_str(), d.timing.c_str(),
               L.rt_priority_ > 0 ? (", SCHED_FIFO " + std::to_string(L.rt_priority_)).c_str() : "");
+  const std::string capacity = capacity_estimate(d);
+  if (capacity.find("warning") != std::string::npos) std::printf("tandem up: %s\n", capacity.c_str());
   for (const auto& m : d.modules) {
     if (m.autostart) L.start_module(m.name);
   }

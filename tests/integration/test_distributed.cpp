@@ -712,6 +712,29 @@ TEST_CASE("a world stalled for 0.4 s re-anchors its clock instead of a catch-up 
   CHECK_FALSE(processes_left(domain));
 }
 
+TEST_CASE("tandem up --check estimates the real-time load and warns when the machine is too small", "[distributed]") {
+  const int domain = test_domain(20);
+  const std::string big = work_dir() + "/capacity.yaml";
+  std::ofstream f(big);
+  f << "name: capacity\ndomain_id: " << domain << "\ntiming: realtime\nmodules:\n";
+  for (int m = 1; m <= 100; ++m) {  // 100 modules: about 20 cores
+    f << "  - {name: m" << m << ", scenario: " << kSrc << "/config/scenarios/paper.yaml, case: SOSM}\n";
+  }
+  f.close();
+  const Run r = run(kBin + "/tandem up " + big + " --check");
+  INFO(r.output);
+  CHECK(r.exit_code == 0);
+  CHECK(r.output.find("100 module(s)") != std::string::npos);
+  CHECK(r.output.find("warning: this deployment needs about 20.0 cores in real time") != std::string::npos);
+  CHECK(r.output.find("expect modules to pause for load") != std::string::npos);
+  CHECK(r.output.find("started") == std::string::npos);
+  const Run small = run(kBin + "/tandem up " + kSrc + "/deploy/one-module-realtime.yaml --check");
+  CHECK(small.exit_code == 0);
+  CHECK(small.output.find("real time: about 0.2 of") != std::string::npos);
+  CHECK(small.output.find("warning") == std::string::npos);
+  CHECK_FALSE(processes_left(domain));
+}
+
 TEST_CASE("both cores loaded mid-task: the modules pause for load with the object held, and resume", "[distributed]") {
   const int domain = test_domain(19);
   const std::string deploy = work_dir() + "/overload.yaml";

@@ -203,8 +203,10 @@ void WorldCore::apply(int j, const model::Vec3& tau, int32_t strength, int64_t a
     L.owner = name;
     L.strength = strength;
     serving_changed_ = true;
-    log(o_.arm_ids[static_cast<size_t>(j)] + " brakes off at tick " + std::to_string(k_) + ": " + name +
-        " answered in time");
+    if (k_ > 10) {  // a normal start answers the first ticks: said only when it took a while
+      log(o_.arm_ids[static_cast<size_t>(j)] + " brakes off at tick " + std::to_string(k_) + ": " + name +
+          " answered in time");
+    }
   } else if (L.braked && !load_paused_) {
     log(o_.arm_ids[static_cast<size_t>(j)] + " follows " + name + " after " +
         ms_text(static_cast<double>(at_ns - L.last_at) * 1e-6) + " braked");

@@ -400,3 +400,40 @@ TEST_CASE("overload: braking at once, without stopping the path first, makes the
   CHECK(run.log.find("object still moving") != std::string::npos);
   CHECK(run.slips > 0);
 }
+
+TEST_CASE("overload with standbys: no owner flapping while paused, and a primary that dies meanwhile is failed over", "[components]") {
+  const ts::ModuleSetup& m = sosm();
+  const tmo::Vec3 ok(1.0, 1.0, 1.0);
+  const int64_t ms = 1000000;
+  for (const bool primary_dies : {false, true}) {
+    INFO("the left primary dies while paused: " << primary_dies);
+    WorldCore w(m, world_options(true));
+    std::array<tandem::world::SampleOut, 2> out{};
+    long resumed_at = -1;
+    for (long k = 0; k < 4000; ++k) {
+      w.begin_tick(k, k * ms, out);
+      const bool stalled = k >= 100 && k < 130;  // both robots of the left arm miss 30 ticks: overload
+      for (int j = 0; j < 2; ++j) {
+        if (!out[static_cast<size_t>(j)].publish || (j == 0 && stalled)) continue;
+        // Which of a primary and its standby is heard first varies from tick to tick.
+        if (k % 2 == 0) w.on_command(j, k, ok, 50, k * ms + 100, false);
+        if (!(j == 0 && primary_dies && k >= 400)) w.on_command(j, k, ok, 100, k * ms + 150, false);
+        if (k % 2 == 1) w.on_command(j, k, ok, 50, k * ms + 200, false);
+      }
+      const bool was = w.paused_for_load();
+      w.end_tick(k * ms + 500000);
+      if (was && !w.paused_for_load() && resumed_at < 0) resumed_at = k;
+      w.step();
+    }
+    CHECK(w.load_pauses == 1);
+    CHECK(resumed_at > 400);  // after the backoff and the full-rate trial
+    if (primary_dies) {
+      REQUIRE(w.switches.size() == 1);  // one failover to the standby, no flapping
+      CHECK(w.switches[0].failover);
+      CHECK(w.serving_text() == "left=m1/left@50,right=m1/right");
+    } else {
+      CHECK(w.switches.empty());
+      CHECK(w.serving_text() == "left=m1/left,right=m1/right");
+    }
+  }
+}

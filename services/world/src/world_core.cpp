@@ -181,7 +181,7 @@ WorldCore::Verdict WorldCore::on_command(int j, long tick, const model::Vec3& ta
     if (L.braked && !o_.realtime && tick + 64 > k_) L.release = true;
     return Verdict::Stale;
   }
-  if (!L.owner.empty() && !L.braked && !L.owner_gone && strength < L.strength) {
+  if (!L.owner.empty() && !(L.braked && !load_paused_) && !L.owner_gone && strength < L.strength) {
     // A weaker robot (a standby in shadow): kept for this tick, in case the owner falls silent.
     Fallback& f = fallback_[static_cast<size_t>(j)];
     if (!f.has || strength > f.strength) f = {true, tau, strength, at_ns};
@@ -290,8 +290,11 @@ bool WorldCore::end_tick(int64_t now_ns) {
   for (int j = 0; j < 2; ++j) {
     ArmLink& L = link_[static_cast<size_t>(j)];
     const Fallback& f = fallback_[static_cast<size_t>(j)];
-    if (have_[static_cast<size_t>(j)] || !f.has || L.braked) continue;
-    if (L.owner_gone || k_ - L.last_tick >= kFailoverTicks) {
+    // (An arm braked for want of a controller is released by whichever robot answers, in on_command.)
+    if (have_[static_cast<size_t>(j)] || !f.has || (L.braked && !load_paused_)) continue;
+    // Paused for load the robots answer only every probe_every ticks: silence is counted in probes.
+    const long silent_after = kFailoverTicks * (load_paused_ && trial_ticks_ < 0 ? rule.probe_every : 1);
+    if (L.owner_gone || k_ - L.last_tick >= silent_after) {
       apply(j, f.tau, f.strength, f.at_ns, now_ns);  // the owner fell silent: follow its strongest standby
     } else {
       // The owner missed this tick: its standby's answer (the same law on the same samples) serves it.

@@ -36,7 +36,7 @@ namespace tandem::world {
 struct OverloadRule {
   int window = 100;         ///< ticks in the sliding window
   int max_late = 10;        ///< more late arm-ticks of one arm in the window than this brake the module (10%)
-  int max_consecutive = 5;  ///< or this many late ticks in a row
+  int max_consecutive = 10; ///< or this many late ticks in a row (a 10 ms stall of a robot)
   int probe_every = 10;     ///< while paused for load: a sample every this many ticks
   int resume_probes = 10;   ///< probes in a row answered in time before the trial
   int trial_ticks = 100;    ///< the trial: full-rate samples, arms still braked, before the release

@@ -9,7 +9,8 @@
 #
 # Usage: bash bench/scale.sh [N ...]        default: 1 2 4 8 16
 #   env: SECONDS_RUN (scenario duration, default 8), DOMAIN_BASE (default 170), PRIO (realtime_priority,
-#        default 20), TRANSPORT (shm|udp, default shm), KEEP (a folder to keep the logs in)
+#        default 20), TRANSPORT (shm|udp, default shm), DISCOVERY (simple|server, default server: the launcher
+#        starts a Fast DDS Discovery Server), KEEP (a folder to keep the logs in)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bin=build/bin
@@ -22,11 +23,12 @@ done
 dur="${SECONDS_RUN:-8}"
 prio="${PRIO:-20}"
 transport="${TRANSPORT:-shm}"
+discovery="${DISCOVERY:-server}"
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 hz=$(getconf CLK_TCK)
 echo "machine: $(nproc) cores, $(lscpu | sed -n 's/^Model name: *//p'), kernel $(uname -r)"
-echo "command: bash bench/scale.sh ${ns[*]}  (duration ${dur} s, realtime_priority $prio, transport $transport, commit $(git rev-parse --short HEAD 2>/dev/null || echo '?'))"
+echo "command: bash bench/scale.sh ${ns[*]}  (duration ${dur} s, realtime_priority $prio, transport $transport, discovery $discovery, commit $(git rev-parse --short HEAD 2>/dev/null || echo '?'))"
 sed "s/^  duration: .*/  duration: $dur/" config/scenarios/paper.yaml > "$work/scenario.yaml"
 printf "%-4s %-8s %-8s %-8s %-8s %-8s %-8s %-6s %-6s %-13s %-7s %-10s\n" N late% p50_us p99_us cpu/mod rss_MB start_s slips drops "paused(n/s)" timer% result
 idx=0
@@ -38,6 +40,7 @@ for n in "${ns[@]}"; do
     echo "name: scale$n"
     echo "domain_id: $domain"
     echo "transport: $transport"
+    echo "discovery: $discovery"
     echo "timing: realtime"
     echo "realtime_priority: $prio"
     echo "timeout: 60"
@@ -65,11 +68,13 @@ for n in "${ns[@]}"; do
   cpu="nan"; rss="nan"
   if [ -n "$first" ]; then
     sleep 1
-    pids=$(pgrep -P "$up" | tr '\n' ' ')
-    ticks() { local s=0; for p in $pids; do [ -r /proc/$p/stat ] && s=$((s + $(awk '{print $14 + $15}' /proc/$p/stat))); done; echo $s; }
-    t0=$(ticks); w0=$(date +%s.%N)
+    # The role processes (the discovery server is not one of them), counted only if alive at both samples.
+    pids=$(pgrep -P "$up" -f "tandem-(world|robot|supervisor)" | tr '\n' ' ')
+    snap() { for p in $pids; do [ -r /proc/$p/stat ] && echo "$p $(awk '{print $14 + $15}' /proc/$p/stat)"; done; }
+    snap > "$work/t0"; w0=$(date +%s.%N)
     sleep 3
-    t1=$(ticks); w1=$(date +%s.%N)
+    snap > "$work/t1"; w1=$(date +%s.%N)
+    t0=0; t1=$(awk 'NR == FNR {a[$1] = $2; next} ($1 in a) {s += $2 - a[$1]} END {print s + 0}' "$work/t0" "$work/t1")
     rss=$(for p in $pids; do awk '/VmRSS/ {print $2}' /proc/$p/status 2>/dev/null; done | awk '{s += $1; c++} END {if (c) printf "%.1f", s / c / 1024; else print "nan"}')
     cpu=$(awk -v a="$t0" -v b="$t1" -v hz="$hz" -v w0="$w0" -v w1="$w1" -v n="$n" 'BEGIN {printf "%.3f", (b - a) / hz / (w1 - w0) / n}')
   fi

@@ -80,6 +80,7 @@ void remote_usage(std::FILE* f) {
 int status_command(const std::vector<std::string>& args) {
   Deployment d;
   if (!parse_target("status", args, d)) return 2;
+  runtime::use_discovery(d);
   bus::Participant part(d.domain_id, "tandem-status", runtime::transport_of(d));
   bus::Reader<msg::ProcessStatus, msg::ProcessStatusPubSubType> status(part, bus::kStatusTopic, bus::TopicKind::Status);
   LiveView view(d.name);
@@ -126,6 +127,7 @@ int send_request(const char* verb, const Deployment& d, const std::string& targe
     std::fprintf(stderr, "tandem %s: name the deployment (--name NAME or a deployment file)\n", verb);
     return 2;
   }
+  runtime::use_discovery(d);
   bus::Participant part(d.domain_id, std::string("tandem-") + verb, runtime::transport_of(d));
   bus::Writer<msg::ControlRequest, msg::ControlRequestPubSubType> control(part, bus::kControlTopic, bus::TopicKind::Control);
   bus::Reader<msg::ProcessStatus, msg::ProcessStatusPubSubType> status(part, bus::kStatusTopic, bus::TopicKind::Status);

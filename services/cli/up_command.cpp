@@ -910,6 +910,33 @@ int up_command(const std::vector<std::string>& args) {
   ::sigaction(SIGINT, &sa, nullptr);
   ::sigaction(SIGTERM, &sa, nullptr);
 
+  // discovery: server. The launcher starts the Discovery Server first (a child like the others: it dies with
+  // the launcher) and makes itself and every process it starts a client of it.
+  pid_t discovery_server = -1;
+  if (d.discovery == "server") {
+    const std::string exe = "/usr/bin/fast-discovery-server";
+    if (::access(exe.c_str(), X_OK) != 0) {
+      std::fprintf(stderr, "tandem up: discovery: server needs %s (Debian package fastdds-tools)\n", exe.c_str());
+      return 2;
+    }
+    discovery_server = spawn(exe, {"-i", "0", "-l", "127.0.0.1", "-p", std::to_string(runtime::discovery_port_of(d))});
+    if (discovery_server < 0) return 2;
+    std::printf("  started discovery server     pid %d on 127.0.0.1:%d\n", discovery_server, runtime::discovery_port_of(d));
+    runtime::use_discovery(d);
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));  // listening before the first client comes
+  }
+  struct ServerStop {
+    pid_t pid;
+    ~ServerStop() {
+      if (pid <= 0) return;
+      ::kill(pid, SIGTERM);
+      for (int i = 0; i < 50 && ::waitpid(pid, nullptr, WNOHANG) == 0; ++i) ::usleep(20000);
+      if (::waitpid(pid, nullptr, WNOHANG) == 0) {
+        ::kill(pid, SIGKILL);
+        ::waitpid(pid, nullptr, 0);
+      }
+    }
+  } server_stop{discovery_server};
   bus::Participant part(d.domain_id, "launcher/" + d.name, runtime::transport_of(d));
   bus::Reader<msg::RobotSummary, msg::RobotSummaryPubSubType> robot_sum(part, bus::kRobotSummaryTopic,
                                                                        bus::TopicKind::Summary);

@@ -735,6 +735,34 @@ TEST_CASE("tandem up --check estimates the real-time load and warns when the mac
   CHECK_FALSE(processes_left(domain));
 }
 
+TEST_CASE("with a discovery server the launcher, the CLI and a restarted robot all find each other", "[distributed]") {
+  const int domain = test_domain(21);
+  const std::string deploy = write_deployment("dserver", domain, "SOSM", "lockstep", 1,
+                                              "    restart: on-failure\n", kCrashTransport, kill_scenario());
+  std::ofstream(deploy, std::ios::app) << "discovery: server\n";
+  const std::string summary = work_dir() + "/dserver.summary", up_log = work_dir() + "/dserver.log";
+  const std::string t = kBin + "/tandem ";
+  const std::string port = std::to_string(11811 + domain);
+  const std::string cmd = t + "up " + deploy + " --summary " + summary + " > " + up_log + " 2>&1 & up=$!; " +
+                          after_first_tick(up_log, 0.3) + t + "status " + deploy + "; " + t + "kill " + deploy +
+                          " m1/left; echo kill_rc=$?; wait $up; echo up_rc=$?; " +
+                          "pgrep -f \"fast-discovery-serve[r] .* -p " + port + "\" && echo server_left";
+  const Run r = run("bash -c '" + cmd + "'");
+  const std::string log = read_file(up_log);
+  INFO(r.output << "\n--- tandem up ---\n" << log);
+  CHECK(log.find("started discovery server") != std::string::npos);
+  CHECK(r.output.find("m1/left@50") != std::string::npos);  // tandem status heard the standby through the server
+  CHECK(r.output.find("kill_rc=0") != std::string::npos);
+  CHECK(r.output.find("up_rc=0") != std::string::npos);
+  CHECK(log.find("m1/left now follows m1/left@50") != std::string::npos);
+  CHECK(log.find("restarting m1/left") != std::string::npos);
+  const auto kv = read_summary(summary);
+  CHECK(kv.at("m1.ticks") == 15000);
+  CHECK(kv.at("m1.slip_events") == 0);
+  CHECK(r.output.find("server_left") == std::string::npos);  // the launcher stopped its server
+  CHECK_FALSE(processes_left(domain));
+}
+
 TEST_CASE("both cores loaded mid-task: the modules pause for load with the object held, and resume", "[distributed]") {
   const int domain = test_domain(19);
   const std::string deploy = work_dir() + "/overload.yaml";

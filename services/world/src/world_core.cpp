@@ -287,6 +287,19 @@ bool WorldCore::lockstep_waited(double waited_s, double timeout_s, int64_t now_n
 bool WorldCore::end_tick(int64_t now_ns) {
   bool go_on = true;
   const OverloadRule& rule = o_.overload;
+  if (k_ == kStartGraceTicks) {
+    // A start brake still on: its robot has not answered in time yet. From now on it is a braking like any
+    // other: reported, so that the supervisor holds the path (the other arm is controlled and the path would
+    // run away from the braked one).
+    for (size_t j = 0; j < 2; ++j) {
+      if (!link_[j].start_brake) continue;
+      link_[j].start_brake = false;
+      if (braked_since_ < 0) braked_since_ = k_;
+      report_now_ = true;
+      serving_changed_ = true;
+      log(o_.arm_ids[j] + " still braked at tick " + std::to_string(k_) + ": its robot has not answered in time yet");
+    }
+  }
   for (int j = 0; j < 2; ++j) {
     ArmLink& L = link_[static_cast<size_t>(j)];
     const Fallback& f = fallback_[static_cast<size_t>(j)];

@@ -1,6 +1,8 @@
 // Deployment file of `tandem up`: which modules run, from which scenario and case, on which DDS domain.
 #pragma once
 
+#include <cstdlib>
+
 #include <string>
 #include <vector>
 
@@ -49,6 +51,10 @@ struct Deployment {
   /// the system does not permit it (needs root or CAP_SYS_NICE / RLIMIT_RTPRIO).
   int realtime_priority = 20;
   bool overload_brake = true;  ///< real time: brake and pause a module whose commands keep coming late
+  /// simple: every participant announces itself to every other (Fast DDS's default); server: the launcher
+  /// starts a Fast DDS Discovery Server on 127.0.0.1:discovery_port and every process is its client.
+  std::string discovery = "simple";
+  int discovery_port = 0;  ///< 0: 11811 + domain_id
   std::vector<ModuleDeployment> modules;
   bool coordinator = false;        ///< a coordinator hands out `tasks`; modules run until it is done
   std::vector<TaskSpec> tasks;
@@ -63,6 +69,20 @@ const ModuleDeployment* find_module(const Deployment& d, const std::string& name
 /// The DDS transport a deployment asks for.
 inline dds::Transport transport_of(const Deployment& d) {
   return d.transport == "udp" ? dds::Transport::Udp : dds::Transport::SharedMemory;
+}
+
+/// The Discovery Server port of a deployment (discovery: server).
+inline int discovery_port_of(const Deployment& d) {
+  return d.discovery_port > 0 ? d.discovery_port : 11811 + static_cast<int>(d.domain_id);
+}
+
+/// For `discovery: server`: makes the participants this process creates from now on (and the processes it
+/// starts) clients of the deployment's Discovery Server (Fast DDS reads ROS_DISCOVERY_SERVER at participant
+/// creation). Nothing for `discovery: simple`.
+inline void use_discovery(const Deployment& d) {
+  if (d.discovery != "server") return;
+  const std::string addr = "127.0.0.1:" + std::to_string(discovery_port_of(d));
+  ::setenv("ROS_DISCOVERY_SERVER", addr.c_str(), 1);
 }
 
 /// Reads and validates a deployment, including every scenario and case it names. Throws sim::ConfigError.

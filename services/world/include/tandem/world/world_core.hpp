@@ -110,6 +110,8 @@ class WorldCore {
   /// waiting. A tick it misses meanwhile is served by the standby's answer (counted in `covered`).
   static constexpr long kFailoverTicks = 10;
   static constexpr double kFailoverLockstepS = 0.02;
+  /// Real time: a start brake still on after this many ticks is reported as a braking (the path holds).
+  static constexpr long kStartGraceTicks = 20;
 
   enum class Verdict { Applied, Shadow, Rejected, Stale };
   /// A torque command for arm j from the robot of strength `strength` (100: the primary, "<arm>"; a standby

@@ -17,6 +17,7 @@
 #include "tandem/sim/embedded.hpp"
 #include "tandem/sim/module_setup.hpp"
 #include "tandem/sim/scenario_yaml.hpp"
+#include "tandem/supervisor/supervisor_core.hpp"
 #include "tandem/world/world_core.hpp"
 
 namespace ts = tandem::sim;
@@ -436,4 +437,107 @@ TEST_CASE("overload with standbys: no owner flapping while paused, and a primary
       CHECK(w.serving_text() == "left=m1/left,right=m1/right");
     }
   }
+}
+
+namespace {
+using tandem::supervisor::SupervisorCore;
+using tandem::supervisor::SupervisorOptions;
+
+tandem::supervisor::ReportIn report_at(long k) {
+  tandem::supervisor::ReportIn r;
+  r.tick = k;
+  r.normal_min = 29.0;
+  return r;
+}
+}  // namespace
+
+TEST_CASE("supervisor component: a standby takes over when the leader's plans stop, in a new epoch", "[components]") {
+  const ts::ModuleSetup& m = sosm();
+  const int64_t ms = 1000000;
+  SupervisorOptions lo{"m1/supervisor", 100, true, 0.1}, so{"m1/supervisor@50", 50, true, 0.1};
+  SupervisorCore leader(m, lo, 0), standby(m, so, 0);
+  std::string log;
+  standby.set_log([&](const std::string& l) { log += l + "\n"; });
+  CHECK(leader.active());
+  CHECK_FALSE(standby.active());
+  leader.on_assignment(1, "out", {0.0, 0.8, 0.0, 1.0});
+  standby.on_assignment(1, "out", {0.0, 0.8, 0.0, 1.0});
+  long k = 0;
+  for (; k < 400; k += 10) {  // both hear the world every 10 ms; the leader's plans reach the standby
+    const int64_t now = k * ms;
+    leader.on_report(report_at(k), now);
+    standby.on_report(report_at(k), now);
+    leader.update(now);
+    if (auto p = leader.take_plan()) standby.on_plan(*p, now);
+    standby.update(now);
+    CHECK_FALSE(standby.take_plan().has_value());  // a standby publishes nothing
+  }
+  REQUIRE_FALSE(standby.active());
+  CHECK(standby.plan().task_id() == 1);
+  // The leader dies: no plan for 50 ms while the world ticks on.
+  for (; k < 500; k += 10) {
+    standby.on_report(report_at(k), k * ms);
+    standby.update(k * ms);
+  }
+  CHECK(standby.active());
+  CHECK(standby.rank().epoch == 1);
+  CHECK(log.find("taking over in epoch 1") != std::string::npos);
+  const auto p = standby.take_plan();
+  REQUIRE(p.has_value());
+  CHECK(p->epoch == 1);
+  CHECK(p->task_id == 1);
+  // The old leader comes back from a stall with its old epoch: it hears the new leader's plan, steps down,
+  // follows it and publishes nothing more; robots would ignore its plans anyway (a lower rank).
+  std::string llog;
+  leader.set_log([&](const std::string& l) { llog += l + "\n"; });
+  leader.take_plan();
+  leader.on_plan(*p, k * ms);
+  leader.on_report(report_at(k), k * ms);
+  leader.update(k * ms);
+  CHECK_FALSE(leader.active());
+  CHECK(llog.find("stepping down: a higher-ranked supervisor leads (m1/supervisor@50, epoch 1)") != std::string::npos);
+  leader.update((k + 30) * ms);
+  CHECK_FALSE(leader.take_plan().has_value());
+  tp::PlanFollower robot(m, true);
+  robot.offer(*p);
+  tp::PlanData stale;
+  tp::ModulePlan(m, true).export_to(stale);
+  stale.version = 99;
+  CHECK(robot.offer(stale) == tp::PlanFollower::Offer::Ignored);
+}
+
+TEST_CASE("supervisor component: a hold for load stops the path smoothly, and a braked module is rebased to its object", "[components]") {
+  const ts::ModuleSetup& m = sosm();
+  const int64_t ms = 1000000;
+  SupervisorCore s(m, SupervisorOptions{"m1/supervisor", 100, false, 0.1}, 0);
+  for (long k = 0; k <= 1500; k += 10) {
+    s.on_report(report_at(k), k * ms);
+    s.update(k * ms);
+  }
+  CHECK(s.plan().target_rate() == 1.0);
+  auto r = report_at(1510);
+  r.hold = true;
+  r.braked_since = 1510;
+  s.on_report(r, 1510 * ms);
+  s.update(1510 * ms);
+  CHECK(s.plan().target_rate() == 0.0);
+  // The path keeps moving for the ramp (0.15 s from tick 1515) and then stands.
+  const double moving = (s.plan().sample(1560).pose - s.plan().sample(1550).pose).norm();
+  CHECK(moving > 0.0);
+  CHECK((s.plan().sample(1800).pose - s.plan().sample(1700).pose).norm() == Approx(0.0).margin(1e-15));
+  // Braked for load, the object stopped 2 cm behind the path's pose: the path is rebased back to it.
+  const tmo::Vec3 planned = s.plan().sample(1800).pose;
+  r = report_at(1800);
+  r.hold = true;
+  r.braked = {true, true};
+  r.braked_since = 1510;
+  r.object_xy = planned.head<2>() - tmo::Vec2(0.02, 0.0);  // the paper task moves along +x
+  s.on_report(r, 1800 * ms);
+  s.update(1800 * ms);
+  const tmo::Vec3 rebased = s.plan().sample(1900).pose;
+  CHECK((rebased.head<2>() - r.object_xy).norm() < 5e-4);
+  r.tick = 1830;
+  s.on_report(r, 1830 * ms);
+  s.update(1830 * ms);
+  CHECK(s.state() == tandem::plan::TaskStateCode::Paused);
 }

@@ -1,0 +1,130 @@
+// The supervisor of one basic module as a component (no DDS, no clock of its own): it makes the module's plan
+// (plan::ModulePlan) from the world's reports, the coordinator's tasks and the launcher's requests, and holds
+// the leadership rules of hot standby supervisors: rank (epoch, strength), takeover after the leader's
+// silence, step-down to a higher rank, and the stall rule. Times are passed in (steady clock, ns). The
+// process (services/supervisor/main.cpp) feeds it from DDS and publishes what it asks for; unit tests drive it
+// call by call (tests/unit/test_components.cpp). docs/architecture.md, "Hot standby (supervisors)".
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "tandem/plan/plan.hpp"
+#include "tandem/sim/module_setup.hpp"
+
+namespace tandem::supervisor {
+
+struct SupervisorOptions {
+  std::string self_id;      ///< "m1/supervisor", a standby "m1/supervisor@50"
+  int32_t strength = plan::kPrimaryStrength;
+  bool continuous = false;  ///< tasks from the coordinator (else the scenario's task)
+  double transient_s = 0.1; ///< start-up interval excluded from the grasp watch
+};
+
+/// The world's report (WorldReport on the wire).
+struct ReportIn {
+  long tick = 0;
+  std::array<bool, 2> braked{false, false};
+  bool hold = false;
+  long braked_since = -1, released_at = -1;
+  double normal_min = 0.0;
+  model::Vec2 object_xy = model::Vec2::Zero();
+};
+
+/// The module's task state for the coordinator (TaskState on the wire).
+struct StateOut {
+  uint64_t task_id = 0;
+  uint8_t state = 0;
+  uint64_t tasks_done = 0;
+  uint64_t tick = 0;
+};
+
+class SupervisorCore {
+ public:
+  static constexpr double kPauseRamp = 0.3;   ///< requested pause / resume [s]
+  static constexpr double kBrakeRamp = 0.02;  ///< an arm braked: stop the path now [s]
+  static constexpr double kHoldRamp = 0.15;   ///< overload: stop the path smoothly [s]
+  static constexpr long kHoldLeadTicks = 5;
+  static constexpr long kLeadTicks = 20;      ///< a change applies this many ticks after the newest heard
+  static constexpr long kReleaseSettleTicks = 200;
+  static constexpr int64_t kHeartbeatNs = 20'000'000;
+  static constexpr int64_t kTakeOverAfterNs = 50'000'000;
+  static constexpr long kTakeOverTicks = 20;
+  static constexpr int64_t kTakeOverAloneNs = 6'000'000'000;
+  static constexpr long kOthersRecentTicks = 100;
+  static constexpr int64_t kSuspectMaxNs = 200'000'000;
+
+  SupervisorCore(const sim::ModuleSetup& m, const SupervisorOptions& o, int64_t now_ns);
+  void set_log(std::function<void(const std::string&)> log) { log_ = std::move(log); }
+
+  // Inputs.
+  void on_report(const ReportIn& r, int64_t now_ns);
+  void on_request(const std::string& command);  ///< "pause" | "resume" | "drain" (others ignored)
+  void on_assignment(uint64_t id, const std::string& name, const std::vector<double>& waypoints);
+  /// Another supervisor's plan (its own are not to be passed).
+  void on_plan(const plan::PlanData& p, int64_t now_ns);
+  /// Decides: leadership first (takeover, step-down, the stall rule), then the plan (pause, hold, rebase,
+  /// resume, tasks, task end), then what to publish.
+  void update(int64_t now_ns);
+
+  // Outputs, taken by the process after update().
+  std::optional<plan::PlanData> take_plan();  ///< the plan to publish (a change, or the 20 ms heartbeat)
+  std::optional<StateOut> take_state();       ///< the task state to publish (a change, or every 100 ms)
+  std::optional<std::string> take_detail();   ///< a new status line ("running", "paused (for load)", ...)
+
+  bool active() const { return active_; }
+  bool leaving() const { return leaving_; }       ///< the module left (drained, or the leader drained it)
+  bool world_done() const { return world_done_; } ///< scenario mode: the world reported its last tick
+  long heard_tick() const { return heard_tick_; }
+  plan::SupervisorRank rank() const { return rank_; }
+  const plan::ModulePlan& plan() const { return plan_; }
+  plan::TaskStateCode state() const;
+
+ private:
+  void log(const std::string& s) const { if (log_) log_(s); }
+  bool adopt(const plan::PlanData& p, bool from_new_leader);
+  void publish_state(bool force, int64_t now_ns);
+  void publish_plan(plan::TaskStateCode st, int64_t now_ns);
+
+  const sim::ModuleSetup& m_;
+  SupervisorOptions o_;
+  std::function<void(const std::string&)> log_;
+  plan::ModulePlan plan_;
+  bool active_;
+  plan::SupervisorRank rank_;
+  bool pause_requested_ = false, draining_ = false, leaving_ = false, world_done_ = false;
+  std::array<bool, 2> braked_{false, false};
+  bool hold_ = false;
+  long braked_since_ = -1, released_at_ = -1, heard_tick_ = -1, rebased_for_ = -1, low_force_reported_ = -1;
+  model::Vec2 object_xy_ = model::Vec2::Zero();
+  struct Assignment {
+    uint64_t id;
+    std::string name;
+    std::vector<double> waypoints;
+  };
+  std::vector<Assignment> assignments_;
+  // Leadership.
+  int64_t t_start_, last_report_, last_stronger_;
+  long stronger_tick_ = -1, others_newest_ = -1, suspect_from_ = -1;
+  int64_t suspect_since_ = 0;
+  bool heard_stronger_ = false, stronger_now_ = false;
+  uint64_t max_epoch_ = 0;
+  plan::SupervisorRank followed_{0, plan::kPrimaryStrength};
+  std::optional<plan::PlanData> latest_plan_;
+  // Publishing.
+  plan::TaskStateCode reported_ = plan::TaskStateCode::Idle;
+  int64_t last_state_sent_;
+  uint64_t plan_sent_version_ = ~0ULL;
+  bool plan_sent_pause_ = false, plan_sent_drain_ = false;
+  uint8_t plan_sent_state_ = 255;
+  int64_t plan_sent_at_ = -(1LL << 62);
+  std::optional<plan::PlanData> out_plan_;
+  std::optional<StateOut> out_state_;
+  std::optional<std::string> out_detail_;
+};
+
+}  // namespace tandem::supervisor

@@ -1,0 +1,241 @@
+#include "tandem/supervisor/supervisor_core.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+namespace tandem::supervisor {
+
+using plan::TaskStateCode;
+
+SupervisorCore::SupervisorCore(const sim::ModuleSetup& m, const SupervisorOptions& o, int64_t now_ns)
+    : m_(m), o_(o), plan_(m, o.continuous), active_(o.strength == plan::kPrimaryStrength), rank_{0, o.strength},
+      t_start_(now_ns), last_report_(now_ns), last_stronger_(now_ns), last_state_sent_(now_ns) {
+  publish_state(true, now_ns);
+}
+
+TaskStateCode SupervisorCore::state() const {
+  const long k = std::max(heard_tick_, 0L);
+  const bool busy = o_.continuous ? plan_.running() : !plan_.motion_over(k);
+  if (draining_ && !busy) return TaskStateCode::Left;
+  if (plan_.target_rate() == 0.0 && plan_.paused_at(k)) return TaskStateCode::Paused;
+  if (draining_) return TaskStateCode::Draining;
+  if (busy) return TaskStateCode::Running;
+  return plan_.done() > 0 ? TaskStateCode::Done : TaskStateCode::Idle;
+}
+
+void SupervisorCore::publish_plan(TaskStateCode st, int64_t now_ns) {
+  const bool changed = plan_.version() != plan_sent_version_ || pause_requested_ != plan_sent_pause_ ||
+                       draining_ != plan_sent_drain_ || static_cast<uint8_t>(st) != plan_sent_state_;
+  if (!changed && now_ns - plan_sent_at_ < kHeartbeatNs) return;
+  plan::PlanData p;
+  plan_.export_to(p);
+  p.supervisor_id = o_.self_id;
+  p.strength = o_.strength;
+  p.epoch = rank_.epoch;
+  p.pause_requested = pause_requested_;
+  p.draining = draining_;
+  p.state = static_cast<uint8_t>(st);
+  p.heard_tick = heard_tick_;
+  out_plan_ = std::move(p);
+  plan_sent_version_ = plan_.version();
+  plan_sent_pause_ = pause_requested_;
+  plan_sent_drain_ = draining_;
+  plan_sent_state_ = static_cast<uint8_t>(st);
+  plan_sent_at_ = now_ns;
+}
+
+void SupervisorCore::publish_state(bool force, int64_t now_ns) {
+  if (!active_) return;  // a standby's duties start when it takes over
+  const TaskStateCode st = state();
+  publish_plan(st, now_ns);
+  if (!force && st == reported_ && now_ns - last_state_sent_ < 100'000'000) return;
+  out_state_ = StateOut{plan_.task_id(), static_cast<uint8_t>(st), plan_.done(),
+                        static_cast<uint64_t>(std::max(heard_tick_, 0L))};
+  if (st != reported_) {
+    static const char* names[] = {"idle", "running", "done", "paused", "draining", "left"};
+    std::string detail = names[static_cast<int>(st)];
+    if (st == TaskStateCode::Paused) {
+      detail += hold_ ? " (for load)" : braked_[0] || braked_[1] ? " (arm braked)" : " (requested)";
+    }
+    if (o_.continuous) detail += ", " + std::to_string(plan_.done()) + " task(s) done";
+    out_detail_ = detail;
+  }
+  reported_ = st;
+  last_state_sent_ = now_ns;
+}
+
+bool SupervisorCore::adopt(const plan::PlanData& p, bool from_new_leader) {
+  // From the same leader, never back to an older task than this one already started or finished on its own
+  // (its plan may come a little after the assignment); a new leader's plan is the module's plan.
+  if (!from_new_leader && (p.task_id < plan_.task_id() || (p.task_id == plan_.task_id() && p.tasks_done < plan_.done()))) {
+    return true;
+  }
+  if (!plan_.import_from(p)) {
+    log("a malformed plan from " + p.supervisor_id + " was ignored: " + plan::ModulePlan::check(p));
+    return true;
+  }
+  if (p.rank().outranks(followed_)) followed_ = p.rank();
+  pause_requested_ = p.pause_requested;
+  draining_ = p.draining;
+  if (p.state == static_cast<uint8_t>(TaskStateCode::Left)) {
+    log(p.supervisor_id + " drained the module; leaving with it");
+    return false;
+  }
+  return true;
+}
+
+void SupervisorCore::on_plan(const plan::PlanData& p, int64_t now_ns) {
+  if (!plan::valid_rank(p.strength, p.epoch) || p.supervisor_id == o_.self_id) return;
+  others_newest_ = std::max(others_newest_, static_cast<long>(p.heard_tick));
+  max_epoch_ = std::max(max_epoch_, p.epoch);
+  const plan::SupervisorRank r = p.rank();
+  if (!r.outranks(rank_)) return;
+  heard_stronger_ = true;
+  last_stronger_ = now_ns;
+  stronger_tick_ = std::max(stronger_tick_, static_cast<long>(p.heard_tick));
+  stronger_now_ = true;
+  if (followed_.outranks(r)) return;  // a former leader's
+  const bool newer = !latest_plan_ || r.outranks(latest_plan_->rank()) || p.version != latest_plan_->version;
+  if (!newer) return;  // a heartbeat of the plan already adopted
+  latest_plan_ = p;
+  if (!active_ && !adopt(p, r.outranks(followed_))) leaving_ = true;
+}
+
+void SupervisorCore::on_request(const std::string& command) {
+  if (command == "pause") pause_requested_ = true;
+  if (command == "resume") pause_requested_ = false;
+  if (command == "drain") draining_ = true;
+  if (command == "pause" || command == "resume" || command == "drain") log(command + " requested");
+}
+
+void SupervisorCore::on_assignment(uint64_t id, const std::string& name, const std::vector<double>& waypoints) {
+  assignments_.push_back({id, name, waypoints});
+}
+
+void SupervisorCore::on_report(const ReportIn& r, int64_t now_ns) {
+  last_report_ = now_ns;
+  if (active_ && suspect_from_ < 0 && heard_tick_ >= 0 && r.tick > heard_tick_ + kTakeOverTicks && others_newest_ >= 0 &&
+      heard_tick_ - others_newest_ < kOthersRecentTicks) {
+    // Back from a stall: another supervisor may have taken over meanwhile.
+    suspect_from_ = r.tick;
+    suspect_since_ = now_ns;
+    log("the world is at tick " + std::to_string(r.tick) + ", " + std::to_string(r.tick - heard_tick_) +
+        " past the newest this one had heard (it was stalled); silent until it hears whether another supervisor "
+        "took over");
+  }
+  heard_tick_ = std::max(heard_tick_, r.tick);
+  braked_ = r.braked;
+  hold_ = r.hold;
+  braked_since_ = r.braked_since;
+  released_at_ = r.released_at;
+  object_xy_ = r.object_xy;
+  if (r.normal_min < m_.safe_grasp_force && r.tick > static_cast<long>(o_.transient_s / m_.period) &&
+      r.tick - low_force_reported_ > 1000) {
+    low_force_reported_ = r.tick;  // eq. (14) violated: at most one line a second
+    char line[160];
+    std::snprintf(line, sizeof line, "grasp below the safe force at tick %ld: %.2f N < h_sg %.2f N", r.tick,
+                  r.normal_min, m_.safe_grasp_force);
+    log(line);
+  }
+}
+
+void SupervisorCore::update(int64_t now_ns) {
+  const bool stronger = stronger_now_;
+  stronger_now_ = false;
+  if (leaving_) return;
+  if (suspect_from_ >= 0 && !stronger && (others_newest_ >= suspect_from_ || now_ns - suspect_since_ > kSuspectMaxNs)) {
+    log(std::string(others_newest_ >= suspect_from_ ? "no other supervisor took over" : "no other supervisor heard") +
+        "; leading on");
+    suspect_from_ = -1;
+  }
+  const bool flowing = now_ns - last_report_ < kTakeOverAfterNs;
+  const bool quiet = heard_stronger_ ? (now_ns - last_stronger_ > kTakeOverAfterNs && heard_tick_ - stronger_tick_ > kTakeOverTicks)
+                                     : (now_ns - t_start_ > kTakeOverAloneNs && heard_tick_ > kTakeOverTicks);
+  if (!active_ && flowing && quiet) {
+    active_ = true;
+    rank_.epoch = max_epoch_ + 1;
+    max_epoch_ = rank_.epoch;
+    plan_sent_version_ = ~0ULL;  // publish the plan now, under the new epoch
+    latest_plan_.reset();
+    char line[256];
+    std::snprintf(line, sizeof line, "taking over in epoch %llu (%s) with plan version %llu: task %llu %s, %llu done",
+                  static_cast<unsigned long long>(rank_.epoch),
+                  heard_stronger_ ? ("no plan from the leader for " +
+                                     std::to_string(std::llround(static_cast<double>(now_ns - last_stronger_) * 1e-6)) + " ms")
+                                        .c_str()
+                                  : "never heard a leader",
+                  static_cast<unsigned long long>(plan_.version()), static_cast<unsigned long long>(plan_.task_id()),
+                  plan_.running() ? "running" : "not running", static_cast<unsigned long long>(plan_.done()));
+    log(line);
+    reported_ = TaskStateCode::Idle;
+    publish_state(true, now_ns);
+  } else if (active_ && stronger) {
+    // A higher rank leads: a standby that took over in a later epoch while this one was stalled, or a
+    // stronger one of the same epoch. It decides from now on; this one follows its plan.
+    active_ = false;
+    suspect_from_ = -1;
+    log("stepping down: a higher-ranked supervisor leads" +
+        (latest_plan_ ? " (" + latest_plan_->supervisor_id + ", epoch " + std::to_string(latest_plan_->epoch) + ")"
+                      : std::string()));
+    if (latest_plan_ && !adopt(*latest_plan_, true)) {
+      leaving_ = true;
+      return;
+    }
+  }
+  if (heard_tick_ < 0 || suspect_from_ >= 0) return;
+  // Pause while an arm is braked, the world holds for load, or a pause is asked for.
+  const long next = heard_tick_ + kLeadTicks;
+  if (braked_[0] && braked_[1] && hold_ && braked_since_ != rebased_for_ && plan_.target_rate() == 0.0 &&
+      plan_.paused_at(heard_tick_)) {
+    // Paused for load, both arms braked: the brakes may have stopped the object before the path did.
+    // Rebase the path to where the object is, so that the robots resume from it (not from a jump).
+    rebased_for_ = braked_since_;
+    const double back = plan_.rebase_to(heard_tick_ + kLeadTicks, object_xy_);
+    if (back > 0.0) log("path rebased " + std::to_string(std::lround(back * 1e3)) + " ms back, to where the braked object stands");
+  }
+  if (braked_[0] || braked_[1]) {
+    plan_.set_rate(std::max(braked_since_, 0L), 0.0, hold_ ? kHoldRamp : kBrakeRamp);
+  } else if (hold_) {
+    plan_.set_rate(heard_tick_ + kHoldLeadTicks, 0.0, kHoldRamp);
+  } else if (released_at_ >= 0 && heard_tick_ - released_at_ < kReleaseSettleTicks) {
+    // Just released: the new controller settles on the still reference first.
+  } else {
+    plan_.set_rate(next, pause_requested_ ? 0.0 : 1.0, kPauseRamp);
+  }
+  for (const Assignment& a : assignments_) {
+    // A standby starts the task too, at the tick the active one will most likely choose.
+    if (!o_.continuous || a.id <= plan_.task_id() || plan_.running() || draining_) continue;
+    plan_.assign(a.id, a.waypoints, next);
+    out_detail_ = "task " + a.name;
+    publish_state(true, now_ns);
+  }
+  assignments_.clear();
+  if (o_.continuous && plan_.finish_if_done(heard_tick_)) publish_state(true, now_ns);
+  publish_state(false, now_ns);
+  if (!o_.continuous && heard_tick_ + 1 >= m_.steps) world_done_ = true;
+  if (active_ && reported_ == TaskStateCode::Left) {
+    log("drained; the module leaves");
+    leaving_ = true;
+  }
+}
+
+std::optional<plan::PlanData> SupervisorCore::take_plan() {
+  std::optional<plan::PlanData> p;
+  p.swap(out_plan_);
+  return p;
+}
+
+std::optional<StateOut> SupervisorCore::take_state() {
+  std::optional<StateOut> s;
+  s.swap(out_state_);
+  return s;
+}
+
+std::optional<std::string> SupervisorCore::take_detail() {
+  std::optional<std::string> d;
+  d.swap(out_detail_);
+  return d;
+}
+
+}  // namespace tandem::supervisor

@@ -830,7 +830,12 @@ std::string capacity_estimate(const Deployment& d) {
     std::snprintf(text, sizeof text, "real time: about %.1f of %ld cores (%.2f per module, %.2f per standby robot, "
                   "measured; docs/benchmarks.md)", need, cores, kCorePerModule, kCorePerStandbyRobot);
   }
-  return text;
+  std::string out = text;
+  if (d.discovery == "simple" && d.modules.size() >= 4) {
+    // Measured: 8 modules with simple discovery all paused for load at start-up, none with the server.
+    out += "; with 4 or more modules 'discovery: server' keeps discovery from loading the machine";
+  }
+  return out;
 }
 
 }  // namespace

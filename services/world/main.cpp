@@ -13,19 +13,18 @@
 #include <array>
 #include <chrono>
 #include <cmath>
-#include <condition_variable>
 #include <cstdio>
-#include <deque>
-#include <mutex>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "tandem/runtime/histogram.hpp"
+#include "tandem/runtime/inbox.hpp"
 #include "tandem/runtime/plan_wire.hpp"
 #include "tandem/runtime/role.hpp"
 #include "tandem/runtime/status.hpp"
 #include "tandem/world/world_core.hpp"
+#include "world_wire.hpp"
 
 using namespace tandem;
 namespace bus = tandem::dds;
@@ -57,58 +56,15 @@ int main(int argc, char** argv) {
   // Torque commands are taken in the DDS thread that received them and queued with their arrival time; the
   // world's own thread is not woken for each (real time: it sleeps to the tick's deadline and then reads the
   // queue; lockstep: it is woken when a command comes, as it waits for them).
-  struct Inbox : eprosima::fastdds::dds::DataReaderListener {
-    struct Item {
-      msg::TorqueCommand cmd;
-      int arm = 0;
-      long long at_ns = 0;
-    };
-    std::mutex mu;
-    std::condition_variable cv;
-    std::deque<Item> items;
-    bool notify = false;  // lockstep: the world thread waits on cv
-    std::array<eprosima::fastdds::dds::DataReader*, 2> readers{nullptr, nullptr};
-    msg::TorqueCommand scratch;
-    void on_data_available(eprosima::fastdds::dds::DataReader* r) override {
-      eprosima::fastdds::dds::SampleInfo info;
-      std::unique_lock<std::mutex> lock(mu);
-      const int arm = r == readers[1] ? 1 : 0;
-      while (r->take_next_sample(&scratch, &info) == ReturnCode_t::RETCODE_OK) {
-        if (!info.valid_data) continue;
-        timespec now{};
-        ::clock_gettime(CLOCK_MONOTONIC, &now);
-        items.push_back({scratch, arm, static_cast<long long>(now.tv_sec) * 1000000000LL + now.tv_nsec});
-      }
-      lock.unlock();
-      if (notify) cv.notify_one();
-    }
-    bool pop(msg::TorqueCommand& out, int& arm, long long& at_ns) {
-      std::lock_guard<std::mutex> lock(mu);
-      if (items.empty()) return false;
-      out = items.front().cmd;
-      arm = items.front().arm;
-      at_ns = items.front().at_ns;
-      items.pop_front();
-      return true;
-    }
-    void wait(double seconds) {
-      std::unique_lock<std::mutex> lock(mu);
-      cv.wait_for(lock, std::chrono::duration<double>(seconds), [&] { return !items.empty(); });
-    }
-  } inbox;
-  inbox.notify = !opt.realtime;
+  runtime::Inbox<msg::TorqueCommand, 2> inbox(!opt.realtime);
+  // A torque topic per arm, every robot of the arm on it: the core follows the strongest that answers. (Robots
+  // answer samples only, and none goes out before the inbox knows its readers.)
   const bus::TopicKind torque_kind = opt.realtime ? bus::TopicKind::TorquesRealtime : bus::TopicKind::Torques;
-  // A torque topic per arm (EXCLUSIVE ownership: the strongest live robot of the arm is heard).
   bus::Reader<msg::TorqueCommand, msg::TorqueCommandPubSubType> torques0(part, bus::arm_topic(bus::kTorquesTopic, ctx.arm_id(0)),
                                                                           torque_kind, &inbox);
   bus::Reader<msg::TorqueCommand, msg::TorqueCommandPubSubType> torques1(part, bus::arm_topic(bus::kTorquesTopic, ctx.arm_id(1)),
                                                                           torque_kind, &inbox);
-  {
-    std::lock_guard<std::mutex> lock(inbox.mu);
-    inbox.readers = {torques0.get(), torques1.get()};
-  }
-
-  // The robot that wrote a command is named by the core from its strength.
+  inbox.set_sources({torques0.get(), torques1.get()});
   bus::Reader<msg::SupervisorPlan, msg::SupervisorPlanPubSubType> plans(part, bus::module_topic(bus::kSupervisorPlanTopic, opt.module),
                                                                         bus::TopicKind::Task);
   bus::Writer<msg::WorldReport, msg::WorldReportPubSubType> report(part, bus::module_topic(bus::kWorldReportTopic, opt.module),
@@ -134,24 +90,25 @@ int main(int argc, char** argv) {
   }
   std::this_thread::sleep_for(std::chrono::milliseconds(200));  // let the reverse matches settle
 
-  unsigned long long overruns = 0;
   runtime::Histogram latency_us, wake_late_us;  // fixed bins: no allocation per tick, any run length
   double interval_worst_us = 0.0;
   msg::SupervisorPlan plan_in;
   msg::WorldReport rep;
   rep.module_id(opt.module);
   msg::ArmSensors s;
-  msg::TorqueCommand cmd;
   std::array<world::SampleOut, 2> samples{};
-  timespec tick_start{};
-  ::clock_gettime(CLOCK_MONOTONIC, &tick_start);
-  const long period_ns = std::lround(m.period * 1e9);
-  auto to_ns = [](const timespec& ts) { return static_cast<long long>(ts.tv_sec) * 1000000000LL + ts.tv_nsec; };
-  auto now_ns = [&] {
+  auto to_ts = [](long long ns) {
+    timespec ts{};
+    ts.tv_sec = static_cast<time_t>(ns / 1000000000LL);
+    ts.tv_nsec = static_cast<long>(ns % 1000000000LL);
+    return ts;
+  };
+  auto now_ns = [] {
     timespec n{};
     ::clock_gettime(CLOCK_MONOTONIC, &n);
-    return to_ns(n);
+    return static_cast<long long>(n.tv_sec) * 1000000000LL + n.tv_nsec;
   };
+  world::TickClock clock(std::llround(m.period * 1e9), now_ns());
   auto publish_status_if_changed = [&] {
     if (!core.serving_changed()) return;
     status.msg().serving(core.serving_text());
@@ -188,20 +145,7 @@ int main(int argc, char** argv) {
                   static_cast<double>(wall.tv_sec) + static_cast<double>(wall.tv_nsec) * 1e-9);
       std::fflush(stdout);
     }
-    if (opt.realtime) {
-      const long long wake_late_ns = sent - to_ns(tick_start);
-      wake_late_us.add(static_cast<double>(wake_late_ns) * 1e-3);
-      // The world is the simulated plant: when its own process stalls (a scheduler hiccup of 5-20 ms is
-      // common on a shared 2-core machine), catching up in a burst of ticks would give the robots no time to
-      // answer any of them, and the arms would hold stale torques for the whole burst, a failure of the
-      // simulator that a real plant never has. So a tick that starts more than half a period late re-anchors
-      // the clock at now: the robots always get at least half a period, and simulated time slips (counted).
-      if (wake_late_ns > period_ns / 2) {
-        tick_start.tv_sec = static_cast<time_t>(sent / 1000000000LL);
-        tick_start.tv_nsec = static_cast<long>(sent % 1000000000LL);
-        ++overruns;
-      }
-    }
+    if (opt.realtime) wake_late_us.add(static_cast<double>(clock.begin(sent)) * 1e-3);  // re-anchors after a stall
     auto publish_samples = [&](bool all) {
       for (size_t j = 0; j < 2; ++j) {
         const world::SampleOut& o = samples[j];
@@ -233,21 +177,15 @@ int main(int argc, char** argv) {
     }
     // Real time: the tick ends at an absolute deadline; lockstep: when every arm that is not braked has its
     // command in (a braked arm's robot may answer too: that releases it).
-    timespec deadline = tick_start;
-    deadline.tv_nsec += period_ns;
-    while (deadline.tv_nsec >= 1000000000L) {
-      deadline.tv_nsec -= 1000000000L;
-      ++deadline.tv_sec;
-    }
-    const long long deadline_ns = to_ns(deadline);
+    const timespec deadline = to_ts(clock.deadline());
+    const long long deadline_ns = clock.deadline();
     int republished = 0;
     const auto wait_start = std::chrono::steady_clock::now();
-    long long cmd_at_ns = 0;
-    int cmd_arm = 0;
+    runtime::Inbox<msg::TorqueCommand, 2>::Item item;
     bool gave_up = false;
     while (!runtime::g_stop) {
       if (!opt.realtime && core.lockstep_done()) break;
-      if (!inbox.pop(cmd, cmd_arm, cmd_at_ns)) {
+      if (!inbox.pop(item)) {
         if (opt.realtime) {
           if (now_ns() >= deadline_ns) break;
           ::clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &deadline, nullptr);  // the commands queue meanwhile
@@ -268,12 +206,13 @@ int main(int argc, char** argv) {
         }
         continue;
       }
-      const bool late_arrival = opt.realtime && cmd_at_ns > deadline_ns;
+      const msg::TorqueCommand& cmd = item.sample;
+      const bool late_arrival = opt.realtime && item.at_ns > deadline_ns;
       const model::Vec3 tau(cmd.tau()[0], cmd.tau()[1], cmd.tau()[2]);
-      if (core.on_command(cmd_arm, static_cast<long>(cmd.tick()), tau, cmd.strength(), cmd_at_ns, late_arrival,
+      if (core.on_command(item.source, static_cast<long>(cmd.tick()), tau, cmd.strength(), item.at_ns, late_arrival,
                           cmd.leaving()) == world::WorldCore::Verdict::Applied &&
           opt.realtime) {
-        const double us = static_cast<double>(cmd_at_ns - sent) * 1e-3;
+        const double us = static_cast<double>(item.at_ns - sent) * 1e-3;
         latency_us.add(us);
         interval_worst_us = std::max(interval_worst_us, us);
       }
@@ -297,42 +236,12 @@ int main(int argc, char** argv) {
       std::this_thread::sleep_for(std::chrono::milliseconds(1));  // nothing to wait for: hold at about 1 kHz
     }
     core.step();
-    if (opt.realtime) tick_start = deadline;
+    if (opt.realtime) clock.advance();
   }
   (void)stopped_early;
 
-  const model::ModulePlant& plant = core.plant();
   msg::WorldSummary ws;
-  ws.module_id(opt.module);
-  ws.braked_ticks(core.braked_ticks);
-  ws.overruns(overruns);
-  ws.ticks(static_cast<uint64_t>(k));
-  for (int j = 0; j < 2; ++j) {
-    for (int i = 0; i < 3; ++i) ws.q_final()[static_cast<size_t>(3 * j + i)] = plant.state().q[j](i);
-  }
-  ws.object_final()[0] = plant.state().c(0);
-  ws.object_final()[1] = plant.state().c(1);
-  ws.object_final()[2] = plant.state().psi;
-  ws.slip_events(static_cast<uint64_t>(plant.counters().slip_events));
-  ws.contact_lost(static_cast<uint64_t>(plant.counters().contact_lost));
-  ws.late_commands(opt.realtime ? core.late : core.timeouts);
-  ws.rejected_commands(core.rejected);
-  ws.realtime(opt.realtime);
-  ws.latency_p50_us(latency_us.percentile(0.5));
-  ws.latency_p99_us(latency_us.percentile(0.99));
-  ws.latency_max_us(latency_us.percentile(1.0));
-  ws.wake_late_p99_us(wake_late_us.percentile(0.99));
-  ws.failovers(core.failovers);
-  ws.failover_max_ms(core.failover_max_ms);
-  ws.failover_last_ms(core.failover_last_ms);
-  ws.load_pauses(core.load_pauses);
-  ws.load_paused_ticks(core.load_paused_ticks);
-  for (const world::Switch& sw : core.switches) {
-    ws.switch_gap_ms().push_back(sw.gap_ms);
-    ws.switch_failover().push_back(sw.failover);
-    ws.switch_ep_max().push_back(sw.ep_max);
-    ws.switch_hn_min().push_back(sw.hn_min);
-  }
+  world_wire::fill_summary(core, opt.module, k, opt.realtime, clock.overruns, latency_us, wake_late_us, ws);
   summary.write(ws);
   status.msg().tick(static_cast<uint64_t>(k));
   status.msg().progress(opt.continuous ? -1.0 : static_cast<double>(k) / static_cast<double>(m.steps));
@@ -342,11 +251,12 @@ int main(int argc, char** argv) {
   } else {
     status.set(runtime::Lifecycle::Finalized, runtime::g_stop ? "stopped" : "task done");
   }
+  const model::ModulePlant& plant = core.plant();
   std::printf("tandem-world %s: %ld ticks, slip %ld, contact lost %ld, rejected %llu, stale %llu, %s %llu, "
               "overruns %llu, pauses for load %llu\n",
               opt.module.c_str(), k, plant.counters().slip_events, plant.counters().contact_lost, core.rejected,
               core.stale, opt.realtime ? "late arm-ticks" : "brakings", opt.realtime ? core.late : core.timeouts,
-              overruns, core.load_pauses);
+              clock.overruns, core.load_pauses);
   std::this_thread::sleep_for(std::chrono::milliseconds(300));  // let the summary reach the launcher
   return never_answered && !runtime::g_stop ? 4 : 0;
 }

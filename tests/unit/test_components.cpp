@@ -541,3 +541,22 @@ TEST_CASE("supervisor component: a hold for load stops the path smoothly, and a 
   s.update(1830 * ms);
   CHECK(s.state() == tandem::plan::TaskStateCode::Paused);
 }
+
+TEST_CASE("the world's clock keeps absolute deadlines and re-anchors after a stall instead of a catch-up burst", "[components]") {
+  const int64_t ms = 1000000;
+  tandem::world::TickClock c(ms, 0);
+  CHECK(c.begin(100000) == 100000);  // 0.1 ms late: on schedule
+  CHECK(c.deadline() == ms);
+  c.advance();
+  CHECK(c.begin(ms + 300000) == 300000);
+  CHECK(c.deadline() == 2 * ms);      // absolute: a late start does not move the deadline
+  c.advance();
+  CHECK(c.overruns == 0);
+  // A 20 ms stall: the tick due at 2 ms starts at 22 ms. Re-anchored: this tick gets a whole period.
+  CHECK(c.begin(22 * ms) == 20 * ms);
+  CHECK(c.overruns == 1);
+  CHECK(c.deadline() == 23 * ms);
+  c.advance();
+  CHECK(c.begin(23 * ms + 50000) == 50000);  // and the next ones are on schedule again, no burst
+  CHECK(c.overruns == 1);
+}

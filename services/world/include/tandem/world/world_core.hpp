@@ -86,6 +86,32 @@ struct Switch {
   double hn_min = 0.0;
 };
 
+/// Real-time pacing of a world: absolute deadlines one period apart, from the monotonic clock (ns). The world is
+/// the simulated plant: when its own process starts a tick more than half a period late (a scheduler stall of
+/// 5-20 ms is common on a shared 2-core machine), catching up in a burst of ticks would give the robots no time
+/// to answer any of them, and the arms would hold stale torques for the whole burst, a failure of the
+/// simulator that a real plant never has. So such a tick re-anchors the clock at now: the robots always get at
+/// least half a period, and simulated time slips (counted in `overruns`).
+class TickClock {
+ public:
+  TickClock(int64_t period_ns, int64_t now_ns) : period_(period_ns), start_(now_ns) {}
+  /// The tick starts at `now_ns`: returns how late it started; re-anchors after a stall.
+  int64_t begin(int64_t now_ns) {
+    const int64_t late = now_ns - start_;
+    if (late > period_ / 2) {
+      start_ = now_ns;
+      ++overruns;
+    }
+    return late;
+  }
+  int64_t deadline() const { return start_ + period_; }
+  void advance() { start_ += period_; }  ///< the next tick starts at this one's deadline
+  unsigned long long overruns = 0;
+
+ private:
+  int64_t period_, start_;
+};
+
 class WorldCore {
  public:
   static constexpr long kReportEvery = 10;

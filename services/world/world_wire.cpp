@@ -1,0 +1,41 @@
+#include "world_wire.hpp"
+
+namespace tandem::world_wire {
+
+void fill_summary(const world::WorldCore& core, const std::string& module, long ticks, bool realtime,
+                  unsigned long long overruns, const runtime::Histogram& latency_us,
+                  const runtime::Histogram& wake_late_us, msg::WorldSummary& ws) {
+  const model::ModulePlant& plant = core.plant();
+  ws.module_id(module);
+  ws.braked_ticks(core.braked_ticks);
+  ws.overruns(overruns);
+  ws.ticks(static_cast<uint64_t>(ticks));
+  for (int j = 0; j < 2; ++j) {
+    for (int i = 0; i < 3; ++i) ws.q_final()[static_cast<size_t>(3 * j + i)] = plant.state().q[j](i);
+  }
+  ws.object_final()[0] = plant.state().c(0);
+  ws.object_final()[1] = plant.state().c(1);
+  ws.object_final()[2] = plant.state().psi;
+  ws.slip_events(static_cast<uint64_t>(plant.counters().slip_events));
+  ws.contact_lost(static_cast<uint64_t>(plant.counters().contact_lost));
+  ws.late_commands(realtime ? core.late : core.timeouts);
+  ws.rejected_commands(core.rejected);
+  ws.realtime(realtime);
+  ws.latency_p50_us(latency_us.percentile(0.5));
+  ws.latency_p99_us(latency_us.percentile(0.99));
+  ws.latency_max_us(latency_us.percentile(1.0));
+  ws.wake_late_p99_us(wake_late_us.percentile(0.99));
+  ws.failovers(core.failovers);
+  ws.failover_max_ms(core.failover_max_ms);
+  ws.failover_last_ms(core.failover_last_ms);
+  ws.load_pauses(core.load_pauses);
+  ws.load_paused_ticks(core.load_paused_ticks);
+  for (const world::Switch& sw : core.switches) {
+    ws.switch_gap_ms().push_back(sw.gap_ms);
+    ws.switch_failover().push_back(sw.failover);
+    ws.switch_ep_max().push_back(sw.ep_max);
+    ws.switch_hn_min().push_back(sw.hn_min);
+  }
+}
+
+}  // namespace tandem::world_wire

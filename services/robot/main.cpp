@@ -1,8 +1,8 @@
 // tandem-robot: the controller of one arm, wiring only: robot::RobotCore (services/robot/include) follows the
 // module's plan and computes the law; this process feeds it its arm's sensor samples and the plans from DDS
 // and sends each command from the DDS thread that received the sample (no hand-off to another thread:
-// docs/architecture.md, "Per-tick data flow"). It also keeps the torque writer's liveliness, publishes status
-// every 100 ticks and the summary at the end; its last command says it is leaving.
+// docs/architecture.md, "Per-tick data flow"). It also publishes status every 100 ticks and the summary at the
+// end; its last command says it is leaving.
 #include <tandemPubSubTypes.h>
 
 #include <algorithm>
@@ -61,14 +61,13 @@ int main(int argc, char** argv) {
   status.msg().serving(std::to_string(opt.strength));
   status.set(runtime::Lifecycle::Inactive, "waiting for the plan and the first tick");
 
-  // The core is shared by the receiving thread (which computes) and the main thread (liveliness, status, exit).
+  // The core is shared by the receiving thread (which computes) and the main thread (status, exit).
   std::mutex mu;
   msg::TorqueCommand cmd;
   cmd.strength(opt.strength);
   bool activated = false;
   double interval_worst_us = 0.0;
-  auto last_write = Clock::now();
-  auto last_input = last_write;
+  auto last_input = Clock::now();
   msg::SupervisorPlan plan_in;
   std::string why;
   auto take_plans = [&] {  // under mu
@@ -95,8 +94,7 @@ int main(int argc, char** argv) {
     cmd.tick(static_cast<uint64_t>(core.done()));
     for (int i = 0; i < 3; ++i) cmd.tau()[static_cast<size_t>(i)] = (*tau)(i);
     torques.write(cmd);
-    last_write = Clock::now();
-    interval_worst_us = std::max(interval_worst_us, std::chrono::duration<double, std::micro>(last_write - last_input).count());
+    interval_worst_us = std::max(interval_worst_us, std::chrono::duration<double, std::micro>(Clock::now() - last_input).count());
   };
   struct Listener : fdds::DataReaderListener {
     std::function<void(fdds::DataReader*)> fn;

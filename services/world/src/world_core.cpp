@@ -18,8 +18,8 @@ std::string ms_text(double ms) {
 WorldCore::WorldCore(const sim::ModuleSetup& m, const WorldOptions& o)
     : m_(m), o_(o), plant_(m.plant), follower_(m, o.continuous),
       // An arm whose controller has gone quiet for this long is braked (real time: time without a command
-      // while the world ticks on; lockstep: time the tick waited). Longer than a standby's failover (the 20 ms
-      // liveliness lease plus a few ticks), so a failover never brakes.
+      // while the world ticks on; lockstep: time the tick waited). Longer than a standby's failover (10 ticks,
+      // or 20 ms of waiting in lockstep), so a failover never brakes.
       brake_after_s_(o.realtime ? 0.1 : 1.0),
       backoff_s_(o.overload.backoff_s) {
   plant_.reset(m.initial);
@@ -175,7 +175,7 @@ WorldCore::Verdict WorldCore::on_command(int j, long tick, const model::Vec3& ta
   }
   L.heard = at_ns;
   if (tick != k_) {
-    // An older tick is a late answer or a liveliness repeat: dropped. From a braked arm's robot it means a
+    // An older tick is a late answer or a repeat: dropped. From a braked arm's robot it means a
     // controller is back: lockstep waits for it again from the next tick.
     ++stale;
     if (L.braked && !o_.realtime && tick + 64 > k_) L.release = true;

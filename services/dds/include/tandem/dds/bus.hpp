@@ -59,9 +59,6 @@ class Writer {
   Writer(const Writer&) = delete;
   Writer& operator=(const Writer&) = delete;
   bool write(T& sample) { return writer_->write(&sample); }
-  /// Unregisters the sample's instance (its key): this writer no longer updates it. Under EXCLUSIVE
-  /// ownership readers then follow the next strongest writer of that key without waiting for a lease.
-  bool unregister(T& sample) { return writer_->unregister_instance(&sample, fdds::HANDLE_NIL) == ReturnCode_t::RETCODE_OK; }
   /// Waits until every matched reader has acknowledged what was written (reliable topics), up to timeout_s.
   bool wait_for_acks(double timeout_s) {
     const auto sec = static_cast<int32_t>(timeout_s);

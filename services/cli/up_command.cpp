@@ -34,6 +34,7 @@
 #include <vector>
 
 #include "live_view.hpp"
+#include "tandem/launcher/restart_policy.hpp"
 #include "tandem/dds/bus.hpp"
 #include "tandem/runtime/deployment.hpp"
 #include "tandem/runtime/role.hpp"
@@ -610,25 +611,22 @@ class Launcher {
     fail(c.label + " exited with code " + std::to_string(c.status));
   }
 
-  /// Restart policy (OTP-style): returns true if `c` will be started again after the backoff.
+  /// Restart policy (OTP-style, launcher::RestartPolicy): returns true if `c` will be started again after the
+  /// backoff.
   bool schedule_restart(const Child& c, const std::string& policy, int limit, double window, double backoff) {
-    const bool wanted = policy == "always" || (policy == "on-failure" && c.status != 0);
-    if (!wanted) return false;
     const std::string key = c.arm.empty() ? "coordinator" : c.arm;  // an arm, a module's supervisor slot
     const auto now = Clock::now();
-    auto& hist = restart_history_[key];
-    hist.erase(std::remove_if(hist.begin(), hist.end(),
-                              [&](auto t) { return now - t > std::chrono::duration<double>(window); }),
-               hist.end());
-    if (static_cast<int>(hist.size()) >= limit) {
-      std::printf("tandem up: giving up on %s: %zu restarts within %.0f s (restart_limit %d)\n", key.c_str(),
-                  hist.size(), window, limit);
+    const launcher::RestartRule rule{policy, limit, window, backoff};
+    const launcher::RestartDecision d = restarts_.on_exit(key, c.status, rule, std::chrono::duration<double>(now - t0_).count());
+    if (d.kind == launcher::RestartDecision::Kind::None) return false;
+    if (d.kind == launcher::RestartDecision::Kind::GiveUp) {
+      std::printf("tandem up: giving up on %s: %d restarts within %.0f s (restart_limit %d)\n", key.c_str(), d.count,
+                  window, limit);
       return false;
     }
-    const double delay = backoff * std::pow(2.0, static_cast<double>(hist.size()));
-    hist.push_back(now);
-    std::printf("tandem up: restarting %s in %.2f s (restart %zu of at most %d within %.0f s)\n", c.label.c_str(),
-                delay, hist.size(), limit, window);
+    const double delay = d.delay;
+    std::printf("tandem up: restarting %s in %.2f s (restart %d of at most %d within %.0f s)\n", c.label.c_str(),
+                delay, d.count, limit, window);
     Child next = c;
     if (c.role == "robot" && modules_.at(c.module).cfg.restart_as == "standby") next.strength = 0;  // below the live ones
     pending_restarts_.push_back({now + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(delay)), next});
@@ -761,7 +759,8 @@ class Launcher {
     Child child;
   };
   std::vector<PendingRestart> pending_restarts_;
-  std::map<std::string, std::vector<Clock::time_point>> restart_history_;
+  launcher::RestartPolicy restarts_;
+  Clock::time_point t0_ = Clock::now();
   struct PendingUnplug {
     std::string label, module;
     Clock::time_point since;

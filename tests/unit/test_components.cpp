@@ -12,6 +12,7 @@
 #include <limits>
 #include <string>
 
+#include "tandem/launcher/restart_policy.hpp"
 #include "tandem/plan/plan.hpp"
 #include "tandem/robot/robot_core.hpp"
 #include "tandem/sim/embedded.hpp"
@@ -559,4 +560,30 @@ TEST_CASE("the world's clock keeps absolute deadlines and re-anchors after a sta
   c.advance();
   CHECK(c.begin(23 * ms + 50000) == 50000);  // and the next ones are on schedule again, no burst
   CHECK(c.overruns == 1);
+}
+
+TEST_CASE("launcher component: restarts by policy with a doubling backoff, and gives up past the intensity limit", "[components]") {
+  using tandem::launcher::RestartDecision;
+  tandem::launcher::RestartPolicy p;
+  const tandem::launcher::RestartRule never{"never", 3, 30.0, 0.2}, on_failure{"on-failure", 2, 10.0, 0.2},
+      always{"always", 3, 30.0, 0.5};
+  CHECK(p.on_exit("m1/left", 137, never, 0.0).kind == RestartDecision::Kind::None);
+  CHECK(p.on_exit("m1/left", 0, on_failure, 0.0).kind == RestartDecision::Kind::None);  // a clean exit
+  RestartDecision d = p.on_exit("m1/left", 137, on_failure, 1.0);
+  CHECK(d.kind == RestartDecision::Kind::Restart);
+  CHECK(d.delay == Approx(0.2));
+  d = p.on_exit("m1/left", 137, on_failure, 2.0);
+  CHECK(d.kind == RestartDecision::Kind::Restart);
+  CHECK(d.delay == Approx(0.4));  // doubled inside the window
+  CHECK(d.count == 2);
+  d = p.on_exit("m1/left", 137, on_failure, 3.0);
+  CHECK(d.kind == RestartDecision::Kind::GiveUp);  // 2 restarts within 10 s: the limit
+  CHECK(d.count == 2);
+  // Other slots count apart, and the window forgets: 12 s later the first restarts are out of it.
+  CHECK(p.on_exit("m1/right", 1, on_failure, 3.0).kind == RestartDecision::Kind::Restart);
+  CHECK(p.recent("m1/left", on_failure, 12.5) == 0);
+  d = p.on_exit("m1/left", 137, on_failure, 12.5);
+  CHECK(d.kind == RestartDecision::Kind::Restart);
+  CHECK(d.delay == Approx(0.2));
+  CHECK(p.on_exit("coordinator", 0, always, 0.0).delay == Approx(0.5));  // always: a clean exit too
 }

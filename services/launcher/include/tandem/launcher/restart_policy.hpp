@@ -1,0 +1,38 @@
+// The launcher's restart policy as a component (no processes, no clock: times in seconds are passed in), as
+// Erlang/OTP supervisors do it: a child that exits is restarted by policy (never, on-failure, always) after a
+// backoff that doubles with each restart inside the window, and given up on after `limit` restarts within
+// `window` seconds (the intensity limit). services/cli/up_command.cpp asks it; tests/unit drive it.
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+namespace tandem::launcher {
+
+struct RestartRule {
+  std::string policy = "never";  ///< never | on-failure | always
+  int limit = 3;                 ///< restarts within `window` before giving up
+  double window = 30.0;          ///< [s]
+  double backoff = 0.2;          ///< first delay [s], doubled per restart inside the window
+};
+
+struct RestartDecision {
+  enum class Kind { None, Restart, GiveUp } kind = Kind::None;
+  double delay = 0.0;   ///< Restart: seconds until the new start
+  int count = 0;        ///< Restart: this restart's number within the window; GiveUp: restarts within it
+};
+
+class RestartPolicy {
+ public:
+  /// A child of slot `key` (an arm, a module's supervisor slot, "coordinator") exited with `exit_status` at
+  /// time `now` [s]. None: the policy does not restart it (never, or on-failure after a clean exit).
+  RestartDecision on_exit(const std::string& key, int exit_status, const RestartRule& rule, double now);
+  /// Restarts of `key` still inside the window at `now`.
+  int recent(const std::string& key, const RestartRule& rule, double now) const;
+
+ private:
+  std::map<std::string, std::vector<double>> history_;
+};
+
+}  // namespace tandem::launcher

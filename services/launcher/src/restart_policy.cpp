@@ -1,0 +1,32 @@
+#include "tandem/launcher/restart_policy.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace tandem::launcher {
+
+RestartDecision RestartPolicy::on_exit(const std::string& key, int exit_status, const RestartRule& rule, double now) {
+  RestartDecision d;
+  const bool wanted = rule.policy == "always" || (rule.policy == "on-failure" && exit_status != 0);
+  if (!wanted) return d;
+  std::vector<double>& hist = history_[key];
+  hist.erase(std::remove_if(hist.begin(), hist.end(), [&](double t) { return now - t > rule.window; }), hist.end());
+  if (static_cast<int>(hist.size()) >= rule.limit) {
+    d.kind = RestartDecision::Kind::GiveUp;
+    d.count = static_cast<int>(hist.size());
+    return d;
+  }
+  d.kind = RestartDecision::Kind::Restart;
+  d.delay = rule.backoff * std::pow(2.0, static_cast<double>(hist.size()));
+  hist.push_back(now);
+  d.count = static_cast<int>(hist.size());
+  return d;
+}
+
+int RestartPolicy::recent(const std::string& key, const RestartRule& rule, double now) const {
+  const auto it = history_.find(key);
+  if (it == history_.end()) return 0;
+  return static_cast<int>(std::count_if(it->second.begin(), it->second.end(), [&](double t) { return now - t <= rule.window; }));
+}
+
+}  // namespace tandem::launcher

@@ -147,6 +147,7 @@ int main(int argc, char** argv) {
   cmd.leaving(true);           // the last word: the world follows the next robot of the arm at once
   torques.write(cmd);
   torques.wait_for_acks(0.1);  // lockstep: the last command reaches the world
+  std::this_thread::sleep_for(std::chrono::milliseconds(5));  // real time (best effort): give it a tick or two
   torque_writer.reset();       // give the arm up: the world follows the next strongest robot at once, then report
   lock.lock();
   const sim::RobotMeter::Summary sm = core.summary();

@@ -634,12 +634,18 @@ TEST_CASE("unplug of a primary with a standby hands the arm over without braking
   CHECK(kv.at("m1.braked_ticks") == 0);
   CHECK(kv.at("m1.slip_events") == 0);
   CHECK(kv.at("m1.contact_lost") == 0);
-  // The leaving robot deleted its writer first: the world follows the standby within a few ticks, not after
-  // the 20 ms liveliness lease.
+  // The leaving robot says so in its last command: the world follows the standby at once (a tick or two), not
+  // after 10 silent ticks. The hand-over is the arm's last failover in the log. (A robot stalled 10 ms by the
+  // machine is also failed over to its standby and takes the arm back: harmless, equal commands; every such
+  // switch is in the summary, each within 15 ms and with the grasp held.)
+  const std::string key = "m1/left now follows m1/left@50 (was m1/left): failover ";
+  const size_t at = log.rfind(key);
+  REQUIRE(at != std::string::npos);
+  CHECK(std::stod(log.substr(at + key.size())) < 5.0);
   const std::vector<double> gaps = parse_list(text.at("m1.switch_gap_ms"));
-  REQUIRE(gaps.size() == 1);
-  CHECK(gaps[0] < 15.0);
-  CHECK(parse_list(text.at("m1.switch_hn_min"))[0] >= 19.62);
+  REQUIRE(!gaps.empty());
+  for (double g : gaps) CHECK(g < 15.0);
+  for (double h : parse_list(text.at("m1.switch_hn_min"))) CHECK(h >= 19.62);
   CHECK(kv.at("m1/left@50.ticks") == 5000);
   CHECK_FALSE(processes_left(domain));
 }

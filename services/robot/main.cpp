@@ -100,8 +100,10 @@ int main(int argc, char** argv) {
     std::function<void(fdds::DataReader*)> fn;
     void on_data_available(fdds::DataReader* r) override { fn(r); }
   } listener;
+  bool stopping = false;  // under mu: set once the robot leaves; the receiving thread computes nothing more
   listener.fn = [&](fdds::DataReader* r) {
     std::lock_guard<std::mutex> lock(mu);
+    if (stopping) return;
     take_plans();
     fdds::SampleInfo info;
     while (r->take_next_sample(&s, &info) == ReturnCode_t::RETCODE_OK) {
@@ -142,10 +144,10 @@ int main(int argc, char** argv) {
     }
   }
   std::unique_lock<std::mutex> lock(mu);
-  listener.fn = [](fdds::DataReader*) {};  // nothing more is computed
-  lock.unlock();
+  stopping = true;             // nothing more is computed or written by the receiving thread
   cmd.leaving(true);           // the last word: the world follows the next robot of the arm at once
   torques.write(cmd);
+  lock.unlock();
   torques.wait_for_acks(0.1);  // lockstep: the last command reaches the world
   std::this_thread::sleep_for(std::chrono::milliseconds(5));  // real time (best effort): give it a tick or two
   torque_writer.reset();       // give the arm up: the world follows the next strongest robot at once, then report

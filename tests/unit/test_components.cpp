@@ -414,13 +414,15 @@ TEST_CASE("overload with standbys: no owner flapping while paused, and a primary
     long resumed_at = -1;
     for (long k = 0; k < 4000; ++k) {
       w.begin_tick(k, k * ms, out);
-      const bool stalled = k >= 100 && k < 130;  // both robots of the left arm miss 30 ticks: overload
+      // Both robots of the left arm answer 30 ticks after their deadlines: overload.
+      const bool starved = k >= 100 && k < 130;
       for (int j = 0; j < 2; ++j) {
-        if (!out[static_cast<size_t>(j)].publish || (j == 0 && stalled)) continue;
+        if (!out[static_cast<size_t>(j)].publish) continue;
+        const bool late = j == 0 && starved;
         // Which of a primary and its standby is heard first varies from tick to tick.
-        if (k % 2 == 0) w.on_command(j, k, ok, 50, k * ms + 100, false);
-        if (!(j == 0 && primary_dies && k >= 400)) w.on_command(j, k, ok, 100, k * ms + 150, false);
-        if (k % 2 == 1) w.on_command(j, k, ok, 50, k * ms + 200, false);
+        if (k % 2 == 0) w.on_command(j, k, ok, 50, k * ms + 100, late);
+        if (!(j == 0 && primary_dies && k >= 400)) w.on_command(j, k, ok, 100, k * ms + 150, late);
+        if (k % 2 == 1) w.on_command(j, k, ok, 50, k * ms + 200, late);
       }
       const bool was = w.paused_for_load();
       w.end_tick(k * ms + 500000);
@@ -586,4 +588,53 @@ TEST_CASE("launcher component: restarts by policy with a doubling backoff, and g
   CHECK(d.kind == RestartDecision::Kind::Restart);
   CHECK(d.delay == Approx(0.2));
   CHECK(p.on_exit("coordinator", 0, always, 0.0).delay == Approx(0.5));  // always: a clean exit too
+}
+
+TEST_CASE("a robot that falls silent is braked as an arm with no controller, not paused for load", "[components]") {
+  const ts::ModuleSetup& m = sosm();
+  WorldCore w(m, world_options(true));
+  std::string log;
+  w.set_log([&](const std::string& l) { log += l + "\n"; });
+  std::array<tandem::world::SampleOut, 2> out{};
+  const tmo::Vec3 ok(1.0, 1.0, 1.0);
+  const int64_t ms = 1000000;
+  long braked_at = -1;
+  for (long k = 0; k < 400; ++k) {
+    w.begin_tick(k, k * ms, out);
+    if (k < 200) w.on_command(0, k, ok, 100, k * ms + 100, false);  // the left robot dies at tick 200
+    w.on_command(1, k, ok, 100, k * ms + 100, false);
+    w.end_tick(k * ms + 500000);
+    if (braked_at < 0 && w.braked(0)) braked_at = k;
+    w.step();
+  }
+  INFO(log);
+  CHECK(w.load_pauses == 0);
+  CHECK_FALSE(w.paused_for_load());
+  CHECK(braked_at >= 299);  // 100 ms of silence
+  CHECK(braked_at <= 301);
+  CHECK(log.find("m1/left braked at tick") != std::string::npos);
+  CHECK(log.find("no live controller") != std::string::npos);
+  CHECK_FALSE(w.braked(1));
+}
+
+TEST_CASE("supervisor component: a malformed plan of a higher rank does not depose the leader", "[components]") {
+  const ts::ModuleSetup& m = sosm();
+  SupervisorCore s(m, SupervisorOptions{"m1/supervisor", 100, true, 0.1}, 0);
+  tp::PlanData bad;
+  tp::ModulePlan(m, true).export_to(bad);
+  bad.supervisor_id = "injector";
+  bad.epoch = 7;
+  bad.waypoints = {std::numeric_limits<double>::infinity(), 0.8, 0.0, 1.0};
+  for (long k = 0; k < 200; k += 10) {
+    s.on_report(report_at(k), k * 1000000);
+    s.on_plan(bad, k * 1000000);
+    s.update(k * 1000000);
+  }
+  CHECK(s.active());
+  CHECK(s.rank().epoch == 0);
+  bad.waypoints = {};
+  bad.heard_tick = -5;  // out of range
+  s.on_plan(bad, 200 * 1000000);
+  s.update(200 * 1000000);
+  CHECK(s.active());
 }

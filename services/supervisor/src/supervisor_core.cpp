@@ -86,7 +86,9 @@ bool SupervisorCore::adopt(const plan::PlanData& p, bool from_new_leader) {
 }
 
 void SupervisorCore::on_plan(const plan::PlanData& p, int64_t now_ns) {
-  if (!plan::valid_rank(p.strength, p.epoch) || p.supervisor_id == o_.self_id) return;
+  // A malformed plan says nothing about who leads (a stranger's plan with a high epoch must not make the leader
+  // step down).
+  if (p.supervisor_id == o_.self_id || !plan::ModulePlan::check(p).empty()) return;
   others_newest_ = std::max(others_newest_, static_cast<long>(p.heard_tick));
   max_epoch_ = std::max(max_epoch_, p.epoch);
   const plan::SupervisorRank r = p.rank();

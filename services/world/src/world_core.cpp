@@ -51,6 +51,18 @@ std::string WorldCore::serving_text() const {
   return out;
 }
 
+void WorldCore::mark_late(ArmLink& L, long tick) {
+  // Overload is commands that come, but late: a robot that sends nothing is silence, which the 100 ms
+  // no-live-controller brake handles (and a late command for an arm is only counted once per tick).
+  const long w = o_.overload.window;
+  if (!o_.realtime || tick < 0 || tick > k_ || k_ - tick >= w || L.braked) return;
+  bool& slot = L.late_ring[static_cast<size_t>(tick % w)];
+  if (slot) return;
+  slot = true;
+  ++L.late_count;
+  ++L.late_run;
+}
+
 void WorldCore::set_brake(int j, bool on, const std::string& why) {
   ArmLink& L = link_[static_cast<size_t>(j)];
   if (L.braked == on && !L.start_brake) return;
@@ -103,6 +115,13 @@ void WorldCore::begin_tick(long k, int64_t /*now_ns*/, std::array<SampleOut, 2>&
   }
   have_ = {false, false};
   fallback_ = {};
+  // The overload window: tick k's slot starts unmarked (dropping tick k - window's mark); a command for it
+  // that comes late marks it (mark_late).
+  for (ArmLink& L : link_) {
+    bool& slot = L.late_ring[static_cast<size_t>(k % o_.overload.window)];
+    if (slot) --L.late_count;
+    slot = false;
+  }
   // Paused for load: a probe sample every probe_every ticks only (during the trial before a release: all).
   const bool probe = !load_paused_ || trial_ticks_ >= 0 || k % o_.overload.probe_every == 0;
   for (size_t j = 0; j < 2; ++j) {
@@ -157,6 +176,7 @@ WorldCore::Verdict WorldCore::on_command(int j, long tick, const model::Vec3& ta
   if (o_.realtime && late_arrival) {  // after the deadline: too late for this tick, but its controller lives
     ++stale;
     L.heard = at_ns;
+    mark_late(L, tick);
     return Verdict::Stale;
   }
   if (!plan::all_finite(tau) || tick > k_) {  // a future tick is invalid
@@ -179,6 +199,7 @@ WorldCore::Verdict WorldCore::on_command(int j, long tick, const model::Vec3& ta
     // controller is back: lockstep waits for it again from the next tick.
     ++stale;
     if (L.braked && !o_.realtime && tick + 64 > k_) L.release = true;
+    mark_late(L, tick);
     return Verdict::Stale;
   }
   if (!L.owner.empty() && !(L.braked && !load_paused_) && !L.owner_gone && strength < L.strength) {
@@ -208,8 +229,8 @@ void WorldCore::apply(int j, const model::Vec3& tau, int32_t strength, int64_t a
           " answered in time");
     }
   } else if (L.braked && !load_paused_) {
-    log(o_.arm_ids[static_cast<size_t>(j)] + " follows " + name + " after " +
-        ms_text(static_cast<double>(at_ns - L.last_at) * 1e-6) + " braked");
+    log(o_.arm_ids[static_cast<size_t>(j)] + " follows " + name +
+        (L.last_at > 0 ? " after " + ms_text(static_cast<double>(at_ns - L.last_at) * 1e-6) + " braked" : ""));
     L.owner = name;
     L.strength = strength;
     set_brake(j, false, "a robot answers again");
@@ -320,13 +341,7 @@ bool WorldCore::end_tick(int64_t now_ns) {
     ArmLink& L = link_[static_cast<size_t>(j)];
     const bool had = have_[static_cast<size_t>(j)];
     if (L.braked && !L.start_brake) ++braked_ticks;
-    if (o_.realtime && expect_[static_cast<size_t>(j)] && !L.braked) {
-      // The sliding window of late arm-ticks (overload rule).
-      bool& slot = L.late_ring[static_cast<size_t>(k_ % rule.window)];
-      L.late_count += (had ? 0 : 1) - (slot ? 1 : 0);
-      slot = !had;
-      L.late_run = had ? 0 : L.late_run + 1;
-    }
+    if (o_.realtime && expect_[static_cast<size_t>(j)] && !L.braked && had) L.late_run = 0;
     if (had || L.braked) continue;
     if (o_.realtime) {
       // A late or missing command: the arm keeps its previous torque for this tick (counted). An arm from
@@ -381,6 +396,7 @@ bool WorldCore::end_tick(int64_t now_ns) {
       load_pending_ = true;
       load_pending_ns_ = now_ns;
       still_count_ = 0;
+      for (ArmLink& L : link_) L.late_run = 0;  // "missed while holding" counts from now
       ++load_pauses;
       if (braked_since_ < 0) braked_since_ = k_;
       report_now_ = true;

@@ -33,12 +33,12 @@ class Inbox : public eprosima::fastdds::dds::DataReaderListener {
   void on_data_available(eprosima::fastdds::dds::DataReader* r) override {
     eprosima::fastdds::dds::SampleInfo info;
     std::unique_lock<std::mutex> lock(mu_);
-    int source = 0;
+    int source = -1;  // a reader not (yet) registered: its samples are dropped
     for (size_t i = 0; i < N; ++i) {
       if (readers_[i] == r) source = static_cast<int>(i);
     }
     while (r->take_next_sample(&scratch_, &info) == ReturnCode_t::RETCODE_OK) {
-      if (!info.valid_data) continue;
+      if (!info.valid_data || source < 0) continue;
       timespec now{};
       ::clock_gettime(CLOCK_MONOTONIC, &now);
       items_.push_back({scratch_, source, static_cast<long long>(now.tv_sec) * 1000000000LL + now.tv_nsec});

@@ -19,7 +19,8 @@
 namespace tandem::world {
 
 /// Overload (real time): when an arm's commands keep arriving late (more than `max_late` of the last `window`
-/// ticks, or `max_consecutive` in a row), the world asks its supervisor to stop the path at once (the report's
+/// ticks, or `max_consecutive` in a row, counting commands that came after their deadline: silence is not
+/// overload, the no-live-controller brake handles a robot that sends nothing), the world asks its supervisor to stop the path at once (the report's
 /// `hold`), and once the object is still (speed below `still_speed` for `still_ticks`, or after `hold_max_s`)
 /// it brakes both arms, so that the
 /// object is held still between two locked arms, and the module pauses (docs/failure-model.md, "Overload").
@@ -191,6 +192,7 @@ class WorldCore {
     int late_run = 0;         // late ticks in a row
   };
   void set_brake(int j, bool on, const std::string& why);
+  void mark_late(ArmLink& L, long tick);
   void apply(int j, const model::Vec3& tau, int32_t strength, int64_t at_ns, int64_t decided_ns);
   struct Fallback {
     bool has = false;

@@ -119,7 +119,6 @@ int main(int argc, char** argv) {
   status.msg().serving(core.serving_text());
   status.set(runtime::Lifecycle::Active, opt.realtime ? "real time" : "lockstep");
   long k = 0;
-  bool stopped_early = false;
   for (; k < m.steps && !runtime::g_stop; ++k) {
     while (plans.take(plan_in)) {
       if (plan_in.module_id() == opt.module) core.offer_plan(runtime::from_wire(plan_in));
@@ -226,7 +225,6 @@ int main(int argc, char** argv) {
                        ctx.arm_id(j).c_str(), opt.timeout);
         }
       }
-      stopped_early = true;
       break;
     }
     publish_status_if_changed();
@@ -238,7 +236,6 @@ int main(int argc, char** argv) {
     core.step();
     if (opt.realtime) clock.advance();
   }
-  (void)stopped_early;
 
   msg::WorldSummary ws;
   world_wire::fill_summary(core, opt.module, k, opt.realtime, clock.overruns, latency_us, wake_late_us, ws);

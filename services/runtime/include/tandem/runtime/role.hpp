@@ -28,7 +28,7 @@ struct RoleOptions {
   bool continuous = false;    ///< run until stopped, tasks from the coordinator (else the scenario's task)
   bool overload_brake = true; ///< world, real time: brake and pause a module whose commands keep coming late
   int strength = kPrimaryStrength;  ///< robot: ownership strength of its torque writer; supervisor: its rank (standby: lower)
-  static constexpr int kPrimaryStrength = 100;
+  static constexpr int kPrimaryStrength = plan::kPrimaryStrength;  // one definition (services/plan)
 };
 
 /// Parses the common options; on error prints to stderr the problem and the usage and returns false.

@@ -6,6 +6,7 @@
 
 #include "sim_command.hpp"
 #include "remote_command.hpp"
+#include "soak_command.hpp"
 #include "up_command.hpp"
 
 namespace {
@@ -23,9 +24,11 @@ void usage(std::FILE* f) {
       "  kill <deploy.yaml> P  fault injection: SIGKILL process (or module) P of a running deployment\n"
       "  plug <deploy.yaml> robot M/ARM [--standby] | module NAME   attach a robot or a module live\n"
       "  unplug <deploy.yaml> robot M/ARM[@S] | module NAME        detach one gracefully\n"
+      "  soak <deploy.yaml>    run a deployment for a long time under a seeded fault schedule, check every\n"
+      "                        invariant from what it recorded, and write a report with plots\n"
       "  help [command]        show this help, or the help of one command\n"
       "\n"
-      "Run 'tandem help sim' or 'tandem help up' for their options. Exit codes: 0 success, 1 a run failed its grasp\n"
+      "Run 'tandem help sim', 'tandem help up' or 'tandem help soak' for their options. Exit codes: 0 success, 1 a run failed its grasp\n"
       "checks, 2 bad command line or configuration.\n",
       f);
 }
@@ -45,6 +48,8 @@ int main(int argc, char** argv) {
       tandem::cli::sim_usage(stdout);
     } else if (!args.empty() && args[0] == "up") {
       tandem::cli::up_usage(stdout);
+    } else if (!args.empty() && args[0] == "soak") {
+      tandem::cli::soak_usage(stdout);
     } else if (!args.empty() && (args[0] == "status" || args[0] == "down" || args[0] == "kill" ||
                                args[0] == "plug" || args[0] == "unplug")) {
       tandem::cli::remote_usage(stdout);
@@ -55,6 +60,7 @@ int main(int argc, char** argv) {
   }
   if (cmd == "sim") return tandem::cli::sim_command(args);
   if (cmd == "up") return tandem::cli::up_command(args);
+  if (cmd == "soak") return tandem::cli::soak_command(args);
   if (cmd == "status") return tandem::cli::status_command(args);
   if (cmd == "down") return tandem::cli::down_command(args);
   if (cmd == "kill") return tandem::cli::kill_command(args);

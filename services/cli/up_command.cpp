@@ -24,6 +24,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <ctime>
 #include <deque>
 #include <fstream>
 #include <map>
@@ -38,6 +39,7 @@
 #include "tandem/dds/bus.hpp"
 #include "tandem/runtime/deployment.hpp"
 #include "tandem/runtime/role.hpp"
+#include "tandem/runtime/shm_clean.hpp"
 #include "tandem/runtime/status.hpp"
 #include "tandem/sim/module_setup.hpp"
 #include "tandem/sim/scenario_yaml.hpp"
@@ -367,6 +369,12 @@ class Launcher {
       say(false, "'plug module %s': it is running already\n", name.c_str());
       return;
     }
+    if (it != modules_.end() && it->second.started && it->second.end == "draining") {
+      // Its processes still run (finishing the task): a second set would simulate the module twice.
+      say(false, "'plug module %s': it is draining (finishing its task before it leaves); plug it in again once it "
+                 "has left\n", name.c_str());
+      return;
+    }
     const auto kv = parse_kv(option);
     if (it == modules_.end() || kv.count("scenario") != 0) {
       if (name.empty() || name.find('/') != std::string::npos || kv.count("scenario") == 0 || kv.count("case") == 0) {
@@ -538,6 +546,10 @@ class Launcher {
   }
 
   void on_exit(Child& c) {
+    if (c.status >= 128) {  // killed: its shared-memory files are left behind (cleaned in the main loop)
+      shm_dirty_ = true;
+      killed_at_ = Clock::now();
+    }
     if (stopping_) return;
     if (c.role == "coordinator") {
       if (c.status == 0) {
@@ -774,6 +786,8 @@ class Launcher {
   bool have_coord_state_ = false;
   bool stopping_ = false, escalated_ = false, failed_ = false, coordinator_done_ = false;
   Clock::time_point stop_started_{};
+  bool shm_dirty_ = false;           ///< a child was killed: its shared-memory files wait to be removed
+  Clock::time_point killed_at_{};
   int coordinator_restarts_ = 0;
   unsigned long long seq_ = 0;
   std::set<unsigned long long> handled_seqs_;
@@ -916,6 +930,7 @@ int up_command(const std::vector<std::string>& args) {
 
   // discovery: server. The launcher starts the Discovery Server first (a child like the others: it dies with
   // the launcher) and makes itself and every process it starts a client of it.
+  const std::time_t launcher_started = std::time(nullptr) - 1;  // shared-memory files of this run: newer
   pid_t discovery_server = -1;
   if (d.discovery == "server") {
     const std::string exe = "/usr/bin/fast-discovery-server";
@@ -931,7 +946,8 @@ int up_command(const std::vector<std::string>& args) {
   }
   struct ServerStop {
     pid_t pid;
-    ~ServerStop() {
+    ~ServerStop() { stop(); }
+    void stop() {
       if (pid <= 0) return;
       ::kill(pid, SIGTERM);
       for (int i = 0; i < 50 && ::waitpid(pid, nullptr, WNOHANG) == 0; ++i) ::usleep(20000);
@@ -939,6 +955,7 @@ int up_command(const std::vector<std::string>& args) {
         ::kill(pid, SIGKILL);
         ::waitpid(pid, nullptr, 0);
       }
+      pid = -1;
     }
   } server_stop{discovery_server};
   bus::Participant part(d.domain_id, "launcher/" + d.name, runtime::transport_of(d));
@@ -1044,6 +1061,11 @@ int up_command(const std::vector<std::string>& args) {
                                      answer->second.text);
         launcher_status.publish();
       }
+    }
+    // Shared-memory files of killed children, once the others had 2 s to let go of them (unmapped ones only).
+    if (L.shm_dirty_ && Clock::now() - L.killed_at_ > std::chrono::seconds(2)) {
+      L.shm_dirty_ = false;
+      runtime::clean_stale_shm(launcher_started);
     }
     if (g_stop && !L.stopping_) {
       std::printf("tandem up: stop requested; stopping %d process(es)\n", L.running());
@@ -1171,12 +1193,15 @@ int up_command(const std::vector<std::string>& args) {
     std::printf("final states:\n");
     view.print(stdout);
   }
-  // A process killed by a signal could not remove its shared-memory files: clean the segments and ports
-  // that no live participant uses (best effort, with Fast DDS's own tool).
+  // A process killed by a signal could not remove its shared-memory files: remove those of this run that no
+  // live process uses (runtime::clean_stale_shm; also done during the run, after each killed child).
   bool killed = false;
   for (const auto& c : L.children_) killed = killed || c.status >= 128;
-  if (killed && std::system("fastdds shm clean > /dev/null 2>&1") != 0) {
-    std::printf("note: 'fastdds shm clean' failed; stale files may remain in /dev/shm\n");
+  if (killed || discovery_server > 0) {
+    server_stop.stop();
+    std::this_thread::sleep_for(std::chrono::milliseconds(2100));  // the last files are 2 s old (clean_stale_shm)
+    const int removed = runtime::clean_stale_shm(launcher_started);
+    if (removed > 0) std::printf("removed %d shared-memory file(s) left by killed processes\n", removed);
   }
   if (d.coordinator && !L.coordinator_done_) failed = true;
   const bool ok = !failed && !g_stop && grasp_ok;

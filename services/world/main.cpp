@@ -172,6 +172,7 @@ int main(int argc, char** argv) {
       rep.released_at(r.released_at);
       rep.normal_min(r.normal_min);
       for (int i = 0; i < 3; ++i) rep.object()[static_cast<size_t>(i)] = r.object(i);
+      world_wire::fill_report_counters(core, opt.realtime, rep);
       report.write(rep);
     }
     // Real time: the tick ends at an absolute deadline; lockstep: when every arm that is not braked has its

@@ -38,4 +38,13 @@ void fill_summary(const world::WorldCore& core, const std::string& module, long 
   }
 }
 
+void fill_report_counters(const world::WorldCore& core, bool realtime, msg::WorldReport& rep) {
+  rep.slips(static_cast<uint64_t>(core.plant().counters().slip_events));
+  rep.contact_lost(static_cast<uint64_t>(core.plant().counters().contact_lost));
+  rep.late(realtime ? core.late : core.timeouts);
+  rep.failovers(core.failovers);
+  rep.load_paused(core.paused_for_load());
+  rep.serving(core.serving_text());
+}
+
 }  // namespace tandem::world_wire

@@ -1,4 +1,5 @@
-// The world's results on the wire: WorldCore and the process's timing figures into a WorldSummary.
+// The world's results on the wire: WorldCore and the process's timing figures into a WorldSummary, and the
+// running counters of a WorldReport.
 #pragma once
 
 #include <tandemPubSubTypes.h>
@@ -13,5 +14,9 @@ namespace tandem::world_wire {
 void fill_summary(const world::WorldCore& core, const std::string& module, long ticks, bool realtime,
                   unsigned long long overruns, const runtime::Histogram& latency_us,
                   const runtime::Histogram& wake_late_us, msg::WorldSummary& ws);
+
+/// The observers' part of a WorldReport: running counters (slips, contact losses, late ticks, failovers),
+/// the load pause and who serves each arm.
+void fill_report_counters(const world::WorldCore& core, bool realtime, msg::WorldReport& rep);
 
 }  // namespace tandem::world_wire

@@ -17,6 +17,9 @@ void apply(Q& q, TopicKind kind) {
   if (kind == TopicKind::Summary || kind == TopicKind::Status || kind == TopicKind::Task) {
     q.history().depth = 1;
     q.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
+  } else if (kind == TopicKind::Record) {
+    q.history().depth = 64;
+    q.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
   } else if (kind == TopicKind::SensorsRealtime || kind == TopicKind::TorquesRealtime) {
     // Real time: a sample that is late is worthless (the world has stepped on), so no repair traffic
     // (HEARTBEAT/ACKNACK) and no queue: best effort, the newest only.

@@ -16,6 +16,9 @@ enum class TopicKind {
   Status,      ///< lifecycle and live figures of every process
   Control,     ///< requests to a launcher (tandem down)
   Task,        ///< task assignments and task states (latest per module)
+  /// Readers of observers (tandem soak, recorders) of Status/Task/Summary topics: the same QoS as those
+  /// writers (reliable, transient-local), but a deeper history (64 per instance), so that no sample is lost between two takes.
+  Record,
 };
 
 /// strength: kept for the call sites; torque writers use SHARED ownership (the world picks by strength).

@@ -1,0 +1,913 @@
+// `tandem soak`: runs a deployment for a long time under a seeded schedule of faults (the nemesis), records
+// what the deployment itself reports over DDS (worlds' reports, every process's status, the coordinator's
+// queue) plus memory and log sizes, judges the recording with the checker (tandem::soak::check) and writes a
+// report with plots. Jepsen's shape: nemesis, history, checker. docs/soak.md.
+//
+// The deployment runs under its own `tandem up` (a child process, its output in the report's launcher.log);
+// this process is one more DDS participant beside it: it reads, it sends live commands (plug/unplug) as
+// `tandem plug` would, and it signals role processes by the pids they report (SIGKILL, SIGSTOP/SIGCONT).
+#include "soak_command.hpp"
+
+#include <dirent.h>
+#include <signal.h>
+#include <sys/prctl.h>
+#include <sys/stat.h>
+#include <sys/utsname.h>
+#include <sys/wait.h>
+#include <tandemPubSubTypes.h>
+#include <unistd.h>
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <fcntl.h>
+#include <fstream>
+#include <functional>
+#include <map>
+#include <set>
+#include <sstream>
+#include <thread>
+
+#include "tandem/dds/bus.hpp"
+#include "tandem/runtime/deployment.hpp"
+#include "tandem/sim/module_setup.hpp"
+#include "tandem/sim/scenario_yaml.hpp"
+#include "tandem/soak/checker.hpp"
+#include "tandem/soak/report.hpp"
+#include "tandem/soak/schedule.hpp"
+
+namespace tandem::cli {
+namespace {
+
+namespace bus = tandem::dds;
+using namespace tandem::soak;
+using Clock = std::chrono::steady_clock;
+
+std::atomic<bool> g_soak_stop{false};
+void on_soak_signal(int) { g_soak_stop = true; }
+
+std::string self_dir() {
+  char buf[4096];
+  const ssize_t n = ::readlink("/proc/self/exe", buf, sizeof buf - 1);
+  if (n <= 0) return ".";
+  buf[n] = '\0';
+  std::string p(buf);
+  return p.substr(0, p.rfind('/'));
+}
+
+/// "90", "90s", "10m", "1h", "1.5m" -> seconds; -1 if malformed.
+double parse_duration(const std::string& s) {
+  if (s.empty()) return -1.0;
+  char* end = nullptr;
+  const double v = std::strtod(s.c_str(), &end);
+  if (end == s.c_str() || !std::isfinite(v) || v <= 0.0) return -1.0;
+  const std::string unit(end);
+  if (unit.empty() || unit == "s") return v;
+  if (unit == "m" || unit == "min") return 60.0 * v;
+  if (unit == "h") return 3600.0 * v;
+  return -1.0;
+}
+
+bool pid_alive(long long pid) {
+  if (pid <= 0) return false;
+  std::ifstream st("/proc/" + std::to_string(pid) + "/stat");
+  std::string line;
+  if (!std::getline(st, line)) return false;
+  const auto rp = line.rfind(')');
+  return rp != std::string::npos && rp + 2 < line.size() && line[rp + 2] != 'Z' && line[rp + 2] != 'X';
+}
+
+std::string cmdline(long long pid) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/cmdline");
+  std::string s((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::replace(s.begin(), s.end(), '\0', ' ');
+  return s;
+}
+
+double rss_mib(long long pid) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/status");
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.rfind("VmRSS:", 0) == 0) return std::atof(line.c_str() + 6) / 1024.0;
+  }
+  return -1.0;
+}
+
+std::set<std::string> shm_files() {
+  std::set<std::string> out;
+  if (DIR* d = ::opendir("/dev/shm")) {
+    while (dirent* e = ::readdir(d)) {
+      const std::string n = e->d_name;
+      if (n.find("fastrtps") != std::string::npos || n.find("fast_datasharing") != std::string::npos ||
+          n.find("fastdds") != std::string::npos) {
+        out.insert(n);
+      }
+    }
+    ::closedir(d);
+  }
+  return out;
+}
+
+std::string machine_text() {
+  utsname u{};
+  ::uname(&u);
+  std::string cpu;
+  std::ifstream in("/proc/cpuinfo");
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.rfind("model name", 0) == 0) {
+      cpu = line.substr(line.find(':') + 2);
+      break;
+    }
+  }
+  return std::to_string(::sysconf(_SC_NPROCESSORS_ONLN)) + " cores (" + cpu + "), " + u.sysname + " " + u.release;
+}
+
+/// The deployment the soak runs: the user's file with the chosen timing, absolute scenario paths, and a
+/// coordinator whose queue lasts the whole run (the file's own tasks first, then "soak-N" moves back and forth).
+std::string derived_deployment(const std::string& file, const runtime::Deployment& d, const std::string& timing,
+                               double duration_s, size_t& generated) {
+  YAML::Node root = YAML::LoadFile(file);
+  root["timing"] = timing;
+  for (size_t i = 0; i < d.modules.size() && i < root["modules"].size(); ++i) {
+    root["modules"][i]["scenario"] = d.modules[i].scenario;
+  }
+  if (!root["coordinator"]) {
+    root["coordinator"]["balance"] = "wear";
+    root["coordinator"]["tasks"] = YAML::Node(YAML::NodeType::Sequence);
+  }
+  // A task takes about 4 s (two 1.5 s moves and the hand-over); enough for every module to stay busy.
+  const size_t modules = std::max<size_t>(1, d.modules.size());
+  generated = static_cast<size_t>(std::ceil(duration_s / 3.0 * static_cast<double>(modules) * 1.3)) + 8;
+  YAML::Node tasks = root["coordinator"]["tasks"];
+  for (size_t i = 1; i <= generated; ++i) {
+    YAML::Node t;
+    t["name"] = "soak-" + std::to_string(i);
+    const double x = (i % 2 == 1) ? 0.15 : -0.15;
+    YAML::Node a, b;
+    a["to"] = std::vector<double>{x, 0.8, 0.0};
+    a["duration"] = 1.5;
+    b["to"] = std::vector<double>{0.0, 0.85, 0.0};
+    b["duration"] = 1.5;
+    t["segments"].push_back(a);
+    t["segments"].push_back(b);
+    tasks.push_back(t);
+  }
+  YAML::Emitter out;
+  out.SetSeqFormat(YAML::Flow);
+  out << root;
+  return std::string("# Written by tandem soak from ") + file + " (timing, absolute scenario paths, soak tasks)\n" +
+         out.c_str() + "\n";
+}
+
+struct Proc {
+  std::string role, module, serving;
+  long long pid = 0;
+  int state = 0;
+  double last_t = -1.0;
+};
+
+struct Pending {
+  double at = 0.0;
+  std::function<void()> fn;
+};
+
+class Soak {
+ public:
+  Soak(const runtime::Deployment& d, const Schedule& sched, std::string dir, std::string log_path, pid_t launcher)
+      : d_(d), sched_(sched), dir_(std::move(dir)), log_path_(std::move(log_path)), launcher_(launcher) {}
+
+  void setup(bus::Participant& part) {
+    status_ = std::make_unique<bus::Reader<msg::ProcessStatus, msg::ProcessStatusPubSubType>>(part, bus::kStatusTopic,
+                                                                                               bus::TopicKind::Record);
+    coord_ = std::make_unique<bus::Reader<msg::CoordinatorState, msg::CoordinatorStatePubSubType>>(
+        part, bus::kCoordinatorStateTopic, bus::TopicKind::Record);
+    control_ = std::make_unique<bus::Writer<msg::ControlRequest, msg::ControlRequestPubSubType>>(part, bus::kControlTopic,
+                                                                                                bus::TopicKind::Control);
+    for (const auto& m : d_.modules) {
+      reports_[m.name] = std::make_unique<bus::Reader<msg::WorldReport, msg::WorldReportPubSubType>>(
+          part, bus::module_topic(bus::kWorldReportTopic, m.name), bus::TopicKind::Record);
+      const sim::Scenario sc = sim::load_scenario(m.scenario);
+      for (const auto& c : sc.cases) {
+        if (c.name == m.case_name) h_.h_sg[m.name] = sim::make_module(sc, c).safe_grasp_force;
+      }
+    }
+    h_.duration_s = sched_.duration_s;
+    h_.realtime = d_.timing == "realtime";
+    for (const auto& t : d_.tasks) h_.task_names.push_back(t.name);
+    hog_exe_ = self_dir() + "/tandem_hog";
+  }
+
+  double now() const { return std::chrono::duration<double>(Clock::now() - t0_).count(); }
+
+  /// One pass: record what arrived, run due faults and actions, sample memory. Returns false once done.
+  void step() {
+    const double t = now();
+    record_reports(t);
+    record_status(t);
+    record_coordinator(t);
+    while (next_fault_ < sched_.faults.size() && sched_.faults[next_fault_].at_s <= t && !stopping_) {
+      fire(sched_.faults[next_fault_++], t);
+    }
+    for (size_t i = 0; i < pending_.size();) {
+      if (pending_[i].at <= t) {
+        auto fn = std::move(pending_[i].fn);
+        pending_.erase(pending_.begin() + static_cast<long>(i));
+        fn();
+      } else {
+        ++i;
+      }
+    }
+    resend_requests(t);
+    reap_hogs(t);
+    if (t - last_rss_ >= 2.0) sample_memory(t);
+  }
+
+  /// Stops injecting: every stalled process continues, every hog stops.
+  void calm() {
+    stopping_ = true;
+    for (const auto& [pid, label] : stalled_) ::kill(static_cast<pid_t>(pid), SIGCONT);
+    stalled_.clear();
+    for (auto& hg : hogs_) {
+      ::kill(hg.pid, SIGTERM);
+      ::waitpid(hg.pid, nullptr, 0);
+      if (hg.record < h_.faults.size() && h_.faults[hg.record].end_t < 0) h_.faults[hg.record].end_t = now();
+    }
+    hogs_.clear();
+  }
+
+  void progress(double t, bool final_line = false) {
+    int carried = 0, skipped = 0;
+    for (const auto& f : h_.faults) (f.skipped ? skipped : carried)++;
+    const double keep = h_.stop_s;
+    h_.stop_s = t;
+    const Verdict v = check(h_, bounds_);
+    h_.stop_s = keep;
+    int live_violations = 0;
+    std::string first;
+    for (const auto& x : v.violations) {
+      if (x.invariant == "nothing left behind" || x.invariant == "memory flat" || x.invariant == "logs bounded") continue;
+      if (live_violations++ == 0) first = x.invariant + ": " + x.text;
+    }
+    int paused = 0;
+    for (const auto& [m, s] : h_.modules) paused += (!s.empty() && s.back().load_paused) ? 1 : 0;
+    std::printf("[soak %6.0f s / %.0f s] faults %d (%d skipped), tasks done %zu, paused for load %d, violations %d%s%s\n",
+                t, sched_.duration_s, carried, skipped, h_.tasks_done.size(), paused, live_violations,
+                live_violations ? ": first: " : "", first.c_str());
+    if (final_line) std::printf("\n");
+    std::fflush(stdout);
+  }
+
+  void sample_logs(double t) {
+    struct stat st {};
+    if (::stat(log_path_.c_str(), &st) == 0) h_.log_bytes.emplace_back(t, static_cast<double>(st.st_size));
+  }
+
+  History& history() { return h_; }
+  const Bounds& bounds() const { return bounds_; }
+  Bounds& bounds() { return bounds_; }
+  std::set<long long> pids_seen() const { return pids_seen_; }
+  size_t processes_seen() const { return procs_.size(); }
+
+ private:
+  // ---- recording ----------------------------------------------------------------------------------------
+  struct Bucket {
+    ModuleSample s;
+    bool open = false;
+    double end = 0.0;
+    long last_tick = -1;
+    int world = 0;
+    std::string serving;
+  };
+
+  void record_reports(double t) {
+    for (auto& [module, reader] : reports_) {
+      Bucket& b = buckets_[module];
+      msg::WorldReport r;
+      while (reader->take(r)) {
+        if (r.module_id() != module) continue;
+        const long tick = static_cast<long>(r.tick());
+        if (tick + 100 < b.last_tick || b.world == 0) {  // a new world (the module was plugged in again)
+          flush(module, b);
+          ++b.world;
+        }
+        b.last_tick = tick;
+        if (!b.open) {
+          b.open = true;
+          b.s = ModuleSample{};
+          b.s.world = b.world;
+          b.end = t + 0.1;
+        }
+        b.s.t = t;
+        b.s.tick = tick;
+        b.s.normal_min = std::min(b.s.normal_min, r.normal_min());
+        b.s.slips = std::max<uint64_t>(b.s.slips, r.slips());
+        b.s.contact_lost = std::max<uint64_t>(b.s.contact_lost, r.contact_lost());
+        b.s.late = std::max<uint64_t>(b.s.late, r.late());
+        b.s.failovers = std::max<uint64_t>(b.s.failovers, r.failovers());
+        b.s.braked = b.s.braked || r.braked()[0] || r.braked()[1];
+        b.s.hold = b.s.hold || r.hold();
+        b.s.load_paused = b.s.load_paused || r.load_paused();
+        if (r.serving() != b.serving) {
+          b.serving = r.serving();
+          serving_[module] = r.serving();
+          h_.events.push_back({t, Event::Type::Owners, module, r.serving()});
+        }
+        if (t >= b.end) flush(module, b);
+      }
+      if (b.open && t >= b.end + 0.05) flush(module, b);
+    }
+  }
+  void flush(const std::string& module, Bucket& b) {
+    if (!b.open) return;
+    b.open = false;
+    h_.modules[module].push_back(b.s);
+  }
+
+  void record_status(double t) {
+    msg::ProcessStatus s;
+    while (status_->take(s)) {
+      if (s.deployment() != d_.name) continue;
+      const std::string& label = s.process_id();
+      if (s.role() == "launcher") {
+        on_launcher_detail(s.detail());
+        continue;
+      }
+      const long long pid = s.pid();
+      pids_seen_.insert(pid);
+      Proc& p = procs_[label];
+      auto& spans = h_.heard[label];
+      if (spans.empty() || spans.back().pid != pid || t - spans.back().end > 0.3) {
+        spans.push_back({t, t, pid});
+      } else {
+        spans.back().end = t;
+      }
+      if (p.pid != pid || p.state != s.state()) {
+        h_.events.push_back({t, Event::Type::State, label, std::to_string(s.state()) + " " + std::to_string(pid)});
+      }
+      if ((s.role() == "supervisor" || s.role() == "coordinator") && (s.serving() != p.serving || p.pid != pid)) {
+        h_.events.push_back({t, Event::Type::Serving, label, s.serving()});
+      }
+      p.role = s.role();
+      p.module = s.module_id();
+      p.pid = pid;
+      p.state = s.state();
+      p.serving = s.serving();
+      p.last_t = t;
+    }
+  }
+
+  void record_coordinator(double t) {
+    msg::CoordinatorState cs;
+    while (coord_->take(cs)) {
+      if (cs.deployment() != d_.name) continue;
+      // The most advanced state (a standby's, or the launcher's republished copy, may be older).
+      if (cs.done().size() < h_.tasks_done.size()) continue;
+      for (size_t i = h_.tasks_done.size(); i < cs.done().size(); ++i) {
+        h_.events.push_back({t, Event::Type::TaskDone, cs.done()[i], i < cs.done_by().size() ? cs.done_by()[i] : ""});
+      }
+      std::set<std::pair<std::string, std::string>> now_running;
+      for (size_t i = 0; i < cs.running().size(); ++i) {
+        now_running.insert({cs.running()[i], i < cs.running_on().size() ? cs.running_on()[i] : ""});
+      }
+      for (const auto& r : now_running) {
+        if (running_.count(r) == 0) h_.events.push_back({t, Event::Type::TaskAssigned, r.first, r.second});
+      }
+      running_ = now_running;
+      h_.tasks_done.assign(cs.done().begin(), cs.done().end());
+      h_.tasks_done_by.assign(cs.done_by().begin(), cs.done_by().end());
+      h_.tasks_running.assign(cs.running().begin(), cs.running().end());
+    }
+  }
+
+  void sample_memory(double t) {
+    last_rss_ = t;
+    for (const auto& [label, p] : procs_) {
+      if (p.state >= 3 || !pid_alive(p.pid)) continue;
+      const double mib = rss_mib(p.pid);
+      if (mib > 0) h_.rss.push_back({t, label, p.pid, mib});
+    }
+    const double mib = rss_mib(launcher_);
+    if (mib > 0) h_.rss.push_back({t, "launcher", launcher_, mib});
+  }
+
+  // ---- the nemesis --------------------------------------------------------------------------------------
+  bool live(const Proc& p, double t) const {
+    return p.state <= 2 && t - p.last_t < 1.5 && pid_alive(p.pid) && stalled_.count(p.pid) == 0;
+  }
+  std::set<std::string> owners_now() const {
+    std::set<std::string> o;
+    for (const auto& [m, text] : serving_) {
+      for (const auto& [arm, label] : parse_owners(text)) o.insert(label);
+    }
+    return o;
+  }
+  /// Modules whose world runs now (and are not being taken out by the nemesis).
+  std::vector<std::string> modules_up(double t) const {
+    std::vector<std::string> out;
+    for (const auto& m : d_.modules) {
+      const auto it = procs_.find(m.name + "/world");
+      if (it != procs_.end() && it->second.state == 2 && live(it->second, t) && out_.count(m.name) == 0) out.push_back(m.name);
+    }
+    return out;
+  }
+
+  std::vector<std::string> candidates(Target target, double t) const {
+    std::vector<std::string> c;
+    const auto owners = owners_now();
+    if (target == Target::World || target == Target::Module) {
+      const auto up = modules_up(t);
+      if (up.size() < 2) return c;  // one module always runs
+      for (const auto& m : up) c.push_back(target == Target::World ? m + "/world" : m);
+      return c;
+    }
+    for (const auto& [label, p] : procs_) {
+      if (!live(p, t) || out_.count(p.module) != 0) continue;
+      if (target == Target::Robot && p.role == "robot" && owners.count(label)) c.push_back(label);
+      if (target == Target::Standby && p.role == "robot" && !owners.count(label) && p.state == 2) c.push_back(label);
+      if (target == Target::Supervisor && p.role == "supervisor" && p.serving == "primary") c.push_back(label);
+      if (target == Target::Coordinator && p.role == "coordinator" && p.serving == "primary") c.push_back(label);
+    }
+    return c;
+  }
+
+  int live_robots_of(const std::string& arm, double t) const {
+    int n = 0;
+    for (const auto& [label, p] : procs_) {
+      if (p.role == "robot" && live(p, t) && (label == arm || label.rfind(arm + "@", 0) == 0)) ++n;
+    }
+    return n;
+  }
+
+  void fire(const Fault& f, double t) {
+    FaultRecord r;
+    r.fault = f;
+    r.t = t;
+    const size_t index = h_.faults.size();
+    if (f.kind == FaultKind::Hog) {
+      hog(f, r, index);
+      h_.faults.push_back(r);
+      return;
+    }
+    std::string target = f.label;
+    if (target.empty()) {
+      const auto c = candidates(f.target, t);
+      if (c.empty()) {
+        r.skipped = true;
+        r.note = "no live " + std::string(name(f.target));
+        h_.faults.push_back(r);
+        return;
+      }
+      target = c[f.pick % c.size()];
+    }
+    r.label = target;
+    const bool is_module = f.kind == FaultKind::Unplug && f.target == Target::Module;
+    r.module = is_module ? target : (target.rfind("coordinator", 0) == 0 ? "" : target.substr(0, target.find('/')));
+    if (!is_module) {
+      const auto it = procs_.find(target);
+      if (it == procs_.end() || !pid_alive(it->second.pid)) {
+        r.skipped = true;
+        r.note = "no running process " + target;
+        h_.faults.push_back(r);
+        return;
+      }
+      r.pid = it->second.pid;
+      if (it->second.role == "robot") r.had_standby = live_robots_of(target.substr(0, target.find('@')), t) > 1;
+    } else {
+      const auto it = procs_.find(target + "/world");
+      r.pid = it != procs_.end() ? it->second.pid : 0;
+    }
+    switch (f.kind) {
+      case FaultKind::Kill:
+        ::kill(static_cast<pid_t>(r.pid), SIGKILL);
+        if (f.target == Target::World || (target.size() > 6 && target.substr(target.size() - 6) == "/world")) {
+          out_.insert(r.module);
+          replug_module(r.module, index, t + f.duration_s, t + f.duration_s + 60.0);
+        }
+        break;
+      case FaultKind::Stall: {
+        const long long pid = r.pid;
+        ::kill(static_cast<pid_t>(pid), SIGSTOP);
+        stalled_[pid] = target;
+        pending_.push_back({t + f.duration_s, [this, pid, index] {
+                              if (stalled_.erase(pid)) ::kill(static_cast<pid_t>(pid), SIGCONT);
+                              h_.faults[index].end_t = now();
+                            }});
+        break;
+      }
+      case FaultKind::Unplug:
+        if (is_module) {
+          out_.insert(target);
+          request("unplug", "module " + target, "", nullptr);
+          replug_module(target, index, t + f.duration_s, t + f.duration_s + 90.0);
+        } else {
+          const std::string arm = target.substr(0, target.find('@'));
+          const bool primary = target.find('@') == std::string::npos;
+          request("unplug", "robot " + target, "", nullptr);
+          pending_.push_back({t + f.duration_s, [this, arm, primary, index] { replug_robot(arm, primary, index, now() + 30.0); }});
+        }
+        break;
+      case FaultKind::Hog:
+        break;
+    }
+    h_.faults.push_back(r);
+  }
+
+  void hog(const Fault& f, FaultRecord& r, size_t index) {
+    std::vector<std::string> args{hog_exe_, "--cores", std::to_string(f.cores), "--busy", "100", "--idle", "0",
+                                  "--seconds", std::to_string(f.duration_s)};
+    std::vector<char*> argv;
+    for (auto& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    const pid_t pid = ::fork();
+    if (pid == 0) {
+      ::prctl(PR_SET_PDEATHSIG, SIGKILL);
+      const int null = ::open("/dev/null", O_WRONLY);
+      if (null >= 0) {
+        ::dup2(null, 1);
+        ::dup2(null, 2);
+      }
+      ::execv(argv[0], argv.data());
+      ::_exit(127);
+    }
+    if (pid < 0) {
+      r.skipped = true;
+      r.note = "fork failed";
+      return;
+    }
+    r.pid = pid;
+    r.label = std::to_string(f.cores) + " core(s)";
+    hogs_.push_back({pid, index});
+  }
+
+  void reap_hogs(double t) {
+    for (auto it = hogs_.begin(); it != hogs_.end();) {
+      int st = 0;
+      if (::waitpid(it->pid, &st, WNOHANG) == it->pid) {
+        if (WIFEXITED(st) && WEXITSTATUS(st) == 127) h_.faults[it->record].note = "the hog could not start (" + hog_exe_ + ")";
+        h_.faults[it->record].end_t = t;
+        it = hogs_.erase(it);
+      } else {
+        ++it;
+      }
+    }
+  }
+
+  // ---- live commands, as `tandem plug/unplug` sends them ------------------------------------------------
+  struct Request {
+    msg::ControlRequest req;
+    double sent = 0.0, first = 0.0;
+    std::function<void(bool, const std::string&)> done;
+  };
+
+  void request(const std::string& cmd, const std::string& target, const std::string& option,
+               std::function<void(bool, const std::string&)> done) {
+    Request r;
+    r.req.deployment(d_.name);
+    r.req.command(cmd);
+    r.req.target(target);
+    r.req.option(option);
+    r.req.seq(next_seq_++);
+    r.sent = r.first = now();
+    r.done = std::move(done);
+    control_->write(r.req);
+    requests_[r.req.seq()] = std::move(r);
+  }
+
+  void resend_requests(double t) {
+    for (auto it = requests_.begin(); it != requests_.end();) {
+      if (t - it->second.first > 10.0) {  // never answered
+        if (it->second.done) it->second.done(false, "no answer from the launcher within 10 s");
+        it = requests_.erase(it);
+        continue;
+      }
+      if (t - it->second.sent > 0.5) {
+        control_->write(it->second.req);
+        it->second.sent = t;
+      }
+      ++it;
+    }
+  }
+
+  void on_launcher_detail(const std::string& detail) {
+    if (detail.rfind("reply ", 0) != 0) return;
+    const unsigned long long seq = std::strtoull(detail.c_str() + 6, nullptr, 10);
+    const auto it = requests_.find(seq);
+    if (it == requests_.end()) return;
+    const auto sp = detail.find(' ', 6);
+    const std::string text = sp == std::string::npos ? "" : detail.substr(sp + 1);
+    auto done = std::move(it->second.done);
+    requests_.erase(it);
+    if (done) done(text.rfind("ok", 0) == 0, text);
+  }
+
+  /// Plugs `module` in again from `at` on, retrying every second until the launcher accepts (a draining module
+  /// is not yet out) or `give_up` passes.
+  void replug_module(const std::string& module, size_t index, double at, double give_up) {
+    pending_.push_back({at, [this, module, index, give_up] {
+                          request("plug", "module " + module, "", [this, module, index, give_up](bool ok, const std::string& why) {
+                            if (ok) {
+                              h_.faults[index].end_t = now();
+                              out_.erase(module);
+                            } else if (now() < give_up && !stopping_) {
+                              replug_module(module, index, now() + 1.0, give_up);
+                            } else {
+                              h_.faults[index].note = "could not plug " + module + " in again: " + why;
+                              out_.erase(module);
+                            }
+                          });
+                        }});
+  }
+
+  void replug_robot(const std::string& arm, bool primary, size_t index, double give_up) {
+    if (stopping_) return;
+    request("plug", "robot " + arm, primary ? "primary" : "standby",
+            [this, arm, primary, index, give_up](bool ok, const std::string& why) {
+              if (ok) {
+                h_.faults[index].end_t = now();
+              } else if (primary && why.find("primary already") != std::string::npos) {
+                replug_robot(arm, false, index, give_up);  // a restarted robot took the primary's place
+              } else if (now() < give_up && !stopping_) {
+                pending_.push_back({now() + 1.0, [this, arm, primary, index, give_up] { replug_robot(arm, primary, index, give_up); }});
+              } else {
+                h_.faults[index].note = "could not plug a robot into " + arm + " again: " + why;
+              }
+            });
+  }
+
+  const runtime::Deployment& d_;
+  const Schedule& sched_;
+  std::string dir_, log_path_;
+  pid_t launcher_;
+  std::string hog_exe_;
+  Clock::time_point t0_ = Clock::now();
+  History h_;
+  Bounds bounds_;
+  std::unique_ptr<bus::Reader<msg::ProcessStatus, msg::ProcessStatusPubSubType>> status_;
+  std::unique_ptr<bus::Reader<msg::CoordinatorState, msg::CoordinatorStatePubSubType>> coord_;
+  std::unique_ptr<bus::Writer<msg::ControlRequest, msg::ControlRequestPubSubType>> control_;
+  std::map<std::string, std::unique_ptr<bus::Reader<msg::WorldReport, msg::WorldReportPubSubType>>> reports_;
+  std::map<std::string, Bucket> buckets_;
+  std::map<std::string, std::string> serving_;  ///< module -> its world's serving text now
+  std::map<std::string, Proc> procs_;
+  std::set<long long> pids_seen_;
+  std::set<std::pair<std::string, std::string>> running_;
+  std::set<std::string> out_;                   ///< modules the nemesis took out and will plug in again
+  std::map<long long, std::string> stalled_;
+  struct Hog {
+    pid_t pid;
+    size_t record;
+  };
+  std::vector<Hog> hogs_;
+  std::vector<Pending> pending_;
+  std::map<unsigned long long, Request> requests_;
+  unsigned long long next_seq_ =
+      static_cast<unsigned long long>(std::chrono::system_clock::now().time_since_epoch().count() / 1000);
+  size_t next_fault_ = 0;
+  double last_rss_ = -10.0;
+  bool stopping_ = false;
+};
+
+}  // namespace
+
+void soak_usage(std::FILE* f) {
+  std::fputs(
+      "usage: tandem soak <deploy.yaml> [--duration 10m] [--seed N] [--faults FILE|PRESET] [--report DIR]\n"
+      "                   [--timing realtime|lockstep] [--print-schedule]\n"
+      "\n"
+      "Runs the deployment (its own `tandem up`) for the given time under a seeded schedule of faults, records\n"
+      "what the deployment reports over DDS, judges the recording against the invariants and writes a report.\n"
+      "\n"
+      "  --duration T     how long to run: 90, 90s, 10m, 1h (default 10m)\n"
+      "  --seed N         the schedule's seed (default 1): the same seed, rules and duration give the same schedule\n"
+      "  --faults F       a schedule file (YAML, docs/soak.md) or a preset: mixed (default; every kind, about 17 a\n"
+      "                   minute), ci (every kind at least once, for short runs), kills, none\n"
+      "  --report DIR     where the report goes (default soak-<deployment>-<seed>): summary.md, summary.txt,\n"
+      "                   index.html, SVG plots, schedule.yaml, the derived deploy.yaml and launcher.log\n"
+      "  --timing T       realtime (default) or lockstep, whatever the file says\n"
+      "  --print-schedule print the schedule (YAML) and exit without starting anything\n"
+      "\n"
+      "Faults: SIGKILL of a robot serving an arm, a standby robot, the serving supervisor or coordinator, or a\n"
+      "module's world (plugged in again after a while); SIGSTOP stalls; unplug and plug of robots and modules;\n"
+      "CPU hogs on one or both cores. The deployment gets a coordinator queue that lasts the whole run.\n"
+      "Invariants: object held (no slip, no drop), grasp force >= h_sg (outside stated windows), tasks done exactly\n"
+      "once, every fault recovered within its bound, progress, nothing left behind, memory flat, logs bounded.\n"
+      "Progress is printed every 10 s. Ctrl-C stops early and still writes the report.\n"
+      "\n"
+      "Exit: 0 every invariant held; 1 a violation (listed in the report); 2 bad arguments, deployment or schedule.\n",
+      f);
+}
+
+int soak_command(const std::vector<std::string>& args) {
+  std::string file, faults = "mixed", report, timing = "realtime";
+  double duration = 600.0;
+  uint64_t seed = 1;
+  bool print_only = false;
+  auto value = [&](size_t& i, const char* opt) -> std::string {
+    if (i + 1 >= args.size()) throw std::invalid_argument(std::string(opt) + " needs a value (see 'tandem help soak')");
+    return args[++i];
+  };
+  try {
+    for (size_t i = 0; i < args.size(); ++i) {
+      const std::string& a = args[i];
+      if (a == "--help" || a == "-h") {
+        soak_usage(stdout);
+        return 0;
+      } else if (a == "--duration") {
+        const std::string v = value(i, "--duration");
+        duration = parse_duration(v);
+        if (duration <= 0.0) throw std::invalid_argument("--duration '" + v + "': expected a time above 0 such as 90, 90s, 10m or 1h");
+      } else if (a == "--seed") {
+        const std::string v = value(i, "--seed");
+        char* end = nullptr;
+        seed = std::strtoull(v.c_str(), &end, 10);
+        if (v.empty() || *end != '\0' || v[0] == '-') throw std::invalid_argument("--seed '" + v + "': expected a whole number >= 0");
+      } else if (a == "--faults") {
+        faults = value(i, "--faults");
+      } else if (a == "--report") {
+        report = value(i, "--report");
+      } else if (a == "--timing") {
+        timing = value(i, "--timing");
+        if (timing != "realtime" && timing != "lockstep") {
+          throw std::invalid_argument("--timing '" + timing + "': accepted: realtime, lockstep");
+        }
+      } else if (a == "--print-schedule") {
+        print_only = true;
+      } else if (!a.empty() && a[0] == '-') {
+        throw std::invalid_argument("unknown option '" + a + "' (see 'tandem help soak')");
+      } else if (file.empty()) {
+        file = a;
+      } else {
+        throw std::invalid_argument("one deployment file expected, got '" + a + "' too");
+      }
+    }
+    if (file.empty()) throw std::invalid_argument("missing the deployment file (see 'tandem help soak')");
+  } catch (const std::invalid_argument& e) {
+    std::fprintf(stderr, "tandem soak: %s\n", e.what());
+    return 2;
+  }
+  runtime::Deployment d;
+  FaultFile rules;
+  Schedule sched;
+  try {
+    d = runtime::load_deployment(file);
+    struct stat st {};
+    rules = ::stat(faults.c_str(), &st) == 0 ? load_fault_file(faults) : preset(faults);
+    sched = make_schedule(rules, seed, duration);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "tandem soak: %s\n", e.what());
+    return 2;
+  }
+  if (print_only) {
+    std::fputs(to_yaml(sched).c_str(), stdout);
+    return 0;
+  }
+  if (report.empty()) report = "soak-" + d.name + "-" + std::to_string(seed);
+  if (::mkdir(report.c_str(), 0755) != 0 && errno != EEXIST) {
+    std::fprintf(stderr, "tandem soak: cannot create the report directory %s: %s\n", report.c_str(), std::strerror(errno));
+    return 2;
+  }
+  // The deployment as run: with a queue that lasts, the chosen timing; validated like any deployment file.
+  const std::string derived = report + "/deploy.yaml";
+  size_t generated = 0;
+  try {
+    std::ofstream(derived) << derived_deployment(file, d, timing, duration, generated);
+    std::ofstream(report + "/schedule.yaml") << to_yaml(sched);
+    d = runtime::load_deployment(derived);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "tandem soak: the derived deployment %s is not valid: %s\n", derived.c_str(), e.what());
+    return 2;
+  }
+  std::string command = "tandem soak";
+  for (const auto& a : args) command += " " + a;
+  std::printf("tandem soak %s: %zu module(s), %s timing, %.0f s, seed %llu, %zu fault(s) scheduled (%s); report in %s\n",
+              d.name.c_str(), d.modules.size(), timing.c_str(), duration, static_cast<unsigned long long>(seed),
+              sched.faults.size(), rules.source.c_str(), report.c_str());
+  std::fflush(stdout);
+
+  struct sigaction sa {};
+  sa.sa_handler = on_soak_signal;
+  ::sigaction(SIGINT, &sa, nullptr);
+  ::sigaction(SIGTERM, &sa, nullptr);
+  const std::set<std::string> shm_before = shm_files();
+  const auto wall0 = Clock::now();
+  const std::string log_path = report + "/launcher.log";
+  const std::string exe = self_dir() + "/tandem";
+  const std::string summary_path = report + "/launcher-summary.txt";
+  const pid_t me = ::getpid();
+  const pid_t launcher = ::fork();
+  if (launcher < 0) {
+    std::fprintf(stderr, "tandem soak: fork failed: %s\n", std::strerror(errno));
+    return 2;
+  }
+  if (launcher == 0) {
+    ::signal(SIGINT, SIG_DFL);
+    ::signal(SIGTERM, SIG_DFL);
+    ::prctl(PR_SET_PDEATHSIG, SIGTERM);
+    if (::getppid() != me) ::_exit(127);
+    const int fd = ::open(log_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    if (fd >= 0) {
+      ::dup2(fd, 1);
+      ::dup2(fd, 2);
+    }
+    ::execl(exe.c_str(), exe.c_str(), "up", derived.c_str(), "--summary", summary_path.c_str(), static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(d.discovery == "server" ? 600 : 100));
+  runtime::use_discovery(d);
+  int launcher_status = -1;
+  bool launcher_gone = false;
+  Soak soak(d, sched, report, log_path, launcher);
+  {
+    bus::Participant part(d.domain_id, "soak/" + d.name, runtime::transport_of(d));
+    soak.setup(part);
+    double last_progress = 0.0, last_log = -10.0;
+    const double progress_every = duration > 300 ? 30.0 : 10.0;
+    while (!g_soak_stop) {
+      const double t = soak.now();
+      if (t >= duration) break;
+      soak.step();
+      if (t - last_log >= 5.0) {
+        soak.sample_logs(t);
+        last_log = t;
+      }
+      if (t - last_progress >= progress_every) {
+        soak.progress(t);
+        last_progress = t;
+      }
+      int st = 0;
+      if (::waitpid(launcher, &st, WNOHANG) == launcher) {
+        launcher_gone = true;
+        launcher_status = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+        std::printf("tandem soak: the deployment ended by itself (tandem up exit %d) at %.1f s; see %s\n", launcher_status,
+                    t, log_path.c_str());
+        break;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    if (g_soak_stop) std::printf("tandem soak: stopped early at %.1f s\n", soak.now());
+    soak.history().stop_s = soak.now();
+    soak.calm();
+    // Stop the deployment (as Ctrl-C would) and keep recording until its launcher is gone.
+    if (!launcher_gone) {
+      ::kill(launcher, SIGTERM);
+      const auto t_stop = Clock::now();
+      while (true) {
+        soak.step();
+        int st = 0;
+        if (::waitpid(launcher, &st, WNOHANG) == launcher) {
+          launcher_status = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+          break;
+        }
+        if (Clock::now() - t_stop > std::chrono::seconds(30)) {
+          std::printf("tandem soak: tandem up did not stop within 30 s; SIGKILL\n");
+          ::kill(launcher, SIGKILL);
+          ::waitpid(launcher, &st, 0);
+          launcher_status = 137;
+          break;
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(5));
+      }
+    }
+    soak.sample_logs(soak.now());
+  }
+  History& h = soak.history();
+  h.launcher_exit = launcher_status;
+  // Nothing may be left: every process the deployment reported, and its shared-memory files.
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  for (long long pid : soak.pids_seen()) {
+    if (pid_alive(pid) && cmdline(pid).find("tandem") != std::string::npos) {
+      h.leftover_processes.push_back(std::to_string(pid) + " " + cmdline(pid));
+    }
+  }
+  for (const auto& f : shm_files()) {
+    if (shm_before.count(f) == 0) h.leftover_shm.push_back(f);
+  }
+  RunInfo info;
+  info.deployment = d.name;
+  info.deployment_file = file;
+  info.command = command;
+  info.faults_source = rules.source;
+  info.machine = machine_text();
+  info.timing = timing;
+  info.seed = seed;
+  info.wall_s = std::chrono::duration<double>(Clock::now() - wall0).count();
+  info.modules = static_cast<int>(d.modules.size());
+  info.processes_seen = static_cast<int>(soak.processes_seen());
+  const Verdict v = check(h, soak.bounds());
+  try {
+    write_report(report, info, h, soak.bounds(), v);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "tandem soak: %s\n", e.what());
+  }
+  const std::string text = summary_text(info, h, soak.bounds(), v);
+  std::fputs(text.substr(0, text.find("## Plots")).c_str(), stdout);
+  std::printf("report: %s/index.html\nresult: %s\n", report.c_str(), v.ok() ? "PASS (every invariant held)" : "FAIL (see the violations)");
+  return v.ok() ? 0 : 1;
+}
+
+}  // namespace tandem::cli

@@ -1,0 +1,20 @@
+// Clean-up of Fast DDS shared-memory files left by processes that were killed (SIGKILL gives them no chance to
+// remove their segments, port files, locks and data-sharing pools; `fastdds shm clean` leaves data-sharing
+// pools behind). Used by the launcher after a killed child and at its end.
+#pragma once
+
+#include <ctime>
+#include <set>
+#include <string>
+
+namespace tandem::runtime {
+
+/// Names in /dev/shm of Fast DDS files (fastrtps_*, sem.fastrtps_*, fast_datasharing_*).
+std::set<std::string> fastdds_shm_files();
+
+/// Removes the Fast DDS files in /dev/shm that were last modified at or after `since` (and at least 2 s ago: a
+/// younger one may be being created) and that no live process has mapped or open (checked in /proc/*/maps and
+/// /proc/*/fd). Files of other runs that started earlier are left alone. Returns how many were removed.
+int clean_stale_shm(std::time_t since);
+
+}  // namespace tandem::runtime

@@ -1,0 +1,83 @@
+#include "tandem/runtime/shm_clean.hpp"
+
+#include <dirent.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cctype>
+#include <cstring>
+#include <fstream>
+
+namespace tandem::runtime {
+namespace {
+
+bool is_fastdds(const std::string& n) {
+  return n.rfind("fastrtps_", 0) == 0 || n.rfind("sem.fastrtps_", 0) == 0 || n.rfind("fast_datasharing_", 0) == 0;
+}
+
+/// Every /dev/shm name some live process has mapped or open.
+std::set<std::string> in_use() {
+  std::set<std::string> used;
+  DIR* proc = ::opendir("/proc");
+  if (proc == nullptr) return used;
+  const std::string prefix = "/dev/shm/";
+  while (dirent* e = ::readdir(proc)) {
+    if (!std::isdigit(static_cast<unsigned char>(e->d_name[0]))) continue;
+    const std::string base = std::string("/proc/") + e->d_name;
+    std::ifstream maps(base + "/maps");
+    std::string line;
+    while (std::getline(maps, line)) {
+      const auto at = line.find(prefix);
+      if (at == std::string::npos) continue;
+      std::string name = line.substr(at + prefix.size());
+      const auto del = name.find(" (deleted)");
+      if (del != std::string::npos) name.erase(del);
+      used.insert(name);
+    }
+    if (DIR* fds = ::opendir((base + "/fd").c_str())) {
+      while (dirent* f = ::readdir(fds)) {
+        if (f->d_name[0] == '.') continue;
+        char buf[4096];
+        const ssize_t n = ::readlink((base + "/fd/" + f->d_name).c_str(), buf, sizeof buf - 1);
+        if (n <= 0) continue;
+        buf[n] = '\0';
+        if (std::strncmp(buf, prefix.c_str(), prefix.size()) == 0) used.insert(buf + prefix.size());
+      }
+      ::closedir(fds);
+    }
+  }
+  ::closedir(proc);
+  return used;
+}
+
+}  // namespace
+
+std::set<std::string> fastdds_shm_files() {
+  std::set<std::string> out;
+  if (DIR* d = ::opendir("/dev/shm")) {
+    while (dirent* e = ::readdir(d)) {
+      if (is_fastdds(e->d_name)) out.insert(e->d_name);
+    }
+    ::closedir(d);
+  }
+  return out;
+}
+
+int clean_stale_shm(std::time_t since) {
+  const std::set<std::string> files = fastdds_shm_files();
+  if (files.empty()) return 0;
+  const std::set<std::string> used = in_use();
+  const std::time_t now = std::time(nullptr);
+  int removed = 0;
+  for (const auto& name : files) {
+    if (used.count(name) != 0) continue;
+    const std::string path = "/dev/shm/" + name;
+    struct stat st {};
+    // A file younger than 2 s may belong to a process that is creating it right now (not yet mapped).
+    if (::stat(path.c_str(), &st) != 0 || st.st_mtime < since || st.st_mtime > now - 2) continue;
+    if (::unlink(path.c_str()) == 0) ++removed;
+  }
+  return removed;
+}
+
+}  // namespace tandem::runtime

@@ -1,0 +1,70 @@
+// The soak's checker: judges a recorded History against the invariants (docs/soak.md) and measures every
+// recovery. Pure: no DDS, no clock, no processes, so it is unit-tested on made-up histories.
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include "tandem/soak/history.hpp"
+
+namespace tandem::soak {
+
+/// The bounds the checker holds the run to (documented in docs/soak.md, printed in the report).
+struct Bounds {
+  double failover_s = 0.5;       ///< kill/unplug of the robot serving an arm (with a standby): arm served again
+  double restart_s = 10.0;       ///< a killed robot's replacement is up (restart policy with backoff)
+  double supervisor_s = 2.0;     ///< kill of the serving supervisor: another one serves
+  double coordinator_s = 5.0;    ///< kill of the serving coordinator: another one serves
+  double module_back_s = 15.0;   ///< kill world / unplug module: the module runs again after it is plugged in
+  double replan_s = 10.0;        ///< kill world: its running task is running or done elsewhere (or by it again)
+  double stall_extra_s = 2.0;    ///< a stalled process is heard again within its stall plus this
+  double hog_s = 20.0;           ///< after a hog ends, no module is paused for load any more
+  double startup_grace_s = 1.0;  ///< normal force is not judged in a world's first second (the grasp builds up)
+  double brake_grace_s = 0.5;    ///< nor while an arm is braked or held and this long after
+  double task_lost_s = 60.0;     ///< a task assigned this long before the stop must be done or running at the end
+  double rss_slope_mib_per_min = 1.0;  ///< resident memory growth of a long-lived process
+  double rss_min_life_s = 30.0;  ///< judged only for processes that lived this long (after their first 10 s)
+  double log_growth_ratio = 3.0; ///< the log's rate in the last third over the first third
+};
+
+struct Violation {
+  double t = 0.0;
+  std::string invariant;
+  int fault = 0;                 ///< the fault it follows (index), 0 if none
+  std::string text;
+};
+
+struct InvariantResult {
+  std::string name;
+  std::string description;
+  bool ok = true;
+  int checked = 0;               ///< how many things it judged
+};
+
+struct Recovery {
+  int fault = 0;
+  std::string kind;              ///< "kill robot", "restart robot", ...
+  double seconds = 0.0;
+};
+
+struct Verdict {
+  std::vector<InvariantResult> invariants;
+  std::vector<Violation> violations;
+  std::vector<Recovery> recoveries;
+  std::map<std::string, int> faults_by_kind;  ///< carried out (skipped ones not counted)
+  int skipped = 0;
+  std::map<std::string, double> rss_slope;    ///< per process label judged [MiB/min]
+  bool ok() const { return violations.empty(); }
+};
+
+Verdict check(const History& h, const Bounds& b);
+
+/// "left=m1/left@50,right=braked" -> {left: m1/left@50, right: braked}
+std::map<std::string, std::string> parse_owners(const std::string& serving);
+/// Least-squares slope of y over x (0 with fewer than 2 points).
+double slope(const std::vector<std::pair<double, double>>& xy);
+/// Percentile (0..1) of values, linear between order statistics; 0 for none.
+double percentile(std::vector<double> v, double p);
+
+}  // namespace tandem::soak

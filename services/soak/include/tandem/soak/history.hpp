@@ -1,0 +1,84 @@
+// What a soak run recorded (the checker's only input): the worlds' reports, the processes' status, the
+// coordinator's queue, resident memory and log sizes, and the nemesis's own log of what it did (used to know
+// where to look and to name a violation's fault, never as evidence that something recovered).
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "tandem/soak/schedule.hpp"
+
+namespace tandem::soak {
+
+/// A module's state over one 100 ms bucket of its world's reports (10 reports in real time).
+struct ModuleSample {
+  double t = 0.0;                ///< end of the bucket [s since the soak started]
+  long tick = 0;                 ///< the world's newest tick
+  double normal_min = 1e300;     ///< lowest normal force in the bucket [N]
+  uint64_t slips = 0, contact_lost = 0, late = 0, failovers = 0;  ///< the world's running counters
+  bool braked = false;           ///< an arm was braked in the bucket
+  bool hold = false;             ///< the world asked for a hold (overload)
+  bool load_paused = false;
+  int world = 0;                 ///< which world instance (1, 2, ... as the module is plugged in again)
+};
+
+/// A stretch of time in which a process was heard (status samples at most `gap` apart).
+struct Span {
+  double start = 0.0, end = 0.0;
+  long long pid = 0;
+};
+
+/// A change seen in the recorded samples.
+struct Event {
+  double t = 0.0;
+  enum class Type {
+    Owners,        ///< subject: module; text: the world's serving text ("left=m1/left@50,right=m1/right")
+    State,         ///< subject: process label; text: "<state> <pid>" (state 0..4 as ProcessStatus)
+    Serving,       ///< subject: process label (supervisor, coordinator); text: "primary" | "standby"
+    TaskAssigned,  ///< subject: task name; text: module
+    TaskDone,      ///< subject: task name; text: module
+  } type = Type::State;
+  std::string subject, text;
+};
+
+/// What the nemesis did.
+struct FaultRecord {
+  Fault fault;                   ///< as scheduled
+  double t = 0.0;                ///< when it was carried out
+  std::string label;             ///< process label or module hit ("" if skipped)
+  std::string module;            ///< its module ("" for the coordinator and a hog)
+  long long pid = 0;
+  bool skipped = false;          ///< no candidate was alive
+  std::string note;              ///< why skipped, or what else happened (re-plugged at ...)
+  double end_t = -1.0;           ///< stall: SIGCONT; hog: its end; unplug / kill world: plugged in again
+  bool had_standby = true;       ///< robot faults: another live robot served the arm when it fired
+};
+
+struct RssSample {
+  double t = 0.0;
+  std::string label;
+  long long pid = 0;
+  double mib = 0.0;
+};
+
+struct History {
+  double duration_s = 0.0;       ///< planned length
+  double stop_s = 0.0;           ///< when the deployment was asked to stop
+  bool realtime = true;
+  std::map<std::string, double> h_sg;                        ///< per module [N]
+  std::map<std::string, std::vector<ModuleSample>> modules;  ///< per module, in time order
+  std::map<std::string, std::vector<Span>> heard;            ///< per process label, in time order
+  std::vector<Event> events;                                 ///< in time order
+  std::vector<FaultRecord> faults;                           ///< in time order
+  std::vector<RssSample> rss;
+  std::vector<std::pair<double, double>> log_bytes;          ///< (t, bytes of the launcher's log)
+  std::vector<std::string> task_names;                       ///< the coordinator's task list
+  std::vector<std::string> tasks_done, tasks_done_by, tasks_running;  ///< the final queue state heard
+  std::vector<std::string> leftover_processes;               ///< still running after the run
+  std::vector<std::string> leftover_shm;                     ///< /dev/shm files new since the start and left
+  int launcher_exit = -1;
+};
+
+}  // namespace tandem::soak

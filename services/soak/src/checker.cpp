@@ -1,0 +1,453 @@
+#include "tandem/soak/checker.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdarg>
+#include <cstdio>
+#include <cstdlib>
+#include <set>
+#include <sstream>
+
+namespace tandem::soak {
+namespace {
+
+std::string fmt(const char* f, ...) __attribute__((format(printf, 1, 2)));
+std::string fmt(const char* f, ...) {
+  char buf[512];
+  va_list ap;
+  va_start(ap, f);
+  std::vsnprintf(buf, sizeof buf, f, ap);
+  va_end(ap);
+  return buf;
+}
+
+std::string arm_of(const std::string& label) { return label.substr(0, label.find('@')); }
+std::string robot_of(const std::string& label) {
+  const std::string arm = arm_of(label);
+  const auto slash = arm.find('/');
+  return slash == std::string::npos ? "" : arm.substr(slash + 1);
+}
+bool of_slot(const std::string& label, const std::string& slot) {
+  return label == slot || label.rfind(slot + "@", 0) == 0;
+}
+int state_of(const Event& e) { return std::atoi(e.text.c_str()); }
+long long pid_of(const Event& e) {
+  const auto sp = e.text.find(' ');
+  return sp == std::string::npos ? 0 : std::atoll(e.text.c_str() + sp + 1);
+}
+
+class Judge {
+ public:
+  Judge(const History& h, const Bounds& b, Verdict& v) : h_(h), b_(b), v_(v) {}
+
+  void run() {
+    const auto held = add("object held", "no slip and no loss of contact, ever (world counters)");
+    const auto grasp = add("grasp force", "normal force >= h_sg except in a world's first second and while braked or held");
+    const auto tasks = add("tasks exactly once", "no task done twice, none lost, none unknown");
+    const auto rec = add("recovery", "every fault followed by its recovery within its bound");
+    const auto prog = add("progress", "tasks keep being done (no 45 s without one)");
+    const auto left = add("nothing left behind", "no process running and no new shared-memory file after the run");
+    const auto rss = add("memory flat", "resident memory slope of every long-lived process below the bound");
+    const auto logs = add("logs bounded", "the launcher log's growth rate does not climb");
+    objects(held);
+    grasp_force(grasp);
+    exactly_once(tasks);
+    for (const FaultRecord& f : h_.faults) recovery(f, rec);
+    progress(prog);
+    leftovers(left);
+    memory(rss);
+    log_growth(logs);
+    for (const FaultRecord& f : h_.faults) {
+      if (f.skipped) {
+        ++v_.skipped;
+      } else {
+        ++v_.faults_by_kind[label(f.fault.kind, f.fault.target)];
+      }
+    }
+    std::sort(v_.violations.begin(), v_.violations.end(), [](const Violation& a, const Violation& b) { return a.t < b.t; });
+  }
+
+ private:
+  size_t add(const char* name, const char* what) {
+    v_.invariants.push_back({name, what, true, 0});
+    return v_.invariants.size() - 1;
+  }
+  void violate(size_t inv, double t, int fault, const std::string& text) {
+    v_.invariants[inv].ok = false;
+    v_.violations.push_back({t, v_.invariants[inv].name, fault, text});
+  }
+  /// The last fault carried out at or before t (on `module`, or anywhere if module is empty), 0 if none.
+  int fault_before(double t, const std::string& module = "") const {
+    int best = 0;
+    for (const FaultRecord& f : h_.faults) {
+      if (f.skipped || f.t > t) continue;
+      if (!module.empty() && !f.module.empty() && f.module != module) continue;
+      best = f.fault.index;
+    }
+    return best;
+  }
+  /// Another fault on the same module (or the coordinator, or a hog) in (f.t, until]: it may undo the evidence.
+  const FaultRecord* superseded(const FaultRecord& f, double until) const {
+    for (const FaultRecord& g : h_.faults) {
+      if (g.skipped || g.t <= f.t || g.t > until || &g == &f) continue;
+      if (g.module == f.module && !f.module.empty()) return &g;
+      if (f.module.empty() && g.fault.kind == f.fault.kind && g.fault.target == f.fault.target) return &g;
+    }
+    return nullptr;
+  }
+
+  void objects(size_t inv) {
+    for (const auto& [module, series] : h_.modules) {
+      for (size_t i = 0; i < series.size(); ++i) {
+        ++v_.invariants[inv].checked;
+        const ModuleSample& s = series[i];
+        const ModuleSample* p = (i > 0 && series[i - 1].world == s.world) ? &series[i - 1] : nullptr;
+        const uint64_t slips0 = p ? p->slips : 0, lost0 = p ? p->contact_lost : 0;
+        if (s.slips > slips0 || s.contact_lost > lost0) {
+          violate(inv, s.t, fault_before(s.t, module),
+                  fmt("%s: the object %s (slip events %llu -> %llu, contact lost %llu -> %llu) at tick %ld", module.c_str(),
+                      s.contact_lost > lost0 ? "was dropped" : "slipped", static_cast<unsigned long long>(slips0),
+                      static_cast<unsigned long long>(s.slips), static_cast<unsigned long long>(lost0),
+                      static_cast<unsigned long long>(s.contact_lost), s.tick));
+        }
+      }
+    }
+  }
+
+  void grasp_force(size_t inv) {
+    for (const auto& [module, series] : h_.modules) {
+      const auto hs = h_.h_sg.find(module);
+      if (hs == h_.h_sg.end()) continue;
+      double exempt_until = -1.0;
+      bool in_violation = false;
+      double v_t = 0.0, v_min = 1e300;
+      auto close = [&](double t_end) {
+        if (!in_violation) return;
+        violate(inv, v_t, fault_before(v_t, module),
+                fmt("%s: normal force down to %.2f N (h_sg %.2f N) for %.1f s", module.c_str(), v_min, hs->second,
+                    t_end - v_t));
+        in_violation = false;
+        v_min = 1e300;
+      };
+      for (const ModuleSample& s : series) {
+        if (s.braked || s.hold || s.load_paused) exempt_until = s.t + b_.brake_grace_s;
+        const bool young = static_cast<double>(s.tick) < b_.startup_grace_s * 1000.0;
+        if (young || s.t <= exempt_until || s.normal_min >= 1e299) {
+          close(s.t);
+          continue;
+        }
+        ++v_.invariants[inv].checked;
+        if (s.normal_min < hs->second) {
+          if (!in_violation) v_t = s.t;
+          in_violation = true;
+          v_min = std::min(v_min, s.normal_min);
+        } else {
+          close(s.t);
+        }
+      }
+      if (!series.empty()) close(series.back().t);
+    }
+  }
+
+  void exactly_once(size_t inv) {
+    std::set<std::string> known(h_.task_names.begin(), h_.task_names.end());
+    std::map<std::string, int> count;
+    for (size_t i = 0; i < h_.tasks_done.size(); ++i) {
+      ++v_.invariants[inv].checked;
+      const std::string& name = h_.tasks_done[i];
+      if (++count[name] == 2) {
+        violate(inv, h_.stop_s, 0, fmt("task %s was done twice (by %s)", name.c_str(),
+                                       i < h_.tasks_done_by.size() ? h_.tasks_done_by[i].c_str() : "?"));
+      }
+      if (!known.empty() && known.count(name) == 0) violate(inv, h_.stop_s, 0, "task " + name + " is not in the task list");
+    }
+    std::set<std::string> running(h_.tasks_running.begin(), h_.tasks_running.end());
+    std::map<std::string, double> first_assigned;
+    for (const Event& e : h_.events) {
+      if (e.type == Event::Type::TaskAssigned) first_assigned.emplace(e.subject, e.t);
+      if (e.type == Event::Type::TaskDone && known.count(e.subject) == 0 && !known.empty()) {
+        violate(inv, e.t, 0, "task " + e.subject + " is not in the task list");
+      }
+    }
+    for (const auto& [name, t] : first_assigned) {
+      if (t > h_.stop_s - b_.task_lost_s) continue;
+      if (count.count(name) || running.count(name)) continue;
+      violate(inv, t, fault_before(t), fmt("task %s was assigned at %.1f s and is neither done nor running at the end (lost)",
+                                           name.c_str(), t));
+    }
+  }
+
+  // ---- recovery evidence --------------------------------------------------------------------------------
+  /// First time after t at which `module`'s world serves arm `robot` with neither `label` nor the brakes.
+  double arm_served_without(const std::string& module, const std::string& robot, const std::string& label, double t) const {
+    for (const Event& e : h_.events) {
+      if (e.t < t || e.type != Event::Type::Owners || e.subject != module) continue;
+      const auto owners = parse_owners(e.text);
+      const auto it = owners.find(robot);
+      if (it != owners.end() && it->second != label && it->second != "braked" && !it->second.empty()) return e.t;
+    }
+    return -1.0;
+  }
+  /// Whether `label` served arm `robot` just before t (from the world's serving events).
+  bool served_before(const std::string& module, const std::string& robot, const std::string& label, double t) const {
+    std::string owner;
+    for (const Event& e : h_.events) {
+      if (e.t > t) break;
+      if (e.type != Event::Type::Owners || e.subject != module) continue;
+      const auto owners = parse_owners(e.text);
+      const auto it = owners.find(robot);
+      if (it != owners.end()) owner = it->second;
+    }
+    return owner == label;
+  }
+  /// First time after t at which a process of `slot` (an arm, "m1/supervisor", "m1/world") other than pid
+  /// `old_pid` turns active.
+  double slot_active(const std::string& slot, long long old_pid, double t) const {
+    for (const Event& e : h_.events) {
+      if (e.t < t || e.type != Event::Type::State || !of_slot(e.subject, slot)) continue;
+      if (state_of(e) == 2 && pid_of(e) != old_pid) return e.t;
+    }
+    return -1.0;
+  }
+  /// First time after t at which a process whose label starts with `prefix`, other than `label`, serves.
+  double serving_primary(const std::string& prefix, const std::string& label, double t) const {
+    for (const Event& e : h_.events) {
+      if (e.t < t || e.type != Event::Type::Serving || e.subject == label || e.subject.rfind(prefix, 0) != 0) continue;
+      if (e.text == "primary") return e.t;
+    }
+    return -1.0;
+  }
+  /// First time at or after `from` at which `label` is heard again after a silence (a span starting then), or,
+  /// for a silence too short to split the spans, the time it was heard past `from`.
+  double heard_again(const std::string& label, long long pid, double from, double until) const {
+    const auto it = h_.heard.find(label);
+    if (it == h_.heard.end()) return -1.0;
+    for (const Span& s : it->second) {
+      if (s.pid != pid && pid != 0) continue;
+      if (s.start >= from - 0.15 && s.start <= until) return std::max(s.start, from);
+      if (s.start < from && s.end >= from) return from;
+    }
+    return -1.0;
+  }
+  /// The task running on `module` at t (from the queue's events), "" if none.
+  std::string task_on(const std::string& module, double t) const {
+    std::map<std::string, std::string> running;  // task -> module
+    for (const Event& e : h_.events) {
+      if (e.t > t) break;
+      if (e.type == Event::Type::TaskAssigned) running[e.subject] = e.text;
+      if (e.type == Event::Type::TaskDone) running.erase(e.subject);
+    }
+    for (const auto& [task, m] : running) {
+      if (m == module) return task;
+    }
+    return "";
+  }
+  double task_moved(const std::string& task, double t) const {
+    for (const Event& e : h_.events) {
+      if (e.t < t || e.subject != task) continue;
+      if (e.type == Event::Type::TaskAssigned || e.type == Event::Type::TaskDone) return e.t;
+    }
+    return -1.0;
+  }
+
+  void judge(size_t inv, const FaultRecord& f, const std::string& kind, double found, double from, double bound,
+             const std::string& missing) {
+    ++v_.invariants[inv].checked;
+    if (found >= 0.0 && found - from <= bound) {
+      v_.recoveries.push_back({f.fault.index, kind, found - from});
+      return;
+    }
+    if (const FaultRecord* g = superseded(f, from + bound)) {
+      (void)g;  // a later fault on the same module hit first: its own recovery is judged instead
+      return;
+    }
+    if (from + bound > h_.stop_s) return;  // the run ended before the bound: not judged
+    violate(inv, f.t, f.fault.index,
+            fmt("fault #%d (%s %s at %.1f s): %s within %.1f s%s", f.fault.index, label(f.fault.kind, f.fault.target).c_str(),
+                f.label.c_str(), f.t, missing.c_str(), bound,
+                found >= 0.0 ? fmt(" (it came after %.1f s)", found - from).c_str() : ""));
+  }
+
+  void recovery(const FaultRecord& f, size_t inv) {
+    if (f.skipped) return;
+    const std::string module = f.module, robot = robot_of(f.label), arm = arm_of(f.label);
+    switch (f.fault.kind) {
+      case FaultKind::Kill:
+        if (f.fault.target == Target::Robot || f.fault.target == Target::Standby) {
+          if (served_before(module, robot, f.label, f.t)) {
+            const double bound = f.had_standby ? b_.failover_s : b_.restart_s;
+            judge(inv, f, "kill robot: arm served again", arm_served_without(module, robot, f.label, f.t), f.t, bound,
+                  "no other robot served " + arm);
+          }
+          judge(inv, f, "kill robot: replacement up", slot_active(arm, f.pid, f.t), f.t, b_.restart_s,
+                "no replacement robot for " + arm + " was active");
+        } else if (f.fault.target == Target::Supervisor) {
+          judge(inv, f, "kill supervisor: another serves", serving_primary(module + "/supervisor", f.label, f.t), f.t,
+                b_.supervisor_s, "no other supervisor of " + module + " served");
+        } else if (f.fault.target == Target::Coordinator) {
+          judge(inv, f, "kill coordinator: another serves", serving_primary("coordinator", f.label, f.t), f.t,
+                b_.coordinator_s, "no other coordinator served");
+        } else if (f.fault.target == Target::World) {
+          const std::string task = task_on(module, f.t);
+          if (!task.empty()) {
+            judge(inv, f, "kill world: task re-planned", task_moved(task, f.t + 1e-6), f.t, b_.replan_s,
+                  "its task " + task + " was not re-planned");
+          }
+          if (f.end_t < 0.0) {
+            judge(inv, f, "kill world: module back", -1.0, f.t, 0.0, module + " was not plugged in again");
+          } else {
+            judge(inv, f, "kill world: module back", slot_active(module + "/world", f.pid, f.end_t), f.end_t,
+                  b_.module_back_s, module + " was not running again after it was plugged in");
+          }
+        }
+        break;
+      case FaultKind::Stall: {
+        const double until = f.t + f.fault.duration_s + b_.stall_extra_s;
+        judge(inv, f, "stall: heard again", heard_again(f.label, f.pid, f.t + f.fault.duration_s, until), f.t,
+              f.fault.duration_s + b_.stall_extra_s, f.label + " was not heard again");
+        break;
+      }
+      case FaultKind::Unplug:
+        if (f.fault.target == Target::Module) {
+          if (f.end_t < 0.0) {
+            judge(inv, f, "unplug module: back", -1.0, f.t, 0.0, module + " was not plugged in again");
+          } else {
+            judge(inv, f, "unplug module: back", slot_active(module + "/world", f.pid, f.end_t), f.end_t,
+                  b_.module_back_s, module + " was not running again after it was plugged in");
+          }
+        } else {
+          if (f.had_standby && served_before(module, robot, f.label, f.t)) {
+            judge(inv, f, "unplug robot: hand-over", arm_served_without(module, robot, f.label, f.t), f.t, b_.failover_s,
+                  "no other robot served " + arm);
+          }
+          if (f.end_t < 0.0) {
+            judge(inv, f, "unplug robot: plugged back", -1.0, f.t, 0.0, "no robot was plugged into " + arm + " again");
+          } else {
+            judge(inv, f, "unplug robot: plugged back", slot_active(arm, f.pid, f.end_t), f.end_t, b_.restart_s,
+                  "the robot plugged into " + arm + " was not active");
+          }
+        }
+        break;
+      case FaultKind::Hog: {
+        const double end = f.end_t >= 0.0 ? f.end_t : f.t + f.fault.duration_s;
+        double last_paused = -1.0;
+        for (const auto& [m, series] : h_.modules) {
+          for (const ModuleSample& s : series) {
+            if (s.t >= end && s.t <= end + b_.hog_s + 5.0 && s.load_paused) last_paused = std::max(last_paused, s.t);
+          }
+        }
+        judge(inv, f, "hog: no module paused for load", last_paused < 0.0 ? end : last_paused, end, b_.hog_s,
+              "a module was still paused for load");
+        break;
+      }
+    }
+  }
+
+  void progress(size_t inv) {
+    std::vector<double> done;
+    for (const Event& e : h_.events) {
+      if (e.type == Event::Type::TaskDone) done.push_back(e.t);
+    }
+    if (h_.task_names.empty()) return;
+    double prev = 0.0;
+    for (double t : done) {
+      ++v_.invariants[inv].checked;
+      if (t - prev > 45.0) violate(inv, prev, fault_before(t), fmt("no task was done from %.1f s to %.1f s", prev, t));
+      prev = t;
+    }
+    if (h_.stop_s - prev > 45.0) violate(inv, prev, fault_before(h_.stop_s), fmt("no task was done after %.1f s", prev));
+  }
+
+  void leftovers(size_t inv) {
+    ++v_.invariants[inv].checked;
+    for (const auto& p : h_.leftover_processes) violate(inv, h_.stop_s, 0, "process still running after the run: " + p);
+    for (const auto& s : h_.leftover_shm) violate(inv, h_.stop_s, 0, "shared-memory file left behind: /dev/shm/" + s);
+  }
+
+  void memory(size_t inv) {
+    std::map<std::string, std::vector<const RssSample*>> by;  // label + pid: one process
+    for (const RssSample& s : h_.rss) by[s.label + "#" + std::to_string(s.pid)].push_back(&s);
+    for (const auto& [key, samples] : by) {
+      if (samples.size() < 3) continue;
+      const double first = samples.front()->t, last = samples.back()->t;
+      if (last - first < b_.rss_min_life_s) continue;
+      std::vector<std::pair<double, double>> xy;
+      for (const RssSample* s : samples) {
+        if (s->t >= first + 10.0) xy.emplace_back(s->t / 60.0, s->mib);
+      }
+      if (xy.size() < 3) continue;
+      ++v_.invariants[inv].checked;
+      const double k = slope(xy);
+      const std::string label = samples.front()->label;
+      v_.rss_slope[label] = std::max(v_.rss_slope.count(label) ? v_.rss_slope[label] : -1e300, k);
+      if (k > b_.rss_slope_mib_per_min) {
+        violate(inv, first, 0, fmt("%s (pid %lld): resident memory grew %.2f MiB/min over %.0f s (%.1f -> %.1f MiB; bound %.2f)",
+                                   label.c_str(), samples.front()->pid, k, last - first, samples.front()->mib,
+                                   samples.back()->mib, b_.rss_slope_mib_per_min));
+      }
+    }
+  }
+
+  void log_growth(size_t inv) {
+    const auto& L = h_.log_bytes;
+    if (L.size() < 6) return;
+    ++v_.invariants[inv].checked;
+    const size_t n = L.size(), a = n / 3, b = 2 * n / 3;
+    const double r1 = (L[a].second - L[0].second) / std::max(1e-9, L[a].first - L[0].first);
+    const double r3 = (L[n - 1].second - L[b].second) / std::max(1e-9, L[n - 1].first - L[b].first);
+    if (r3 > b_.log_growth_ratio * r1 + 1024.0) {
+      violate(inv, L[b].first, 0, fmt("the launcher log grew %.0f B/s in the last third against %.0f B/s in the first", r3, r1));
+    }
+  }
+
+  const History& h_;
+  const Bounds& b_;
+  Verdict& v_;
+};
+
+}  // namespace
+
+std::map<std::string, std::string> parse_owners(const std::string& serving) {
+  std::map<std::string, std::string> out;
+  std::istringstream in(serving);
+  std::string item;
+  while (std::getline(in, item, ',')) {
+    const auto eq = item.find('=');
+    if (eq != std::string::npos) out[item.substr(0, eq)] = item.substr(eq + 1);
+  }
+  return out;
+}
+
+double slope(const std::vector<std::pair<double, double>>& xy) {
+  if (xy.size() < 2) return 0.0;
+  double mx = 0, my = 0;
+  for (const auto& [x, y] : xy) {
+    mx += x;
+    my += y;
+  }
+  mx /= static_cast<double>(xy.size());
+  my /= static_cast<double>(xy.size());
+  double sxy = 0, sxx = 0;
+  for (const auto& [x, y] : xy) {
+    sxy += (x - mx) * (y - my);
+    sxx += (x - mx) * (x - mx);
+  }
+  return sxx > 0 ? sxy / sxx : 0.0;
+}
+
+double percentile(std::vector<double> v, double p) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  const double pos = p * static_cast<double>(v.size() - 1);
+  const size_t i = static_cast<size_t>(pos);
+  if (i + 1 >= v.size()) return v.back();
+  return v[i] + (pos - static_cast<double>(i)) * (v[i + 1] - v[i]);
+}
+
+Verdict check(const History& h, const Bounds& b) {
+  Verdict v;
+  Judge(h, b, v).run();
+  return v;
+}
+
+}  // namespace tandem::soak

@@ -24,6 +24,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <ctime>
 #include <fcntl.h>
 #include <fstream>
 #include <functional>
@@ -34,6 +35,7 @@
 
 #include "tandem/dds/bus.hpp"
 #include "tandem/runtime/deployment.hpp"
+#include "tandem/runtime/shm_clean.hpp"
 #include "tandem/sim/module_setup.hpp"
 #include "tandem/sim/scenario_yaml.hpp"
 #include "tandem/soak/checker.hpp"
@@ -95,21 +97,6 @@ double rss_mib(long long pid) {
     if (line.rfind("VmRSS:", 0) == 0) return std::atof(line.c_str() + 6) / 1024.0;
   }
   return -1.0;
-}
-
-std::set<std::string> shm_files() {
-  std::set<std::string> out;
-  if (DIR* d = ::opendir("/dev/shm")) {
-    while (dirent* e = ::readdir(d)) {
-      const std::string n = e->d_name;
-      if (n.find("fastrtps") != std::string::npos || n.find("fast_datasharing") != std::string::npos ||
-          n.find("fastdds") != std::string::npos) {
-        out.insert(n);
-      }
-    }
-    ::closedir(d);
-  }
-  return out;
 }
 
 std::string machine_text() {
@@ -265,6 +252,14 @@ class Soak {
   void sample_logs(double t) {
     struct stat st {};
     if (::stat(log_path_.c_str(), &st) == 0) h_.log_bytes.emplace_back(t, static_cast<double>(st.st_size));
+  }
+
+  /// Deletes this observer's readers and writer (before their participant goes).
+  void close() {
+    status_.reset();
+    coord_.reset();
+    control_.reset();
+    reports_.clear();
   }
 
   History& history() { return h_; }
@@ -465,7 +460,8 @@ class Soak {
       target = c[f.pick % c.size()];
     }
     r.label = target;
-    const bool is_module = f.kind == FaultKind::Unplug && f.target == Target::Module;
+    const bool is_module = f.kind == FaultKind::Unplug && (f.target == Target::Module || target.find('/') == std::string::npos);
+    if (is_module) r.fault.target = Target::Module;
     r.module = is_module ? target : (target.rfind("coordinator", 0) == 0 ? "" : target.substr(0, target.find('/')));
     if (!is_module) {
       const auto it = procs_.find(target);
@@ -476,6 +472,14 @@ class Soak {
         return;
       }
       r.pid = it->second.pid;
+      if (r.fault.target == Target::None) {  // a fixed fault naming a process: its role decides the kind
+        const std::string& role = it->second.role;
+        r.fault.target = role == "world"         ? Target::World
+                         : role == "supervisor"  ? Target::Supervisor
+                         : role == "coordinator" ? Target::Coordinator
+                         : owners_now().count(target) ? Target::Robot
+                                                      : Target::Standby;
+      }
       if (it->second.role == "robot") r.had_standby = live_robots_of(target.substr(0, target.find('@')), t) > 1;
     } else {
       const auto it = procs_.find(target + "/world");
@@ -793,7 +797,8 @@ int soak_command(const std::vector<std::string>& args) {
   sa.sa_handler = on_soak_signal;
   ::sigaction(SIGINT, &sa, nullptr);
   ::sigaction(SIGTERM, &sa, nullptr);
-  const std::set<std::string> shm_before = shm_files();
+  const std::set<std::string> shm_before = runtime::fastdds_shm_files();
+  const std::time_t soak_started = std::time(nullptr) - 1;
   const auto wall0 = Clock::now();
   const std::string log_path = report + "/launcher.log";
   const std::string exe = self_dir() + "/tandem";
@@ -821,6 +826,7 @@ int soak_command(const std::vector<std::string>& args) {
   runtime::use_discovery(d);
   int launcher_status = -1;
   bool launcher_gone = false;
+  std::set<std::string> own_shm;
   Soak soak(d, sched, report, log_path, launcher);
   {
     bus::Participant part(d.domain_id, "soak/" + d.name, runtime::transport_of(d));
@@ -874,6 +880,8 @@ int soak_command(const std::vector<std::string>& args) {
       }
     }
     soak.sample_logs(soak.now());
+    own_shm = runtime::shm_used_by_self();  // this observer's own files (it sent to the deployment's ports too)
+    soak.close();
   }
   History& h = soak.history();
   h.launcher_exit = launcher_status;
@@ -884,9 +892,13 @@ int soak_command(const std::vector<std::string>& args) {
       h.leftover_processes.push_back(std::to_string(pid) + " " + cmdline(pid));
     }
   }
-  for (const auto& f : shm_files()) {
-    if (shm_before.count(f) == 0) h.leftover_shm.push_back(f);
+  for (const auto& f : runtime::fastdds_shm_files()) {
+    if (shm_before.count(f) == 0 && own_shm.count(f) == 0) h.leftover_shm.push_back(f);
   }
+  // Then this observer's own leftovers: ports of the deployment it had opened to send to (the port's owner is
+  // gone, so nobody else removes them), once they are 2 s old.
+  std::this_thread::sleep_for(std::chrono::milliseconds(2100));
+  runtime::clean_stale_shm(soak_started, static_cast<int>(d.domain_id));
   RunInfo info;
   info.deployment = d.name;
   info.deployment_file = file;

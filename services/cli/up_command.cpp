@@ -811,6 +811,7 @@ class Launcher {
                                "--timing",   d_.timing,   "--deployment", d_.name};
     if (d_.coordinator) a.push_back("--continuous");
     if (!d_.overload_brake) a.push_back("--no-overload-brake");
+    if (d_.test_no_brakes) a.push_back("--test-no-brakes");
     return a;
   }
   void launch(Child& c, const char* note = "") {
@@ -1200,7 +1201,9 @@ int up_command(const std::vector<std::string>& args) {
   if (killed || discovery_server > 0) {
     server_stop.stop();
     std::this_thread::sleep_for(std::chrono::milliseconds(2100));  // the last files are 2 s old (clean_stale_shm)
-    const int removed = runtime::clean_stale_shm(launcher_started);
+    int removed = runtime::clean_stale_shm(launcher_started, static_cast<int>(d.domain_id));
+    // The Discovery Server is a participant of domain 0 (its shared-memory port stays when it stops).
+    if (discovery_server > 0) removed += runtime::clean_stale_shm(launcher_started, 0);
     if (removed > 0) std::printf("removed %d shared-memory file(s) left by killed processes\n", removed);
   }
   if (d.coordinator && !L.coordinator_done_) failed = true;

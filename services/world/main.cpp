@@ -41,6 +41,7 @@ int main(int argc, char** argv) {
   wo.realtime = opt.realtime;
   wo.continuous = opt.continuous;
   wo.overload.enabled = opt.overload_brake;
+  wo.brakes = !opt.test_no_brakes;
   world::WorldCore core(m, wo);
   core.set_log([&](const std::string& line) {
     std::printf("tandem-world %s: %s\n", opt.module.c_str(), line.c_str());

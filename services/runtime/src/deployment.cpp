@@ -36,6 +36,7 @@ Deployment load_deployment(const std::string& path) {
   top.num("timeout", d.timeout, 0.1, 3600.0);
   top.integer("realtime_priority", d.realtime_priority, 0, 98);
   top.boolean("overload_brake", d.overload_brake);
+  top.boolean("test_no_brakes", d.test_no_brakes);
   top.choice("discovery", d.discovery, {"simple", "server"});
   top.integer("discovery_port", d.discovery_port, 1024, 65535);
   YAML::Node mods = top.sequence("modules", true);

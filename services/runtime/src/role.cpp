@@ -46,6 +46,10 @@ bool parse_role_options(const char* role, int argc, char** argv, bool needs_arm,
       o.continuous = true;
       continue;
     }
+    if (a == "--test-no-brakes") {  // world, test only: an arm whose controller is gone keeps its last torque
+      o.test_no_brakes = true;
+      continue;
+    }
     if (a == "--no-overload-brake") {  // world, real time: keep stepping a module whose commands come late
       o.overload_brake = false;
       continue;

@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <cctype>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 
@@ -15,15 +16,12 @@ bool is_fastdds(const std::string& n) {
   return n.rfind("fastrtps_", 0) == 0 || n.rfind("sem.fastrtps_", 0) == 0 || n.rfind("fast_datasharing_", 0) == 0;
 }
 
-/// Every /dev/shm name some live process has mapped or open.
-std::set<std::string> in_use() {
-  std::set<std::string> used;
-  DIR* proc = ::opendir("/proc");
-  if (proc == nullptr) return used;
-  const std::string prefix = "/dev/shm/";
-  while (dirent* e = ::readdir(proc)) {
-    if (!std::isdigit(static_cast<unsigned char>(e->d_name[0]))) continue;
-    const std::string base = std::string("/proc/") + e->d_name;
+const std::string kPrefix = "/dev/shm/";
+
+/// The /dev/shm names the process at /proc/<base> has mapped or open.
+void used_by(const std::string& base, std::set<std::string>& used) {
+  const std::string& prefix = kPrefix;
+  {
     std::ifstream maps(base + "/maps");
     std::string line;
     while (std::getline(maps, line)) {
@@ -46,11 +44,27 @@ std::set<std::string> in_use() {
       ::closedir(fds);
     }
   }
+}
+
+/// Every /dev/shm name some live process has mapped or open.
+std::set<std::string> in_use() {
+  std::set<std::string> used;
+  DIR* proc = ::opendir("/proc");
+  if (proc == nullptr) return used;
+  while (dirent* e = ::readdir(proc)) {
+    if (std::isdigit(static_cast<unsigned char>(e->d_name[0]))) used_by(std::string("/proc/") + e->d_name, used);
+  }
   ::closedir(proc);
   return used;
 }
 
 }  // namespace
+
+std::set<std::string> shm_used_by_self() {
+  std::set<std::string> used;
+  used_by("/proc/self", used);
+  return used;
+}
 
 std::set<std::string> fastdds_shm_files() {
   std::set<std::string> out;
@@ -63,7 +77,16 @@ std::set<std::string> fastdds_shm_files() {
   return out;
 }
 
-int clean_stale_shm(std::time_t since) {
+namespace {
+/// The port number of a port file ("fastrtps_port7411", "..._el", "sem.fastrtps_port7411_mutex"), -1 if none.
+int port_of(const std::string& name) {
+  const auto at = name.find("fastrtps_port");
+  if (at == std::string::npos) return -1;
+  return std::atoi(name.c_str() + at + 13);
+}
+}  // namespace
+
+int clean_stale_shm(std::time_t since, int domain) {
   const std::set<std::string> files = fastdds_shm_files();
   if (files.empty()) return 0;
   const std::set<std::string> used = in_use();
@@ -71,6 +94,10 @@ int clean_stale_shm(std::time_t since) {
   int removed = 0;
   for (const auto& name : files) {
     if (used.count(name) != 0) continue;
+    // Port files are reused by the next participant that gets the same participant id: only the domain's own
+    // (RTPS port mapping: 7400 + 250 * domain + offset), and only when asked for.
+    const int port = port_of(name);
+    if (port >= 0 && (domain < 0 || port < 7400 + 250 * domain || port >= 7400 + 250 * (domain + 1))) continue;
     const std::string path = "/dev/shm/" + name;
     struct stat st {};
     // A file younger than 2 s may belong to a process that is creating it right now (not yet mapped).

@@ -97,19 +97,26 @@ class Judge {
   }
 
   void objects(size_t inv) {
+    // One violation per world instance: where its counters first rose, with how far they went by its end.
     for (const auto& [module, series] : h_.modules) {
       for (size_t i = 0; i < series.size(); ++i) {
         ++v_.invariants[inv].checked;
         const ModuleSample& s = series[i];
         const ModuleSample* p = (i > 0 && series[i - 1].world == s.world) ? &series[i - 1] : nullptr;
         const uint64_t slips0 = p ? p->slips : 0, lost0 = p ? p->contact_lost : 0;
-        if (s.slips > slips0 || s.contact_lost > lost0) {
-          violate(inv, s.t, fault_before(s.t, module),
-                  fmt("%s: the object %s (slip events %llu -> %llu, contact lost %llu -> %llu) at tick %ld", module.c_str(),
-                      s.contact_lost > lost0 ? "was dropped" : "slipped", static_cast<unsigned long long>(slips0),
-                      static_cast<unsigned long long>(s.slips), static_cast<unsigned long long>(lost0),
-                      static_cast<unsigned long long>(s.contact_lost), s.tick));
-        }
+        if (s.slips <= slips0 && s.contact_lost <= lost0) continue;
+        size_t last = i;
+        while (last + 1 < series.size() && series[last + 1].world == s.world) ++last;
+        const ModuleSample& e = series[last];
+        violate(inv, s.t, fault_before(s.t, module),
+                fmt("%s: the object %s at tick %ld (slip events %llu -> %llu, contact lost %llu -> %llu; by %.1f s: %llu "
+                    "and %llu)",
+                    module.c_str(), s.contact_lost > lost0 ? "lost contact" : "slipped", s.tick,
+                    static_cast<unsigned long long>(slips0), static_cast<unsigned long long>(s.slips),
+                    static_cast<unsigned long long>(lost0), static_cast<unsigned long long>(s.contact_lost), e.t,
+                    static_cast<unsigned long long>(e.slips), static_cast<unsigned long long>(e.contact_lost)));
+        v_.invariants[inv].checked += static_cast<int>(last - i);
+        i = last;
       }
     }
   }
@@ -371,9 +378,11 @@ class Judge {
       if (samples.size() < 3) continue;
       const double first = samples.front()->t, last = samples.back()->t;
       if (last - first < b_.rss_min_life_s) continue;
+      // The later half of its life: start-up (discovery of the others, first allocations) is not growth.
+      const double from = first + std::max(10.0, 0.5 * (last - first));
       std::vector<std::pair<double, double>> xy;
       for (const RssSample* s : samples) {
-        if (s->t >= first + 10.0) xy.emplace_back(s->t / 60.0, s->mib);
+        if (s->t >= from) xy.emplace_back(s->t / 60.0, s->mib);
       }
       if (xy.size() < 3) continue;
       ++v_.invariants[inv].checked;
@@ -381,9 +390,10 @@ class Judge {
       const std::string label = samples.front()->label;
       v_.rss_slope[label] = std::max(v_.rss_slope.count(label) ? v_.rss_slope[label] : -1e300, k);
       if (k > b_.rss_slope_mib_per_min) {
-        violate(inv, first, 0, fmt("%s (pid %lld): resident memory grew %.2f MiB/min over %.0f s (%.1f -> %.1f MiB; bound %.2f)",
-                                   label.c_str(), samples.front()->pid, k, last - first, samples.front()->mib,
-                                   samples.back()->mib, b_.rss_slope_mib_per_min));
+        violate(inv, from, 0, fmt("%s (pid %lld): resident memory grew %.2f MiB/min over the last %.0f s of its life "
+                                  "(%.1f -> %.1f MiB; bound %.2f)",
+                                  label.c_str(), samples.front()->pid, k, last - from, xy.front().second,
+                                  samples.back()->mib, b_.rss_slope_mib_per_min));
       }
     }
   }

@@ -251,7 +251,8 @@ std::string summary_text(const RunInfo& info, const History& h, const Bounds& b,
   std::map<std::string, int> by_module;
   for (const auto& m : h.tasks_done_by) ++by_module[m];
   for (const auto& [m, n] : by_module) o << "- " << m << ": " << n << "\n";
-  o << "\n## Memory (RSS slope after each process's first 10 s, processes that lived " << b.rss_min_life_s << " s or more)\n\n";
+  o << "\n## Memory (RSS slope over the later half of each process's life, processes that lived " << b.rss_min_life_s
+    << " s or more)\n\n";
   o << "| process | worst slope MiB/min |\n|---|---:|\n";
   std::vector<std::pair<double, std::string>> slopes;
   for (const auto& [k, s] : v.rss_slope) slopes.emplace_back(s, k);
@@ -306,6 +307,31 @@ std::string write_report(const std::string& dir, const RunInfo& info, const Hist
   }
   kv << "tasks_done=" << h.tasks_done.size() << "\n";
   write_file(dir + "/summary.txt", kv.str());
+  // The recording itself (not needed to read the report; for a closer look or another checker).
+  std::ostringstream rss, mod, ev, fl;
+  rss << "t,process,pid,rss_mib\n";
+  for (const RssSample& s : h.rss) rss << s.t << "," << s.label << "," << s.pid << "," << s.mib << "\n";
+  mod << "t,module,world,tick,normal_min,slips,contact_lost,late,failovers,braked,hold,load_paused\n";
+  for (const auto& [m, series] : h.modules) {
+    for (const ModuleSample& s : series) {
+      mod << s.t << "," << m << "," << s.world << "," << s.tick << "," << s.normal_min << "," << s.slips << ","
+          << s.contact_lost << "," << s.late << "," << s.failovers << "," << s.braked << "," << s.hold << ","
+          << s.load_paused << "\n";
+    }
+  }
+  static const char* kTypes[] = {"owners", "state", "serving", "task_assigned", "task_done"};
+  ev << "t,type,subject,text\n";
+  for (const Event& e : h.events) ev << e.t << "," << kTypes[static_cast<int>(e.type)] << "," << e.subject << ",\"" << e.text << "\"\n";
+  fl << "index,t,kind,target,label,pid,duration_s,end_t,skipped,had_standby,note\n";
+  for (const FaultRecord& f : h.faults) {
+    fl << f.fault.index << "," << f.t << "," << name(f.fault.kind) << "," << name(f.fault.target) << "," << f.label << ","
+       << f.pid << "," << f.fault.duration_s << "," << f.end_t << "," << f.skipped << "," << f.had_standby << ",\""
+       << f.note << "\"\n";
+  }
+  write_file(dir + "/rss.csv", rss.str());
+  write_file(dir + "/modules.csv", mod.str());
+  write_file(dir + "/events.csv", ev.str());
+  write_file(dir + "/faults.csv", fl.str());
   // index.html: the summary with the plots inline.
   std::ostringstream html;
   html << "<!doctype html>\n<html><head><meta charset=\"utf-8\"><title>tandem soak " << xml_escape(info.deployment)

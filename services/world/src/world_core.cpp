@@ -348,7 +348,7 @@ bool WorldCore::end_tick(int64_t now_ns) {
       // which no command at all (late ones included) came for brake_after_s has no live controller: braked.
       ++late;
       const double quiet = static_cast<double>(now_ns - L.heard) * 1e-9;
-      if (L.last_tick >= 0 && quiet > brake_after_s_) set_brake(j, true, "no live controller");
+      if (L.last_tick >= 0 && quiet > brake_after_s_ && o_.brakes) set_brake(j, true, "no live controller");
     } else if (L.last_tick < 0) {
       ++timeouts;
       go_on = false;

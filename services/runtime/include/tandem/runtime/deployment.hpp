@@ -51,6 +51,9 @@ struct Deployment {
   /// the system does not permit it (needs root or CAP_SYS_NICE / RLIMIT_RTPRIO).
   int realtime_priority = 20;
   bool overload_brake = true;  ///< real time: brake and pause a module whose commands keep coming late
+  /// Test only: the worlds never brake an arm whose controller is gone (it keeps its last torque and the object
+  /// falls). Exists to show that `tandem soak`'s checker catches a dropped object; never for real deployments.
+  bool test_no_brakes = false;
   /// simple: every participant announces itself to every other (Fast DDS's default); server: the launcher
   /// starts a Fast DDS Discovery Server on 127.0.0.1:discovery_port and every process is its client.
   std::string discovery = "simple";

@@ -24,7 +24,7 @@ struct Bounds {
   double brake_grace_s = 0.5;    ///< nor while an arm is braked or held and this long after
   double task_lost_s = 60.0;     ///< a task assigned this long before the stop must be done or running at the end
   double rss_slope_mib_per_min = 1.0;  ///< resident memory growth of a long-lived process
-  double rss_min_life_s = 30.0;  ///< judged only for processes that lived this long (after their first 10 s)
+  double rss_min_life_s = 60.0;  ///< judged only for processes that lived this long, over the later half of their life
   double log_growth_ratio = 3.0; ///< the log's rate in the last third over the first third
 };
 

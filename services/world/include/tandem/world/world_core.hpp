@@ -57,6 +57,9 @@ struct WorldOptions {
   bool realtime = false;
   bool continuous = false;
   OverloadRule overload;
+  /// Test only (deployment key `test_no_brakes`): an arm whose controller is gone is not braked, so it keeps its
+  /// last torque, as it would with no brakes at all. Used to show that the soak's checker catches a drop.
+  bool brakes = true;
 };
 
 /// One arm's sample for the tick (what the world publishes).

@@ -1,0 +1,37 @@
+# The CI-sized soak: deploy/soak-small.yaml (two modules with standbys and a coordinator) in real time for
+# 75 s under the `ci` preset with a fixed seed. Every fault kind of the preset must have been carried out,
+# every invariant must hold (exit 0, summary.txt result=pass), and the report must have its plots.
+file(REMOVE_RECURSE ${WORK}/ci-soak)
+execute_process(COMMAND ${TANDEM} soak ${SRC}/deploy/soak-small.yaml --duration 75 --faults ci --seed 11
+                        --report ${WORK}/ci-soak
+                RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+message("${out}")
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "tandem soak exited with ${rc} (expected 0)\nstderr: ${err}")
+endif()
+file(READ ${WORK}/ci-soak/summary.txt summary)
+foreach(line "result=pass" "invariant.object_held=held" "invariant.recovery=held" "invariant.tasks_exactly_once=held"
+             "invariant.nothing_left_behind=held")
+  string(FIND "${summary}" "${line}" pos)
+  if(pos EQUAL -1)
+    message(FATAL_ERROR "summary.txt lacks '${line}':\n${summary}")
+  endif()
+endforeach()
+# Every kind of the preset at least once (hogs on one and on both cores count as one kind here).
+foreach(kind kill_robot kill_standby kill_supervisor kill_coordinator kill_world stall_robot stall_supervisor
+             stall_world unplug_robot unplug_module hog)
+  string(REGEX MATCH "faults\\.${kind}=([0-9]+)" m "${summary}")
+  if(NOT m OR CMAKE_MATCH_1 LESS 1)
+    message(FATAL_ERROR "no '${kind}' fault was carried out:\n${summary}")
+  endif()
+endforeach()
+foreach(f summary.md index.html faults.svg normal_force.svg late_ticks.svg tasks.svg recovery.svg rss.svg schedule.yaml)
+  if(NOT EXISTS ${WORK}/ci-soak/${f})
+    message(FATAL_ERROR "the report lacks ${f}")
+  endif()
+endforeach()
+file(READ ${WORK}/ci-soak/normal_force.svg svg)
+string(FIND "${svg}" "<polyline" pos)
+if(pos EQUAL -1)
+  message(FATAL_ERROR "normal_force.svg has no data line")
+endif()

@@ -1,0 +1,289 @@
+// The soak's parts with no processes: the schedule (seeded, validated), the checker on made-up histories, and
+// the SVG plot writer.
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <set>
+#include <string>
+
+#include "tandem/soak/checker.hpp"
+#include "tandem/soak/schedule.hpp"
+#include "tandem/soak/svg.hpp"
+
+using namespace tandem::soak;
+
+namespace {
+
+std::string error_of(const std::string& yaml) {
+  try {
+    (void)parse_fault_file(yaml, "f.yaml");
+  } catch (const ScheduleError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+/// A quiet run of one module at 10 Hz buckets: force 30 N (h_sg 20 N), a task done every 4 s.
+History quiet_history(double seconds) {
+  History h;
+  h.duration_s = h.stop_s = seconds;
+  h.h_sg["m1"] = 20.0;
+  for (int i = 1; i <= static_cast<int>(seconds * 10); ++i) {
+    ModuleSample s;
+    s.t = 0.1 * i;
+    s.tick = 100 * i;
+    s.normal_min = 30.0;
+    s.world = 1;
+    h.modules["m1"].push_back(s);
+  }
+  h.events.push_back({0.5, Event::Type::Owners, "m1", "left=m1/left,right=m1/right"});
+  for (int k = 1; 4.0 * k < seconds; ++k) {
+    const std::string name = "t" + std::to_string(k);
+    h.task_names.push_back(name);
+    h.events.push_back({4.0 * k - 3.5, Event::Type::TaskAssigned, name, "m1"});
+    h.events.push_back({4.0 * k, Event::Type::TaskDone, name, "m1"});
+    h.tasks_done.push_back(name);
+    h.tasks_done_by.push_back("m1");
+  }
+  std::sort(h.events.begin(), h.events.end(), [](const Event& a, const Event& b) { return a.t < b.t; });
+  return h;
+}
+
+FaultRecord kill_left(double t) {
+  FaultRecord f;
+  f.fault.index = 1;
+  f.fault.kind = FaultKind::Kill;
+  f.fault.target = Target::Robot;
+  f.t = t;
+  f.label = "m1/left";
+  f.module = "m1";
+  f.pid = 111;
+  return f;
+}
+
+void add_event(History& h, Event e) {
+  h.events.push_back(std::move(e));
+  std::stable_sort(h.events.begin(), h.events.end(), [](const Event& a, const Event& b) { return a.t < b.t; });
+}
+
+const Violation* find(const Verdict& v, const std::string& invariant) {
+  for (const auto& x : v.violations) {
+    if (x.invariant == invariant) return &x;
+  }
+  return nullptr;
+}
+
+}  // namespace
+
+TEST_CASE("soak schedule: the same seed gives the same schedule, another seed another") {
+  const FaultFile f = preset("mixed");
+  const Schedule a = make_schedule(f, 42, 600.0), b = make_schedule(f, 42, 600.0), c = make_schedule(f, 43, 600.0);
+  REQUIRE(a.faults.size() == b.faults.size());
+  for (size_t i = 0; i < a.faults.size(); ++i) {
+    CHECK(a.faults[i].at_s == b.faults[i].at_s);
+    CHECK(a.faults[i].kind == b.faults[i].kind);
+    CHECK(a.faults[i].target == b.faults[i].target);
+    CHECK(a.faults[i].pick == b.faults[i].pick);
+    CHECK(a.faults[i].duration_s == b.faults[i].duration_s);
+  }
+  bool differs = a.faults.size() != c.faults.size();
+  for (size_t i = 0; !differs && i < a.faults.size(); ++i) differs = a.faults[i].at_s != c.faults[i].at_s;
+  CHECK(differs);
+}
+
+TEST_CASE("soak schedule: rates, spacing, warm-up and quiet end hold, and every rule fires at least once") {
+  const FaultFile f = preset("mixed");
+  const Schedule s = make_schedule(f, 7, 3600.0);
+  // About 18.5 faults a minute over the 3575 s between warm-up and quiet end: 1100 expected, Poisson spread.
+  CHECK(s.faults.size() > 950);
+  CHECK(s.faults.size() < 1250);
+  for (size_t i = 0; i < s.faults.size(); ++i) {
+    CHECK(s.faults[i].at_s >= f.warmup_s);
+    CHECK(s.faults[i].at_s < 3600.0 - f.quiet_s);
+    if (i > 0) CHECK(s.faults[i].at_s - s.faults[i - 1].at_s >= f.spacing_s - 1e-9);
+    CHECK(s.faults[i].index == static_cast<int>(i + 1));
+  }
+  const Schedule ci = make_schedule(preset("ci"), 11, 75.0);
+  std::set<std::string> kinds;
+  for (const auto& x : ci.faults) kinds.insert(label(x.kind, x.target) + (x.kind == FaultKind::Hog ? std::to_string(x.cores) : ""));
+  CHECK(kinds.size() == preset("ci").rules.size());
+}
+
+TEST_CASE("soak schedule: a schedule written as YAML reads back as the same faults") {
+  const Schedule s = make_schedule(preset("ci"), 5, 80.0);
+  const FaultFile back = parse_fault_file(to_yaml(s), "written");
+  const Schedule again = make_schedule(back, 999, 80.0);
+  REQUIRE(again.faults.size() == s.faults.size());
+  for (size_t i = 0; i < s.faults.size(); ++i) {
+    CHECK(again.faults[i].at_s == Approx(s.faults[i].at_s).margin(1e-5));
+    CHECK(again.faults[i].kind == s.faults[i].kind);
+    CHECK(again.faults[i].target == s.faults[i].target);
+    CHECK(again.faults[i].pick == s.faults[i].pick);
+    CHECK(again.faults[i].duration_s == Approx(s.faults[i].duration_s).epsilon(1e-5));
+  }
+}
+
+TEST_CASE("soak schedule: bad files are refused with the key and what is accepted") {
+  CHECK_THAT(error_of("faults:\n  - {kind: kill, target: robot, rate: 1, often: 2}\n"),
+             Catch::Contains("unknown key 'often'") && Catch::Contains("accepted: at_least, cores, kind, max, min, rate, target"));
+  CHECK_THAT(error_of("faults:\n  - {kind: explode, target: robot, rate: 1}\n"),
+             Catch::Contains("'kind' = 'explode'") && Catch::Contains("accepted: kill, stall, unplug, hog"));
+  CHECK_THAT(error_of("faults:\n  - {kind: unplug, target: coordinator, rate: 1}\n"),
+             Catch::Contains("not accepted for unplug") && Catch::Contains("accepted: robot, standby, module"));
+  CHECK_THAT(error_of("faults:\n  - {kind: kill, target: robot, rate: -1}\n"), Catch::Contains("'rate' = -1 is out of range"));
+  CHECK_THAT(error_of("faults:\n  - {kind: stall, target: robot, rate: 1, min: 2, max: 1}\n"), Catch::Contains("'max' is below 'min'"));
+  CHECK_THAT(error_of("faults:\n  - {kind: kill, target: robot, rate: 1, cores: 2}\n"), Catch::Contains("'cores' is only for hog"));
+  CHECK_THAT(error_of("faults:\n  - {kind: kill, target: robot}\n"), Catch::Contains("missing 'rate'"));
+  CHECK_THAT(error_of("at:\n  - {kind: kill, process: m1/left}\n"), Catch::Contains("missing 'at'"));
+  CHECK_THAT(error_of("warmup: soon\nfaults: []\n"), Catch::Contains("'warmup' must be a number"));
+  CHECK_THAT(error_of("fautls: []\n"), Catch::Contains("unknown key 'fautls'"));
+  CHECK_THAT(error_of("[1, 2"), Catch::Contains("not valid YAML"));
+  CHECK_THROWS_WITH(preset("gentle"), Catch::Contains("presets: mixed, ci, kills, none"));
+  CHECK_THROWS_WITH(make_schedule(parse_fault_file("at:\n  - {at: 100, kind: kill, process: m1/left}\n", "f"), 1, 60.0),
+                    Catch::Contains("past the end of the run"));
+  CHECK(error_of("faults: []\n").empty());
+}
+
+TEST_CASE("soak checker: a quiet run holds every invariant") {
+  const Verdict v = check(quiet_history(60.0), Bounds{});
+  CHECK(v.ok());
+  for (const auto& r : v.invariants) CHECK(r.ok);
+}
+
+TEST_CASE("soak checker: a slip is a violation at its time, after the fault before it") {
+  History h = quiet_history(60.0);
+  h.faults.push_back(kill_left(20.0));
+  add_event(h, {20.03, Event::Type::Owners, "m1", "left=m1/left@50,right=m1/right"});
+  add_event(h, {21.5, Event::Type::State, "m1/left@49", "2 222"});
+  for (auto& s : h.modules["m1"]) {
+    if (s.t >= 25.0) s.slips = 3;
+    if (s.t >= 25.5) s.contact_lost = 7;
+  }
+  const Verdict v = check(h, Bounds{});
+  const Violation* x = find(v, "object held");
+  REQUIRE(x != nullptr);
+  CHECK(x->t == Approx(25.0).margin(0.051));
+  CHECK(x->fault == 1);
+  CHECK_THAT(x->text, Catch::Contains("slipped"));
+  CHECK(std::count_if(v.violations.begin(), v.violations.end(), [](const Violation& y) { return y.invariant == "object held"; }) == 1);
+  CHECK(find(v, "recovery") == nullptr);
+}
+
+TEST_CASE("soak checker: grasp force below h_sg counts only outside the stated windows") {
+  History h = quiet_history(30.0);
+  auto& s = h.modules["m1"];
+  s[3].normal_min = 5.0;    // t = 0.4 s, tick 400: the world's first second
+  s[100].normal_min = 15.0; // t = 10.1 s, braked in this bucket
+  s[100].braked = true;
+  s[102].normal_min = 15.0; // within brake_grace after it
+  CHECK(check(h, Bounds{}).ok());
+  s[200].normal_min = 19.0; // t = 20.1 s: nothing excuses it
+  s[201].normal_min = 18.0;
+  const Verdict v = check(h, Bounds{});
+  const Violation* x = find(v, "grasp force");
+  REQUIRE(x != nullptr);
+  CHECK(x->t == Approx(20.1).margin(1e-9));
+  CHECK_THAT(x->text, Catch::Contains("18.00 N"));
+}
+
+TEST_CASE("soak checker: failover and restart are measured from the recording, late ones are violations") {
+  History h = quiet_history(60.0);
+  h.faults.push_back(kill_left(20.0));
+  add_event(h, {20.021, Event::Type::Owners, "m1", "left=m1/left@50,right=m1/right"});
+  add_event(h, {21.8, Event::Type::State, "m1/left@49", "2 222"});
+  Verdict v = check(h, Bounds{});
+  CHECK(v.ok());
+  bool failover = false, restart = false;
+  for (const auto& r : v.recoveries) {
+    if (r.kind == "kill robot: arm served again") failover = r.seconds == Approx(0.021);
+    if (r.kind == "kill robot: replacement up") restart = r.seconds == Approx(1.8);
+  }
+  CHECK(failover);
+  CHECK(restart);
+
+  History late = quiet_history(60.0);
+  late.faults.push_back(kill_left(20.0));
+  add_event(late, {20.9, Event::Type::Owners, "m1", "left=m1/left@50,right=m1/right"});
+  add_event(late, {21.8, Event::Type::State, "m1/left@49", "2 222"});
+  v = check(late, Bounds{});
+  const Violation* x = find(v, "recovery");
+  REQUIRE(x != nullptr);
+  CHECK(x->fault == 1);
+  CHECK_THAT(x->text, Catch::Contains("no other robot served m1/left within 0.5 s") && Catch::Contains("after 0.9 s"));
+
+  // The brakes on the arm are no service: the arm is served again only by a robot.
+  History braked = quiet_history(60.0);
+  braked.faults.push_back(kill_left(20.0));
+  add_event(braked, {20.1, Event::Type::Owners, "m1", "left=braked,right=m1/right"});
+  CHECK(find(check(braked, Bounds{}), "recovery") != nullptr);
+}
+
+TEST_CASE("soak checker: tasks done twice or lost are violations") {
+  History h = quiet_history(120.0);
+  h.tasks_done.push_back(h.tasks_done.front());
+  h.tasks_done_by.push_back("m2");
+  Verdict v = check(h, Bounds{});
+  REQUIRE(find(v, "tasks exactly once") != nullptr);
+  CHECK_THAT(find(v, "tasks exactly once")->text, Catch::Contains("done twice"));
+
+  History lost = quiet_history(120.0);
+  lost.task_names.push_back("orphan");
+  add_event(lost, {10.0, Event::Type::TaskAssigned, "orphan", "m1"});
+  v = check(lost, Bounds{});
+  REQUIRE(find(v, "tasks exactly once") != nullptr);
+  CHECK_THAT(find(v, "tasks exactly once")->text, Catch::Contains("orphan") && Catch::Contains("lost"));
+}
+
+TEST_CASE("soak checker: resident memory that keeps growing is a violation, flat noise is not") {
+  History h = quiet_history(300.0);
+  for (int i = 0; i < 150; ++i) {
+    const double t = 2.0 * i;
+    h.rss.push_back({t, "m1/world", 10, 30.0 + ((i % 3) - 1) * 0.2});   // flat with noise
+    h.rss.push_back({t, "coordinator", 11, 20.0 + 3.0 * t / 60.0});     // 3 MiB/min
+  }
+  const Verdict v = check(h, Bounds{});
+  const Violation* x = find(v, "memory flat");
+  REQUIRE(x != nullptr);
+  CHECK_THAT(x->text, Catch::Contains("coordinator") && Catch::Contains("3.00 MiB/min"));
+  CHECK(v.rss_slope.at("m1/world") == Approx(0.0).margin(0.05));
+  CHECK(v.rss_slope.at("coordinator") == Approx(3.0).epsilon(1e-9));
+}
+
+TEST_CASE("soak checker: anything left behind is a violation") {
+  History h = quiet_history(30.0);
+  h.leftover_shm.push_back("fast_datasharing_x");
+  h.leftover_processes.push_back("123 tandem-robot");
+  const Verdict v = check(h, Bounds{});
+  CHECK(std::count_if(v.violations.begin(), v.violations.end(),
+                      [](const Violation& x) { return x.invariant == "nothing left behind"; }) == 2);
+}
+
+TEST_CASE("soak checker: helpers") {
+  const auto o = parse_owners("left=m1/left@50,right=braked");
+  CHECK(o.at("left") == "m1/left@50");
+  CHECK(o.at("right") == "braked");
+  CHECK(slope({{0, 1}, {1, 3}, {2, 5}}) == Approx(2.0));
+  CHECK(percentile({3, 1, 2}, 0.5) == Approx(2.0));
+  CHECK(percentile({1, 2, 3, 4}, 1.0) == Approx(4.0));
+}
+
+TEST_CASE("svg: a plot has its series, reference lines and escaped text") {
+  Plot p;
+  p.title = "a <b> & c";
+  Series s;
+  s.name = "m1";
+  for (int i = 0; i < 5; ++i) s.xy.emplace_back(i, i * i);
+  p.series.push_back(s);
+  p.hlines.push_back({20.0, "h_sg"});
+  const std::string svg = render_svg(p);
+  CHECK(svg.rfind("<svg", 0) == 0);
+  CHECK(svg.find("</svg>") != std::string::npos);
+  CHECK(svg.find("a &lt;b&gt; &amp; c") != std::string::npos);
+  CHECK(svg.find("<polyline") != std::string::npos);
+  CHECK(svg.find("h_sg") != std::string::npos);
+  const auto ticks = nice_ticks(0.0, 97.0, 6);
+  REQUIRE(ticks.size() >= 4);
+  CHECK(ticks.front() >= 0.0);
+  CHECK(ticks.back() <= 97.0);
+  CHECK(ticks[1] - ticks[0] == Approx(20.0));
+}

@@ -36,6 +36,9 @@ long long pid_of(const Event& e) {
   return sp == std::string::npos ? 0 : std::atoll(e.text.c_str() + sp + 1);
 }
 
+/// How long the soak keeps trying to plug a module or robot in again after its fault's duration.
+constexpr double kReplugS = 60.0;
+
 class Judge {
  public:
   Judge(const History& h, const Bounds& b, Verdict& v) : h_(h), b_(b), v_(v) {}
@@ -301,7 +304,7 @@ class Judge {
                   "its task " + task + " was not re-planned");
           }
           if (f.end_t < 0.0) {
-            judge(inv, f, "kill world: module back", -1.0, f.t, 0.0, module + " was not plugged in again");
+            judge(inv, f, "kill world: module back", -1.0, f.t, f.fault.duration_s + kReplugS, module + " was not plugged in again");
           } else {
             judge(inv, f, "kill world: module back", slot_active(module + "/world", f.pid, f.end_t), f.end_t,
                   b_.module_back_s, module + " was not running again after it was plugged in");
@@ -317,7 +320,7 @@ class Judge {
       case FaultKind::Unplug:
         if (f.fault.target == Target::Module) {
           if (f.end_t < 0.0) {
-            judge(inv, f, "unplug module: back", -1.0, f.t, 0.0, module + " was not plugged in again");
+            judge(inv, f, "unplug module: back", -1.0, f.t, f.fault.duration_s + kReplugS, module + " was not plugged in again");
           } else {
             judge(inv, f, "unplug module: back", slot_active(module + "/world", f.pid, f.end_t), f.end_t,
                   b_.module_back_s, module + " was not running again after it was plugged in");
@@ -328,7 +331,7 @@ class Judge {
                   "no other robot served " + arm);
           }
           if (f.end_t < 0.0) {
-            judge(inv, f, "unplug robot: plugged back", -1.0, f.t, 0.0, "no robot was plugged into " + arm + " again");
+            judge(inv, f, "unplug robot: plugged back", -1.0, f.t, f.fault.duration_s + kReplugS, "no robot was plugged into " + arm + " again");
           } else {
             judge(inv, f, "unplug robot: plugged back", slot_active(arm, f.pid, f.end_t), f.end_t, b_.restart_s,
                   "the robot plugged into " + arm + " was not active");
@@ -336,15 +339,36 @@ class Judge {
         }
         break;
       case FaultKind::Hog: {
+        // Every module paused for load while the hog ran (or at its end) resumes within the bound after it.
+        // (A module may pause again later: pauses are safe; what counts is that none stays paused.)
         const double end = f.end_t >= 0.0 ? f.end_t : f.t + f.fault.duration_s;
-        double last_paused = -1.0;
+        double worst = 0.0;
+        bool stuck = false;
         for (const auto& [m, series] : h_.modules) {
+          bool paused = false;
+          double resumed = -1.0;
           for (const ModuleSample& s : series) {
-            if (s.t >= end && s.t <= end + b_.hog_s + 5.0 && s.load_paused) last_paused = std::max(last_paused, s.t);
+            if (s.t < f.t) continue;
+            if (s.t <= end) {
+              paused = paused || s.load_paused;
+              continue;
+            }
+            if (!paused) paused = s.load_paused && s.t <= end + 0.2;
+            if (paused && !s.load_paused) {
+              resumed = s.t;
+              break;
+            }
+            if (!paused) break;
+          }
+          if (!paused) continue;
+          if (resumed < 0.0) {
+            stuck = true;
+          } else {
+            worst = std::max(worst, resumed - end);
           }
         }
-        judge(inv, f, "hog: no module paused for load", last_paused < 0.0 ? end : last_paused, end, b_.hog_s,
-              "a module was still paused for load");
+        judge(inv, f, "hog: paused modules resume", stuck ? -1.0 : end + worst, end, b_.hog_s,
+              "a module paused for load did not resume");
         break;
       }
     }

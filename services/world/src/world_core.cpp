@@ -229,6 +229,8 @@ void WorldCore::apply(int j, const model::Vec3& tau, int32_t strength, int64_t a
           " answered in time");
     }
   } else if (L.braked && !load_paused_) {
+    if (o_.realtime && ++L.release_run < kReleaseTrialTicks) return;  // the trial: still braked
+    L.release_run = 0;
     log(o_.arm_ids[static_cast<size_t>(j)] + " follows " + name +
         (L.last_at > 0 ? " after " + ms_text(static_cast<double>(at_ns - L.last_at) * 1e-6) + " braked" : ""));
     L.owner = name;
@@ -341,6 +343,7 @@ bool WorldCore::end_tick(int64_t now_ns) {
     ArmLink& L = link_[static_cast<size_t>(j)];
     const bool had = have_[static_cast<size_t>(j)];
     if (L.braked && !L.start_brake) ++braked_ticks;
+    if (L.braked && !had) L.release_run = 0;  // the release trial wants answers in a row
     if (o_.realtime && expect_[static_cast<size_t>(j)] && !L.braked && had) L.late_run = 0;
     if (had || L.braked) continue;
     if (o_.realtime) {

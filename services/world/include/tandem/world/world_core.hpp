@@ -142,6 +142,12 @@ class WorldCore {
   static constexpr double kFailoverLockstepS = 0.02;
   /// Real time: a start brake still on after this many ticks is reported as a braking (the path holds).
   static constexpr long kStartGraceTicks = 20;
+  /// Real time: an arm braked for want of a live controller is released only after a robot answered this many
+  /// ticks in a row (its commands are not applied meanwhile). The supervisor's hold and the path rebased to the
+  /// braked object (a report at the brake, the plan 20 ticks ahead) are then in effect: releasing at the first
+  /// answer applied a command computed against a path that had moved on, and the object slipped (found by
+  /// tandem soak).
+  static constexpr int kReleaseTrialTicks = 100;
 
   enum class Verdict { Applied, Shadow, Rejected, Stale };
   /// A torque command for arm j from the robot of strength `strength` (100: the primary, "<arm>"; a standby
@@ -188,6 +194,7 @@ class WorldCore {
     bool braked = false;
     bool release = false;     // lockstep: a robot answered while braked: wait for it again from the next tick
     bool start_brake = false; // real time: braked from power-on until its robot first answers a tick in time
+    int release_run = 0;      // real time: ticks in a row a robot answered while the arm was braked (the trial)
     bool owner_gone = false;  // the robot it follows said it leaves: follow the next one at once
     int64_t heard = 0;        // last valid command of any tick: a controller is alive
     std::array<bool, 256> late_ring{};  // real time: the last OverloadRule::window ticks, late or not

@@ -219,7 +219,7 @@ TEST_CASE("the world component rejects bad commands and tells a failover from a 
   std::array<tandem::world::SampleOut, 2> out{};
   const tmo::Vec3 ok(1.0, 1.0, 1.0), shadow(1.0, 1.0, 1.0);
   const int64_t ms = 1000000;
-  for (long k = 0; k < 80; ++k) {
+  for (long k = 0; k < 120; ++k) {
     w.begin_tick(k, k * ms, out);
     CHECK(w.on_command(0, k + 1, ok, 100, k * ms, false) == WorldCore::Verdict::Rejected);  // a future tick
     CHECK(w.on_command(0, k, tmo::Vec3(std::nan(""), 0, 0), 100, k * ms, false) == WorldCore::Verdict::Rejected);
@@ -232,15 +232,20 @@ TEST_CASE("the world component rejects bad commands and tells a failover from a 
     }
     const WorldCore::Verdict v = w.on_command(0, k, shadow, 50, k * ms, false);
     if (k < 55) CHECK(v == WorldCore::Verdict::Stale);  // the tick is served already
-    // Right: the standby serves from the start; the primary appears at tick 57 and takes over.
+    // Right: the standby serves from the start; the primary appears at tick 57 and takes over after it has
+    // answered kTakeoverTicks ticks in a row (its law warm again), at tick 106; in shadow until then.
     w.on_command(1, k, ok, 50, k * ms, false);
-    if (k >= 57) w.on_command(1, k, ok, 100, k * ms, false);
+    if (k >= 57) {
+      const WorldCore::Verdict t = w.on_command(1, k, ok, 100, k * ms, false);
+      CHECK(t == (k < 57 + WorldCore::kTakeoverTicks - 1 ? WorldCore::Verdict::Shadow : WorldCore::Verdict::Applied));
+    }
     REQUIRE(w.lockstep_waited(k >= 55 ? 0.03 : 0.0, 10.0, k * ms + 30 * ms));  // the silent owner's tick waited 30 ms
     CHECK(w.lockstep_done());
     REQUIRE(w.end_tick(k * ms));
     w.step();
+    if (k == 105) CHECK(w.serving_text() == "left=m1/left@50,right=m1/right@50");
   }
-  CHECK(w.rejected == 320);
+  CHECK(w.rejected == 480);
   REQUIRE(w.switches.size() == 2);
   CHECK(w.switches[0].failover);            // left: 100 -> 50 at tick 55 (30 ms of waiting > 20 ms)
   CHECK(w.switches[0].gap_ms == Approx(31.0));  // from the last command of tick 54 to the decision

@@ -208,6 +208,21 @@ WorldCore::Verdict WorldCore::on_command(int j, long tick, const model::Vec3& ta
     if (!f.has || strength > f.strength) f = {true, tau, strength, at_ns};
     return Verdict::Shadow;
   }
+  if (!L.owner.empty() && !L.braked && !L.owner_gone && strength > L.strength && k_ >= 50) {
+    // A stronger robot: it warms up in shadow for kTakeoverTicks ticks in a row before it takes over.
+    if (strength != L.challenger || tick != L.challenger_tick + 1) {
+      L.challenger = strength;
+      L.challenger_run = 0;
+    }
+    L.challenger_tick = tick;
+    if (++L.challenger_run < kTakeoverTicks) {
+      Fallback& f = fallback_[static_cast<size_t>(j)];
+      if (!f.has || strength > f.strength) f = {true, tau, strength, at_ns};
+      return Verdict::Shadow;
+    }
+    L.challenger = 0;
+    L.challenger_run = 0;
+  }
   apply(j, tau, strength, at_ns, at_ns);
   return Verdict::Applied;
 }

@@ -148,6 +148,11 @@ class WorldCore {
   /// answer applied a command computed against a path that had moved on, and the object slipped (found by
   /// tandem soak).
   static constexpr int kReleaseTrialTicks = 100;
+  /// A robot stronger than the one an arm follows (a primary back after a stall, restarted or plugged as
+  /// primary) takes the arm over only after it has answered this many ticks in a row (in shadow meanwhile):
+  /// its law's memory is then warm again. Taking over on its first answer after a 1 s stall applied a command
+  /// from a stale integrator, and the object slipped (found by tandem soak).
+  static constexpr int kTakeoverTicks = 50;
 
   enum class Verdict { Applied, Shadow, Rejected, Stale };
   /// A torque command for arm j from the robot of strength `strength` (100: the primary, "<arm>"; a standby
@@ -195,6 +200,9 @@ class WorldCore {
     bool release = false;     // lockstep: a robot answered while braked: wait for it again from the next tick
     bool start_brake = false; // real time: braked from power-on until its robot first answers a tick in time
     int release_run = 0;      // real time: ticks in a row a robot answered while the arm was braked (the trial)
+    int32_t challenger = 0;   // a robot stronger than the owner that answers (it takes over after a warm-up)
+    long challenger_tick = -1;
+    int challenger_run = 0;
     bool owner_gone = false;  // the robot it follows said it leaves: follow the next one at once
     int64_t heard = 0;        // last valid command of any tick: a controller is alive
     std::array<bool, 256> late_ring{};  // real time: the last OverloadRule::window ticks, late or not

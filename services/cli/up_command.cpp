@@ -59,6 +59,8 @@ std::atomic<bool> g_stop{false};
 constexpr double kCorePerModule = 0.2;
 constexpr double kCorePerStandbyRobot = 0.05;
 constexpr double kUsableShare = 0.8;
+// A child not heard on the domain (its status) within this long of its start is cut off: killed and restarted.
+constexpr double kSilentStartS = 15.0;
 void on_signal(int) { g_stop = true; }
 
 struct Child {
@@ -75,6 +77,8 @@ struct Child {
   bool expected = false;           ///< its exit is no failure (unplugged, drained, module stopped, restarted)
   bool handled = false;            ///< its exit has been dealt with
   Clock::time_point term_at{};     ///< when it was asked to stop alone (SIGTERM); SIGKILL 5 s later
+  Clock::time_point started{};     ///< when it was started
+  bool heard = false;              ///< its status was heard over DDS (it is part of the domain)
 };
 
 struct ModuleRun {
@@ -491,6 +495,18 @@ class Launcher {
       }
       it = world_done_.erase(it);
     }
+    // A process whose status was never heard within kSilentStartS of its start runs cut off from the domain
+    // (seen in soaks: now and then a participant started beside many others never matched anyone): it is
+    // killed, and its restart policy applies as for any failure.
+    for (auto& c : children_) {
+      if (!c.running || c.heard || c.expected || stopping_ || c.role == "discovery") continue;
+      if (Clock::now() - c.started > std::chrono::duration<double>(kSilentStartS)) {
+        std::printf("tandem up: %s (pid %d) was not heard on the domain within %.0f s of its start; SIGKILL, its "
+                    "restart policy applies\n", c.label.c_str(), c.pid, kSilentStartS);
+        ::kill(c.pid, SIGKILL);
+        c.heard = true;  // once
+      }
+    }
     // A process asked to stop alone that is still there after 5 s (hung, or stopped by a signal).
     for (auto& c : children_) {
       if (c.running && c.term_at != Clock::time_point{} && Clock::now() - c.term_at > std::chrono::seconds(5)) {
@@ -758,6 +774,13 @@ class Launcher {
     return nullptr;
   }
 
+  /// A status sample from process `label` (pid): it is part of the domain.
+  void on_status(const std::string& label, long long pid) {
+    for (auto& c : children_) {
+      if (c.running && c.label == label && c.pid == pid) c.heard = true;
+    }
+  }
+
   void on_task_state(const msg::TaskState& ts) {
     if (ts.deployment() == d_.name) task_states_[ts.module_id()] = ts;
   }
@@ -817,6 +840,8 @@ class Launcher {
   void launch(Child& c, const char* note = "") {
     c.pid = spawn(c.exe, c.args, c.role == "coordinator" ? 0 : rt_priority_);
     c.running = true;
+    c.started = Clock::now();
+    c.heard = false;
     std::printf("  started %-22s pid %d%s\n", c.label.c_str(), c.pid, note);
     children_.push_back(c);
   }
@@ -1046,7 +1071,10 @@ int up_command(const std::vector<std::string>& args) {
     }
     collect();
     msg::ProcessStatus ps;
-    while (status.take(ps)) view.update(ps);
+    while (status.take(ps)) {
+      view.update(ps);
+      L.on_status(ps.process_id(), ps.pid());
+    }
     msg::ControlRequest req;
     while (control.take(req)) {
       if (req.deployment() != d.name) continue;

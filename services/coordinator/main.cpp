@@ -40,6 +40,10 @@ namespace {
 constexpr double kTakeoverS = 0.5;    // a standby takes over when the primary's state stops this long
 constexpr double kFirstStateS = 3.0;  // ... or when it has heard none this long from its start
 constexpr double kHeartbeatS = 0.1;   // state and status are published at least this often
+// A primary whose own loop stood still this long (SIGSTOP, starvation) may have been replaced by a standby
+// (which waits kTakeoverS): it leaves rather than lead beside it (crash-only; the launcher restarts it as a
+// standby). Found by tandem soak: a stalled primary came back and led beside its successor.
+constexpr double kStallS = 0.4;
 
 struct Options {
   std::string file;
@@ -262,13 +266,24 @@ int main(int argc, char** argv) {
     return true;
   };
 
+  double last_loop = now();
+  bool other_seen = false;  // another coordinator of the deployment was heard: a successor may exist
   while (!runtime::g_stop) {
     const double t = now();
+    if (primary && other_seen && t - last_loop > kStallS) {
+      std::fprintf(stderr, "tandem-coordinator %s: stalled for %.0f ms, longer than a standby waits before it takes "
+                   "over; leaving so that only one coordinator leads (restarted as a standby by the policy)\n",
+                   opt.id.c_str(), (t - last_loop) * 1e3);
+      status.set(runtime::Lifecycle::Error, "stalled: left so that one coordinator leads");
+      return 3;
+    }
+    last_loop = t;
     msg::ProcessStatus ps;
     while (status_in.take(ps)) {
       if (ps.deployment() != d.name) continue;
       if (ps.role() == "robot") wear[ps.process_id()] = ps.wear();
       if (ps.role() == "coordinator" && ps.process_id() != opt.id) {
+        other_seen = true;
         if (ps.state() == static_cast<uint8_t>(runtime::Lifecycle::Active)) {
           peers[ps.process_id()] = t;
         } else {

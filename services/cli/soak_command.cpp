@@ -127,9 +127,10 @@ std::string derived_deployment(const std::string& file, const runtime::Deploymen
     root["coordinator"]["balance"] = "wear";
     root["coordinator"]["tasks"] = YAML::Node(YAML::NodeType::Sequence);
   }
-  // A task takes about 4 s (two 1.5 s moves and the hand-over); enough for every module to stay busy.
+  // A task takes about 4 s in real time (two 1.5 s moves and the hand-over), less in lockstep (it runs as fast
+  // as the machine allows): enough for every module to stay busy.
   const size_t modules = std::max<size_t>(1, d.modules.size());
-  generated = static_cast<size_t>(std::ceil(duration_s / 3.0 * static_cast<double>(modules) * 1.3)) + 8;
+  generated = static_cast<size_t>(std::ceil(duration_s / 3.0 * static_cast<double>(modules) * (timing == "lockstep" ? 2.5 : 1.3))) + 8;
   YAML::Node tasks = root["coordinator"]["tasks"];
   for (size_t i = 1; i <= generated; ++i) {
     YAML::Node t;
@@ -688,7 +689,7 @@ void soak_usage(std::FILE* f) {
       "\n"
       "  --duration T     how long to run: 90, 90s, 10m, 1h (default 10m)\n"
       "  --seed N         the schedule's seed (default 1): the same seed, rules and duration give the same schedule\n"
-      "  --faults F       a schedule file (YAML, docs/soak.md) or a preset: mixed (default; every kind, about 17 a\n"
+      "  --faults F       a schedule file (YAML, docs/soak.md) or a preset: mixed (default; every kind, about 20 a\n"
       "                   minute), ci (every kind at least once, for short runs), kills, none\n"
       "  --report DIR     where the report goes (default soak-<deployment>-<seed>): summary.md, summary.txt,\n"
       "                   index.html, SVG plots, schedule.yaml, the derived deploy.yaml and launcher.log\n"

@@ -89,7 +89,11 @@ int main(int argc, char** argv) {
       in.qd(i) = smp.qd()[static_cast<size_t>(i)];
     }
     in.h = model::Vec2(smp.h()[0], smp.h()[1]);
-    const std::optional<model::Vec3> tau = core.on_sample(static_cast<long>(smp.tick()), in, smp.braked());
+    // Another robot's torque drove the arm over the last period: track it (bumpless transfer).
+    const model::Vec3 applied(smp.tau()[0], smp.tau()[1], smp.tau()[2]);
+    const bool other = smp.from() != 0 && smp.from() != opt.strength;
+    const std::optional<model::Vec3> tau =
+        core.on_sample(static_cast<long>(smp.tick()), in, smp.braked(), other ? &applied : nullptr);
     if (!tau) return;
     cmd.tick(static_cast<uint64_t>(core.done()));
     for (int i = 0; i < 3; ++i) cmd.tau()[static_cast<size_t>(i)] = (*tau)(i);

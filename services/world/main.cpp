@@ -159,6 +159,8 @@ int main(int argc, char** argv) {
         s.h()[0] = o.h(0);
         s.h()[1] = o.h(1);
         s.braked(o.braked);
+        for (size_t i = 0; i < 3; ++i) s.tau()[i] = o.tau_applied(static_cast<int>(i));
+        s.from(o.applied_from);
         sensors[j]->write(s);
       }
     };

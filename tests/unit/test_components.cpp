@@ -187,6 +187,49 @@ TEST_CASE("a world and two robots as components reproduce the embedded simulatio
   CHECK(world.late == 0);
 }
 
+TEST_CASE("a standby that joins late tracks the applied torque and takes over without a torque step", "[components]") {
+  // Lockstep, in one process: the left arm's primary serves from tick 0; a standby joins at tick 1000 with a
+  // fresh super-twisting integral. Tracking the torque the arm got (bumpless transfer), its own output must
+  // come to equal the primary's; without tracking the integral's offset stays (both integrate the same sign(s)).
+  const ts::ModuleSetup& m = sosm();
+  WorldCore world(m, world_options(false));
+  RobotCore left(m, 0, false, paper().transient), right(m, 1, false, paper().transient);
+  RobotCore late(m, 0, false, paper().transient), untracked(m, 0, false, paper().transient);
+  const tp::PlanData p = initial_plan(m, false);
+  for (auto* r : {&left, &right, &late, &untracked}) r->offer_plan(p);
+  world.offer_plan(p);
+  std::array<tandem::world::SampleOut, 2> out{};
+  double gap_tracked = 0.0, gap_untracked = 0.0, first_gap = 0.0;
+  for (long k = 0; k < 2500; ++k) {
+    world.begin_tick(k, 0, out);
+    const auto s0 = sensors_of(out[0]);
+    const auto tau_l = left.on_sample(k, s0, out[0].braked);
+    const auto tau_r = right.on_sample(k, sensors_of(out[1]), out[1].braked);
+    REQUIRE(tau_l.has_value());
+    REQUIRE(tau_r.has_value());
+    CHECK(out[0].applied_from == (k == 0 ? 0 : 100));
+    if (k >= 1000) {
+      const bool other = out[0].applied_from != 0 && out[0].applied_from != 50;
+      const auto tau_s = late.on_sample(k, s0, out[0].braked, other ? &out[0].tau_applied : nullptr);
+      const auto tau_u = untracked.on_sample(k, s0, out[0].braked);
+      REQUIRE(tau_s.has_value());
+      if (k == 1000) first_gap = (*tau_s - *tau_l).norm();
+      if (k >= 2000) {
+        gap_tracked = std::max(gap_tracked, (*tau_s - *tau_l).norm());
+        gap_untracked = std::max(gap_untracked, (*tau_u - *tau_l).norm());
+      }
+    }
+    REQUIRE(world.on_command(0, k, *tau_l, 100, 0, false) == WorldCore::Verdict::Applied);
+    REQUIRE(world.on_command(1, k, *tau_r, 100, 0, false) == WorldCore::Verdict::Applied);
+    REQUIRE(world.end_tick(0));
+    world.step();
+  }
+  INFO("torque gap to the primary: at the join " << first_gap << " N m, tracked " << gap_tracked << ", untracked "
+                                                 << gap_untracked);
+  CHECK(gap_untracked > 0.05);                // the fresh integral's offset does not go away by itself
+  CHECK(gap_tracked < 0.01 * gap_untracked);  // tracked: the standby's output is the primary's
+}
+
 TEST_CASE("a robot component answers new ticks, repeats the last one, and rejects bad samples", "[components]") {
   const ts::ModuleSetup& m = sosm();
   RobotCore r(m, 1, false, paper().transient);

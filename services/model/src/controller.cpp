@@ -23,6 +23,11 @@ Mat3 contact_frame(double phi) noexcept {
 HybridController::HybridController(const ArmParams& arm, const HybridParams& params)
     : arm_(arm), params_(params) {}
 
+void HybridController::track(const Vec3& delta_tau) noexcept {
+  if (params_.law.type != LawType::SuperTwisting || !delta_tau.allFinite()) return;
+  twisting_v_ += tau_to_u_ * delta_tau;
+}
+
 void HybridController::reset() noexcept {
   prev_normal_force_ = 0.0;
   has_prev_ = false;
@@ -112,7 +117,9 @@ ControlOutput HybridController::step(const ArmSensors& in, const ArmReference& r
       n_hat(i) += arm_.coulomb(i) * (c.coulomb_band > 0.0 ? std::tanh(in.qd(i) / c.coulomb_band) : sgn(in.qd(i)));
     }
   }
-  out.tau = inertia(arm_, in.q) * y + n_hat;
+  const Mat3 B = inertia(arm_, in.q);
+  out.tau = B * y + n_hat;
+  if (g.type == LawType::SuperTwisting) tau_to_u_ = R.transpose() * J * B.inverse();
   if (c.contact_force) out.tau += J.transpose() * Vec3(in.h(0), in.h(1), 0.0);
   return out;
 }

@@ -12,7 +12,8 @@ plan::PlanFollower::Offer RobotCore::offer_plan(const plan::PlanData& p, std::st
   return o;
 }
 
-std::optional<model::Vec3> RobotCore::on_sample(long k, const model::ArmSensors& in, bool braked) {
+std::optional<model::Vec3> RobotCore::on_sample(long k, const model::ArmSensors& in, bool braked,
+                                                const model::Vec3* applied) {
   if (!plan::all_finite(in.q) || !plan::all_finite(in.qd) || !plan::all_finite(in.h)) {
     ++rejected_;
     return std::nullopt;
@@ -24,6 +25,9 @@ std::optional<model::Vec3> RobotCore::on_sample(long k, const model::ArmSensors&
   // While the brakes hold the arm, the law's memory (super-twisting integral, force history) must not wind
   // up on an error the arm cannot act on: it starts afresh every braked tick.
   if (braked) ctl_.reset();
+  // In shadow: continue from what the arm actually got over the last period (its owner's torque), not from
+  // this controller's own last output (bumpless transfer). Only right after this robot's own previous tick.
+  if (!braked && applied != nullptr && done_ == k - 1 && plan::all_finite(*applied)) ctl_.track(*applied - tau_);
   model::ControlOutput out = ctl_.step(in, ref);
   // Actuator limits: the command is saturated here as the drive would (the plant clips the same way).
   const model::Vec3& lim = m_.plant.arms[j_].tau_max;

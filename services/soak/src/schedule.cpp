@@ -248,14 +248,14 @@ FaultFile preset(const std::string& name_) {
   using K = FaultKind;
   using T = Target;
   if (name_ == "mixed") {
-    // About 18 faults a minute (1000 in an hour), every kind; robots hit most, as they are most numerous.
+    // About 20 faults a minute (1200 in an hour), every kind; robots hit most, as they are most numerous.
     f.warmup_s = 10.0;
     f.quiet_s = 15.0;
     f.spacing_s = 1.0;
-    f.rules = {rule(K::Kill, T::Robot, 5.0),        rule(K::Kill, T::Standby, 2.0),
+    f.rules = {rule(K::Kill, T::Robot, 6.0),        rule(K::Kill, T::Standby, 2.5),
                rule(K::Kill, T::Supervisor, 1.0),   rule(K::Kill, T::Coordinator, 0.5),
                rule(K::Kill, T::World, 0.5),        rule(K::Stall, T::Robot, 3.0),
-               rule(K::Stall, T::Standby, 0.5),     rule(K::Stall, T::Supervisor, 1.0),
+               rule(K::Stall, T::Standby, 0.5),     rule(K::Stall, T::Supervisor, 1.5),
                rule(K::Stall, T::Coordinator, 0.5), rule(K::Stall, T::World, 0.5, 0.01, 0.5),
                rule(K::Unplug, T::Robot, 1.0),      rule(K::Unplug, T::Standby, 1.0),
                rule(K::Unplug, T::Module, 0.5, 2.0, 6.0), rule(K::Hog, T::None, 1.0, 2.0, 8.0, 1),

@@ -132,6 +132,8 @@ void WorldCore::begin_tick(long k, int64_t /*now_ns*/, std::array<SampleOut, 2>&
     s.qd = plant_.state().qd[j];
     s.h = contact.h[j];
     s.braked = link_[j].braked;
+    s.tau_applied = tau_[j];
+    s.applied_from = link_[j].braked ? 0 : applied_from_[j];
     expect_[j] = probe;
   }
 }
@@ -231,6 +233,7 @@ void WorldCore::apply(int j, const model::Vec3& tau, int32_t strength, int64_t a
   ArmLink& L = link_[static_cast<size_t>(j)];
   tau_[static_cast<size_t>(j)] = tau;
   have_[static_cast<size_t>(j)] = true;
+  applied_from_[static_cast<size_t>(j)] = strength;
   const std::string name = robot_name(j, strength);
   if (L.start_brake) {
     L.start_brake = false;
@@ -351,6 +354,7 @@ bool WorldCore::end_tick(int64_t now_ns) {
       // The owner missed this tick: its standby's answer (the same law on the same samples) serves it.
       tau_[static_cast<size_t>(j)] = f.tau;
       have_[static_cast<size_t>(j)] = true;
+      applied_from_[static_cast<size_t>(j)] = f.strength;
       ++covered;
     }
   }

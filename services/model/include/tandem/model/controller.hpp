@@ -86,6 +86,12 @@ class HybridController {
   void reset() noexcept;
   /// One control period: sensors at t_k and the reference for t_k in, torque for [t_k, t_k+1) out.
   ControlOutput step(const ArmSensors& in, const ArmReference& ref) noexcept;
+  /// Bumpless transfer for a controller in shadow (a standby): the torque applied over the last period was
+  /// `delta_tau` above this controller's own output of its last step. The super-twisting integral is shifted by
+  /// the matching law output (u = R^T J B^-1 tau, eq. 20-22), so that this controller's next outputs continue
+  /// from what the arm actually got: a standby that joined late (or a primary back from a stall) then takes
+  /// over without a torque step. The other laws have no memory: nothing to shift.
+  void track(const Vec3& delta_tau) noexcept;
   const HybridParams& params() const noexcept { return params_; }
 
  private:
@@ -94,6 +100,7 @@ class HybridController {
   double prev_normal_force_ = 0.0;
   bool has_prev_ = false;
   Vec3 twisting_v_ = Vec3::Zero();
+  Mat3 tau_to_u_ = Mat3::Zero();  ///< R^T J B^-1 of the last step (law output per torque)
 };
 
 /// Gains that satisfy the reaching conditions (eq. 33-34) for one arm, per contact-frame axis:

@@ -24,7 +24,10 @@ class RobotCore {
   /// One sensor sample of tick k. Returns the torque to send: for a new tick the law's output (eq. 15 from
   /// the plan, saturated at tau_max); for a repeat of the last tick (lockstep asks again) the same command;
   /// nothing for an older tick, a sample with NaN/inf (rejected, counted), or before any plan is heard.
-  std::optional<model::Vec3> on_sample(long k, const model::ArmSensors& in, bool braked);
+  /// `applied`: the torque the arm got over the last period when another robot served it (nullptr when this
+  /// robot served it, or unknown): the law tracks it (bumpless transfer, HybridController::track).
+  std::optional<model::Vec3> on_sample(long k, const model::ArmSensors& in, bool braked,
+                                       const model::Vec3* applied = nullptr);
 
   long done() const { return done_; }                  ///< the last tick computed (-1: none)
   const model::Vec3& last_tau() const { return tau_; }

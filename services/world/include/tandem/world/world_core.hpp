@@ -69,6 +69,8 @@ struct SampleOut {
   model::Vec3 q = model::Vec3::Zero(), qd = model::Vec3::Zero();
   model::Vec2 h = model::Vec2::Zero();
   bool braked = false;
+  model::Vec3 tau_applied = model::Vec3::Zero();  ///< torque the arm got over the last period
+  int32_t applied_from = 0;                       ///< strength of the robot it came from (0: none, braked)
 };
 
 /// What the supervisor plans from (WorldReport on the wire).
@@ -188,6 +190,8 @@ class WorldCore {
   unsigned long long late = 0, timeouts = 0, rejected = 0, stale = 0, braked_ticks = 0, failovers = 0,
                      load_pauses = 0, load_paused_ticks = 0, covered = 0;
   double failover_max_ms = 0.0, failover_last_ms = 0.0;
+  /// Strength of the robot whose torque each arm got last (the owner, or a standby covering a missed tick).
+  std::array<int32_t, 2> applied_from_{0, 0};
   std::vector<Switch> switches;
 
  private:

@@ -369,6 +369,10 @@ bool WorldCore::end_tick(int64_t now_ns) {
       // A late or missing command: the arm keeps its previous torque for this tick (counted). An arm from
       // which no command at all (late ones included) came for brake_after_s has no live controller: braked.
       ++late;
+      // While holding for load, a tick without a command counts as losing the arm too (a starved robot sends
+      // nothing in time, not even late): 3 such ticks brake at once instead of leaving stale torques on a
+      // moving object for up to hold_max_s (a start-up overload made the object slip; found by the soak).
+      if (load_pending_) ++L.late_run;
       const double quiet = static_cast<double>(now_ns - L.heard) * 1e-9;
       if (L.last_tick >= 0 && quiet > brake_after_s_ && o_.brakes) set_brake(j, true, "no live controller");
     } else if (L.last_tick < 0) {

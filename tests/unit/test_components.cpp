@@ -365,7 +365,7 @@ struct OverloadRun {
 // A module in real time whose left robot misses every third deadline from tick 1500 to 2500 (mid-motion),
 // with the supervisor's part played as its process plays it: stop the path smoothly when the world asks to
 // hold, resume 200 ticks after the release.
-OverloadRun run_overload(const tandem::world::OverloadRule& rule) {
+OverloadRun run_overload(const tandem::world::OverloadRule& rule, bool starve_when_held = false) {
   const ts::ModuleSetup& m = sosm();
   tandem::world::WorldOptions o = world_options(true);
   o.overload = rule;
@@ -407,6 +407,8 @@ OverloadRun run_overload(const tandem::world::OverloadRule& rule) {
       if (!out[static_cast<size_t>(j)].publish) continue;
       const auto tau = robots[j]->on_sample(k, sensors_of(out[static_cast<size_t>(j)]), out[static_cast<size_t>(j)].braked);
       if (!tau) continue;
+      // Starved: once the world holds, the left robot sends nothing at all until its arm is braked.
+      if (starve_when_held && j == 0 && run.held && !run.braked_both) continue;
       const bool late = j == 0 && k >= 1500 && k < 2500 && k % 3 == 0;
       w.on_command(j, k, *tau, 100, now, late);
     }
@@ -449,6 +451,29 @@ TEST_CASE("overload: braking at once, without stopping the path first, makes the
   CHECK(run.braked_both);
   CHECK(run.log.find("object still moving") != std::string::npos);
   CHECK(run.slips > 0);
+}
+
+TEST_CASE("overload: a robot that sends nothing while the world holds gets the arms braked within a few ticks", "[components]") {
+  // Ticks without any command count toward braking while holding (3 in a row), not only late ones: a starved
+  // robot otherwise left stale torques on the moving object for up to hold_max_s (found by tandem soak).
+  // Neither saves a moving object from slipping when its robot starves mid-motion; braking early slips less.
+  // Both are bad for a moving object (braking it at once slips too, see above); measured here: braking after 3
+  // silent ticks slips less than leaving stale torques until the hold times out.
+  tandem::world::OverloadRule no_rush;
+  no_rush.hold_late_run = 100000;
+  const OverloadRun stale = run_overload(no_rush, true);
+  const OverloadRun run = run_overload(tandem::world::OverloadRule{}, true);
+  INFO("slip events: braked after 3 silent ticks " << run.slips << ", stale torques " << stale.slips);
+  INFO(run.log);
+  CHECK(run.braked_both);
+  const auto at = run.log.find("commands missed while holding");
+  REQUIRE(at != std::string::npos);
+  const auto after = run.log.rfind("after ", at);
+  REQUIRE(after != std::string::npos);
+  const double held_ms = std::atof(run.log.c_str() + after + 6);
+  CHECK(held_ms <= 15.0);  // the hold began within a report period (10 ticks) before; 3 silent ticks brake
+  CHECK(run.slips < stale.slips);
+  CHECK(run.contact_lost == 0);
 }
 
 TEST_CASE("overload with standbys: no owner flapping while paused, and a primary that dies meanwhile is failed over", "[components]") {

@@ -161,7 +161,7 @@ std::string plot_recovery(const Verdict& v, const Bounds& b) {
     ++i;
   }
   p.series = {dots, p50};
-  return render_svg(p, 1100, 380);
+  return render_svg(p, 1100, 520);
 }
 
 std::string plot_faults(const History& h) {

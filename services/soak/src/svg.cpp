@@ -60,7 +60,8 @@ std::vector<double> nice_ticks(double lo, double hi, int n) {
 }
 
 std::string render_svg(const Plot& p, int width, int height) {
-  const double L = 70, R = 170, T = 34, B = 46;  // margins (legend on the right)
+  // Margins (legend on the right; room below for slanted category names).
+  const double L = p.xcategories.empty() ? 70 : 120, R = 170, T = 34, B = p.xcategories.empty() ? 46 : 150;
   const double W = width - L - R, H = height - T - B;
   double x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300;
   auto ty = [&](double y) { return p.log_y ? std::log10(std::max(y, 1e-12)) : y; };
@@ -120,8 +121,8 @@ std::string render_svg(const Plot& p, int width, int height) {
     }
   } else {
     for (size_t i = 0; i < p.xcategories.size(); ++i) {
-      o << "<text x=\"" << num(X(static_cast<double>(i))) << "\" y=\"" << T + H + 16 << "\" text-anchor=\"middle\" font-size=\"10\">"
-        << xml_escape(p.xcategories[i]) << "</text>\n";
+      o << "<text transform=\"translate(" << num(X(static_cast<double>(i)) + 4) << "," << T + H + 12
+        << ") rotate(-30)\" text-anchor=\"end\" font-size=\"11\">" << xml_escape(p.xcategories[i]) << "</text>\n";
     }
   }
   if (p.ycategories.empty()) {

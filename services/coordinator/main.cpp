@@ -40,10 +40,12 @@ namespace {
 constexpr double kTakeoverS = 0.5;    // a standby takes over when the primary's state stops this long
 constexpr double kFirstStateS = 3.0;  // ... or when it has heard none this long from its start
 constexpr double kHeartbeatS = 0.1;   // state and status are published at least this often
-// A primary whose own loop stood still this long (SIGSTOP, starvation) may have been replaced by a standby
-// (which waits kTakeoverS): it leaves rather than lead beside it (crash-only; the launcher restarts it as a
-// standby). Found by tandem soak: a stalled primary came back and led beside its successor.
-constexpr double kStallS = 0.4;
+// A primary whose own loop stood still longer than a standby waits before it takes over (SIGSTOP, starvation)
+// may have been replaced: it decides nothing for kDoubtS while it listens; if another coordinator reports
+// `primary` meanwhile, it leaves (crash-only; the launcher restarts it as a standby), else it goes on. Found
+// by tandem soak: a stalled primary came back and led beside its successor.
+constexpr double kStallS = kTakeoverS;
+constexpr double kDoubtS = 0.3;
 
 struct Options {
   std::string file;
@@ -267,15 +269,13 @@ int main(int argc, char** argv) {
   };
 
   double last_loop = now();
-  bool other_seen = false;  // another coordinator of the deployment was heard: a successor may exist
+  double doubt_until = -1.0;  // after a stall: listening for a successor before deciding anything
   while (!runtime::g_stop) {
     const double t = now();
-    if (primary && other_seen && t - last_loop > kStallS) {
-      std::fprintf(stderr, "tandem-coordinator %s: stalled for %.0f ms, longer than a standby waits before it takes "
-                   "over; leaving so that only one coordinator leads (restarted as a standby by the policy)\n",
-                   opt.id.c_str(), (t - last_loop) * 1e3);
-      status.set(runtime::Lifecycle::Error, "stalled: left so that one coordinator leads");
-      return 3;
+    if (primary && t - last_loop > kStallS && doubt_until < 0.0) {
+      say("stalled for " + fixed((t - last_loop) * 1e3, 0) + " ms (a standby takes over after " +
+          fixed(kTakeoverS * 1e3, 0) + " ms): listening for a successor before deciding anything");
+      doubt_until = t + kDoubtS;
     }
     last_loop = t;
     msg::ProcessStatus ps;
@@ -283,7 +283,14 @@ int main(int argc, char** argv) {
       if (ps.deployment() != d.name) continue;
       if (ps.role() == "robot") wear[ps.process_id()] = ps.wear();
       if (ps.role() == "coordinator" && ps.process_id() != opt.id) {
-        other_seen = true;
+        if (primary && doubt_until >= 0.0 && ps.serving() == "primary" &&
+            ps.state() == static_cast<uint8_t>(runtime::Lifecycle::Active)) {
+          std::fprintf(stderr, "tandem-coordinator %s: %s took over while this one was stalled; leaving so that only "
+                       "one coordinator leads (restarted as a standby by the policy)\n", opt.id.c_str(),
+                       ps.process_id().c_str());
+          status.set(runtime::Lifecycle::Error, "stalled and replaced: left so that one coordinator leads");
+          return 3;
+        }
         if (ps.state() == static_cast<uint8_t>(runtime::Lifecycle::Active)) {
           peers[ps.process_id()] = t;
         } else {
@@ -349,6 +356,14 @@ int main(int argc, char** argv) {
       progress_mark = queue.done_count();
     }
 
+    if (doubt_until >= 0.0) {  // back from a stall: no successor heard yet; decide nothing until sure
+      if (t < doubt_until) {
+        states.wait(0.02);
+        continue;
+      }
+      say("no successor took over; carrying on as the primary");
+      doubt_until = -1.0;
+    }
     for (const auto& e : queue.expire(t)) say(queue.describe(e));
     while (const auto a = queue.assign_next(module_wear)) {
       publish_state(t);  // the state with the task in flight first: a standby that takes over knows of it

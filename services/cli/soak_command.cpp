@@ -585,8 +585,8 @@ class Soak {
 
   void resend_requests(double t) {
     for (auto it = requests_.begin(); it != requests_.end();) {
-      if (t - it->second.first > 10.0) {  // never answered
-        if (it->second.done) it->second.done(false, "no answer from the launcher within 10 s");
+      if (t - it->second.first > 30.0) {  // never answered
+        if (it->second.done) it->second.done(false, "no answer from the launcher within 30 s");
         it = requests_.erase(it);
         continue;
       }
@@ -615,7 +615,8 @@ class Soak {
   void replug_module(const std::string& module, size_t index, double at, double give_up) {
     pending_.push_back({at, [this, module, index, give_up] {
                           request("plug", "module " + module, "", [this, module, index, give_up](bool ok, const std::string& why) {
-                            if (ok) {
+                            // "running already": an earlier attempt whose answer was lost plugged it in.
+                            if (ok || why.find("running already") != std::string::npos) {
                               h_.faults[index].end_t = now();
                               out_.erase(module);
                             } else if (now() < give_up && !stopping_) {

@@ -434,7 +434,8 @@ class Soak {
   int live_robots_of(const std::string& arm, double t) const {
     int n = 0;
     for (const auto& [label, p] : procs_) {
-      if (p.role == "robot" && live(p, t) && (label == arm || label.rfind(arm + "@", 0) == 0)) ++n;
+      // Active only: a robot still starting (inactive) cannot take the arm over yet.
+      if (p.role == "robot" && p.state == 2 && live(p, t) && (label == arm || label.rfind(arm + "@", 0) == 0)) ++n;
     }
     return n;
   }

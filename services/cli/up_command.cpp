@@ -78,6 +78,7 @@ struct Child {
   bool handled = false;            ///< its exit has been dealt with
   Clock::time_point term_at{};     ///< when it was asked to stop alone (SIGTERM); SIGKILL 5 s later
   Clock::time_point started{};     ///< when it was started
+  int participant_id = -1;         ///< its DDS participant id (TANDEM_PARTICIPANT_ID), -1: Fast DDS's choice
   bool heard = false;              ///< its status was heard over DDS (it is part of the domain)
 };
 
@@ -115,12 +116,21 @@ bool fifo_permitted(int priority, std::string& why) {
 
 /// Starts `exe` with `args`; with rt_priority > 0 the child runs SCHED_FIFO at that priority, and so do the
 /// threads it creates (Fast DDS's receive and event threads inherit it: the whole tick path is real time).
-pid_t spawn(const std::string& exe, const std::vector<std::string>& args, int rt_priority = 0) {
+pid_t spawn(const std::string& exe, const std::vector<std::string>& args, int rt_priority = 0,
+            int participant_id = -1) {
   // Everything the child needs is built before fork: after fork only async-signal-safe calls.
   std::vector<char*> argv;
   argv.push_back(const_cast<char*>(exe.c_str()));
   for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
   argv.push_back(nullptr);
+  std::vector<std::string> env_text;
+  for (char** e = environ; *e != nullptr; ++e) {
+    if (std::strncmp(*e, "TANDEM_PARTICIPANT_ID=", 22) != 0) env_text.emplace_back(*e);
+  }
+  if (participant_id >= 0) env_text.push_back("TANDEM_PARTICIPANT_ID=" + std::to_string(participant_id));
+  std::vector<char*> envp;
+  for (auto& e : env_text) envp.push_back(e.data());
+  envp.push_back(nullptr);
   const pid_t launcher = ::getpid();
   const pid_t pid = ::fork();
   if (pid < 0) {
@@ -137,7 +147,7 @@ pid_t spawn(const std::string& exe, const std::vector<std::string>& args, int rt
     sp.sched_priority = rt_priority;
     (void)::sched_setscheduler(0, SCHED_FIFO, &sp);  // checked by fifo_permitted() before any start
   }
-  ::execv(exe.c_str(), argv.data());
+  ::execve(exe.c_str(), argv.data(), envp.data());
   static const char msg[] = "tandem up: cannot exec a role process\n";
   (void)!::write(2, msg, sizeof msg - 1);
   ::_exit(127);
@@ -736,6 +746,8 @@ class Launcher {
       if (r == c.pid) {
         c.running = false;
         c.status = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+        if (c.participant_id >= 0) free_ids_.push_back(c.participant_id);  // reused last
+        c.participant_id = -1;
       }
     }
   }
@@ -825,6 +837,13 @@ class Launcher {
   unsigned long long current_seq_ = 0;  ///< the live command being carried out (its say() lines are its answer)
   /// SCHED_FIFO priority for the per-tick processes (0: normal scheduling); set once before any start.
   int rt_priority_ = 0;
+  /// Participant ids for children, the one left longest ago first: 20-119 (0-19 stay for Fast DDS's own choice:
+  /// the launcher, `tandem status` and other tools).
+  std::deque<int> free_ids_ = [] {
+    std::deque<int> ids;
+    for (int i = 20; i < 120; ++i) ids.push_back(i);
+    return ids;
+  }();
 
  private:
   std::vector<std::string> common_args(const runtime::ModuleDeployment& m) const {
@@ -838,7 +857,13 @@ class Launcher {
     return a;
   }
   void launch(Child& c, const char* note = "") {
-    c.pid = spawn(c.exe, c.args, c.role == "coordinator" ? 0 : rt_priority_);
+    // The participant id left longest ago (see services/dds/src/participant.cpp); none left: Fast DDS picks.
+    c.participant_id = -1;
+    if (!free_ids_.empty()) {
+      c.participant_id = free_ids_.front();
+      free_ids_.pop_front();
+    }
+    c.pid = spawn(c.exe, c.args, c.role == "coordinator" ? 0 : rt_priority_, c.participant_id);
     c.running = true;
     c.started = Clock::now();
     c.heard = false;

@@ -1,3 +1,4 @@
+#include <cstdlib>
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
 #include <fastdds/dds/domain/qos/DomainParticipantQos.hpp>
 #include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
@@ -21,6 +22,14 @@ Participant::Participant(int domain_id, const std::string& name, Transport trans
   // And then every second instead of every 3 s: a pair that missed each other's first announcements (seen
   // once in a few runs: a launcher that never heard its world in a 4 s run) finds each other within a second.
   qos.wire_protocol().builtin.discovery_config.leaseDuration_announcementperiod = eprosima::fastrtps::Duration_t(1, 0);
+  // A participant id chosen by the launcher (TANDEM_PARTICIPANT_ID), not the lowest free one: the lowest free id
+  // is the one a killed process just left, and with it its shared-memory port, which the others still hold open
+  // from before; a newcomer that recreated that port heard nobody (seen in soaks: a restarted process cut off
+  // from the domain). The launcher hands out the id left longest ago.
+  if (const char* id = std::getenv("TANDEM_PARTICIPANT_ID")) {
+    const int n = std::atoi(id);
+    if (n >= 0 && n < 120) qos.wire_protocol().participant_id = n;
+  }
   if (transport == Transport::SharedMemory) {
     // Data over shared memory; discovery still needs a UDP locator, so keep UDPv4 beside it.
     qos.transport().user_transports.push_back(

@@ -141,6 +141,10 @@ class Judge {
       };
       for (const ModuleSample& s : series) {
         if (s.braked || s.hold || s.load_paused) exempt_until = s.t + b_.brake_grace_s;
+        if (s.contact_lost > 0) {  // the object is down: "object held" has reported it, once per world
+          close(s.t);
+          continue;
+        }
         const bool young = static_cast<double>(s.tick) < b_.startup_grace_s * 1000.0;
         if (young || s.t <= exempt_until || s.normal_min >= 1e299) {
           close(s.t);

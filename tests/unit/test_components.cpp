@@ -335,6 +335,32 @@ TEST_CASE("in real time a silent owner's ticks are served by its standby, which 
   CHECK(g.switches[0].gap_ms == Approx(1.0).margin(0.2));  // at tick 60, not after 10 silent ticks
 }
 
+TEST_CASE("in real time a stall of the world itself does not brake arms whose robots are alive", "[components]") {
+  // The world is stopped for 400 ms after tick 99 (SIGSTOP); its robots answer from the tick after. The silence
+  // was the world's own: forgive_silence (called when its tick starts far too late) keeps the arms.
+  const ts::ModuleSetup& m = sosm();
+  const tmo::Vec3 ok(1.0, 1.0, 1.0);
+  const int64_t ms = 1000000;
+  auto run = [&](bool forgive) {
+    WorldCore w(m, world_options(true));
+    std::array<tandem::world::SampleOut, 2> out{};
+    for (long k = 0; k < 150; ++k) {
+      const int64_t now = (k < 100 ? k : k + 400) * ms;
+      if (k == 100 && forgive) w.forgive_silence(now);
+      w.begin_tick(k, now, out);
+      // The first tick after the stall ends before the robots (woken by its sample) have answered.
+      if (k != 100) {
+        for (int j = 0; j < 2; ++j) w.on_command(j, k, ok, 100, now + 100, false);
+      }
+      w.end_tick(now + 500000);
+      w.step();
+    }
+    return w.braked_ticks;
+  };
+  CHECK(run(true) == 0);
+  CHECK(run(false) > 0);  // what happened before: 400 ms of "silence" braked both arms
+}
+
 TEST_CASE("in real time the arms start braked and are released by their robot's first command in time", "[components]") {
   const ts::ModuleSetup& m = sosm();
   WorldCore w(m, world_options(true));

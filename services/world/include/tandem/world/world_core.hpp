@@ -167,6 +167,14 @@ class WorldCore {
   Verdict on_command(int j, long tick, const model::Vec3& tau, int32_t strength, int64_t at_ns, bool late,
                      bool leaving = false);
   bool have(int j) const { return have_[static_cast<size_t>(j)]; }
+  /// The world stood still (its tick started far too late): every robot is taken as heard now, so that its
+  /// silence during the world's own stall does not brake the arms (a 0.4 s stall of a world braked both arms
+  /// of a healthy module, and the release made the object slip; found by tandem soak).
+  void forgive_silence(int64_t now_ns) {
+    for (ArmLink& L : link_) {
+      if (L.last_tick >= 0) L.heard = now_ns;
+    }
+  }
   /// Lockstep: every arm the world waits for has its command.
   bool lockstep_done() const;
   /// Lockstep: the tick has waited `waited_s` for commands; brakes an arm whose robot fell silent (after

@@ -584,7 +584,8 @@ class Launcher {
         stop_all(SIGTERM);
         return;
       }
-      const bool restarting = schedule_restart(c, d_.coordinator_restart, 3, 30.0, 0.2);
+      const bool restarting = schedule_restart(c, d_.coordinator_restart, d_.coordinator_restart_limit,
+                                               d_.coordinator_restart_window, 0.2);
       if (live_coordinators() > 0 || restarting) {
         std::printf("tandem up: %s exited with code %d; %s\n", c.label.c_str(), c.status,
                     live_coordinators() > 0 ? "a standby coordinator carries on" : "a new coordinator will take over");

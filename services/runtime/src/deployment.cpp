@@ -80,6 +80,8 @@ Deployment load_deployment(const std::string& path) {
     co.choice("balance", d.balance, {"wear", "round_robin"});
     co.integer("standby", d.coordinator_standby, 0, 3);
     co.choice("restart", d.coordinator_restart, {"never", "on-failure", "always"});
+    co.integer("restart_limit", d.coordinator_restart_limit, 0, 100);
+    co.num("restart_window", d.coordinator_restart_window, 0.1, 86400.0);
     YAML::Node tasks = co.sequence("tasks", true);
     for (size_t i = 0; i < tasks.size(); ++i) {
       sim::yaml::MapReader tr(tasks[i], co.key_path("tasks[" + std::to_string(i) + "]"), path);

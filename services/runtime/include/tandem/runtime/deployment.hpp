@@ -64,6 +64,8 @@ struct Deployment {
   std::string balance = "wear";    ///< wear | round_robin
   int coordinator_standby = 0;     ///< standby coordinators (they take over with the queue's state)
   std::string coordinator_restart = "never";  ///< never | on-failure | always (restarted ones are standbys)
+  int coordinator_restart_limit = 3;          ///< at most this many coordinator restarts ...
+  double coordinator_restart_window = 30.0;   ///< ... within this many seconds
 };
 
 /// Finds a module of the deployment by name (nullptr if none).

@@ -361,8 +361,20 @@ class Soak {
     msg::CoordinatorState cs;
     while (coord_->take(cs)) {
       if (cs.deployment() != d_.name) continue;
-      // The most advanced state (a standby's, or the launcher's republished copy, may be older).
-      if (cs.done().size() < h_.tasks_done.size()) continue;
+      // The most advanced state is kept. A state with fewer tasks done than already heard, whose done list is
+      // not the start of ours, comes from a coordinator that started without the queue's state: recorded.
+      if (cs.done().size() < h_.tasks_done.size()) {
+        bool prefix = true;
+        for (size_t i = 0; i < cs.done().size() && prefix; ++i) prefix = cs.done()[i] == h_.tasks_done[i];
+        if (!prefix || cs.done().size() + 8 < h_.tasks_done.size()) {
+          if (t - last_queue_back_ > 5.0) {
+            h_.events.push_back({t, Event::Type::QueueBack, std::to_string(h_.tasks_done.size()),
+                                 std::to_string(cs.done().size())});
+            last_queue_back_ = t;
+          }
+        }
+        continue;
+      }
       for (size_t i = h_.tasks_done.size(); i < cs.done().size(); ++i) {
         h_.events.push_back({t, Event::Type::TaskDone, cs.done()[i], i < cs.done_by().size() ? cs.done_by()[i] : ""});
       }
@@ -676,6 +688,7 @@ class Soak {
       static_cast<unsigned long long>(std::chrono::system_clock::now().time_since_epoch().count() / 1000);
   size_t next_fault_ = 0;
   double last_rss_ = -10.0;
+  double last_queue_back_ = -10.0;
   bool stopping_ = false;
 };
 

@@ -221,6 +221,8 @@ class Launcher {
     c.args = {"--deployment-file", file_, "--domain", std::to_string(d_.domain_id), "--timeout",
               std::to_string(std::max(30.0, 3 * d_.timeout)), "--id", id};
     if (standby) c.args.push_back("--standby");
+    // A restart: the queue has a history, so it must take over with its state, never afresh.
+    if (std::strcmp(note, " (restart)") == 0) c.args.push_back("--resume");
     launch(c, note);
   }
 

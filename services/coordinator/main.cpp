@@ -53,15 +53,17 @@ struct Options {
   double timeout = 30.0;
   std::string id = "coordinator";
   bool standby = false;
+  bool resume = false;  ///< a queue existed before this one started: never take over without its state
 };
 
 void usage(std::FILE* f) {
   std::fprintf(
       f,
-      "usage: tandem-coordinator --deployment-file FILE --domain ID [--timeout S] [--id NAME] [--standby]\n"
+      "usage: tandem-coordinator --deployment-file FILE --domain ID [--timeout S] [--id NAME] [--standby] [--resume]\n"
       "Started by 'tandem up' for deployments with a coordinator section. --timeout: give up after S\n"
       "seconds with no task finished (default 30); --id: process id in status (default coordinator);\n"
       "--standby: assign nothing until the primary falls silent, then take over its queue.\n"
+      "--resume (a restart): take over only with a queue state heard, never with a fresh queue.\n"
       "Exit: 0 every task done or stopped, 1 a task done twice, 2 bad arguments or deployment, 4 no\n"
       "progress.\n");
 }
@@ -81,11 +83,15 @@ bool parse_options(int argc, char** argv, Options& o, int& exit_code) {
       o.standby = true;
       continue;
     }
+    if (a == "--resume") {
+      o.resume = true;
+      continue;
+    }
     if (a != "--deployment-file" && a != "--domain" && a != "--timeout" && a != "--id") {
       std::fprintf(
           stderr,
           "tandem-coordinator: unknown option '%s'; accepted: --deployment-file, --domain, --timeout, "
-          "--id, --standby, --help\n",
+          "--id, --standby, --resume, --help\n",
           a.c_str());
       usage(stderr);
       return false;
@@ -332,7 +338,11 @@ int main(int argc, char** argv) {
         return 0;
       }
       const double silent = t - last_state_at;  // since the start if no state was heard
-      if (silent <= (last_state ? kTakeoverS : kFirstStateS) || !first_in_line(t)) {
+      // A restart (--resume) never starts a fresh queue: the launcher republishes the last state it heard, and
+      // a late joiner may get it only after seconds (found by tandem soak: a restarted coordinator started
+      // afresh after 3 s and the queue went back from 1747 tasks done to none).
+      const bool may_take_over = last_state || !opt.resume;
+      if (!may_take_over || silent <= (last_state ? kTakeoverS : kFirstStateS) || !first_in_line(t)) {
         if (t - last_beat >= kHeartbeatS) heartbeat(t);
         states.wait(0.02);
         continue;

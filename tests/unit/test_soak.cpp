@@ -226,6 +226,12 @@ TEST_CASE("soak checker: tasks done twice or lost are violations") {
   REQUIRE(find(v, "tasks exactly once") != nullptr);
   CHECK_THAT(find(v, "tasks exactly once")->text, Catch::Contains("done twice"));
 
+  History back = quiet_history(120.0);
+  add_event(back, {50.0, Event::Type::QueueBack, "12", "3"});
+  v = check(back, Bounds{});
+  REQUIRE(find(v, "tasks exactly once") != nullptr);
+  CHECK_THAT(find(v, "tasks exactly once")->text, Catch::Contains("went back from 12 to 3"));
+
   History lost = quiet_history(120.0);
   lost.task_names.push_back("orphan");
   add_event(lost, {10.0, Event::Type::TaskAssigned, "orphan", "m1"});

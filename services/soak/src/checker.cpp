@@ -182,6 +182,11 @@ class Judge {
       if (e.type == Event::Type::TaskDone && known.count(e.subject) == 0 && !known.empty()) {
         violate(inv, e.t, 0, "task " + e.subject + " is not in the task list");
       }
+      if (e.type == Event::Type::QueueBack) {
+        violate(inv, e.t, fault_before(e.t),
+                "the coordinator's queue went back from " + e.subject + " to " + e.text +
+                    " tasks done: a coordinator started without the queue's state (tasks will be done twice)");
+      }
     }
     for (const auto& [name, t] : first_assigned) {
       if (t > h_.stop_s - b_.task_lost_s) continue;

@@ -319,7 +319,7 @@ std::string write_report(const std::string& dir, const RunInfo& info, const Hist
           << s.load_paused << "\n";
     }
   }
-  static const char* kTypes[] = {"owners", "state", "serving", "task_assigned", "task_done"};
+  static const char* kTypes[] = {"owners", "state", "serving", "task_assigned", "task_done", "queue_back"};
   ev << "t,type,subject,text\n";
   for (const Event& e : h.events) ev << e.t << "," << kTypes[static_cast<int>(e.type)] << "," << e.subject << ",\"" << e.text << "\"\n";
   fl << "index,t,kind,target,label,pid,duration_s,end_t,skipped,had_standby,note\n";

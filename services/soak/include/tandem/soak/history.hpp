@@ -39,6 +39,8 @@ struct Event {
     Serving,       ///< subject: process label (supervisor, coordinator); text: "primary" | "standby"
     TaskAssigned,  ///< subject: task name; text: module
     TaskDone,      ///< subject: task name; text: module
+    QueueBack,     ///< a coordinator's queue state with fewer tasks done than already heard (its state was lost);
+                   ///< subject: tasks done before; text: tasks done in the new state
   } type = Type::State;
   std::string subject, text;
 };

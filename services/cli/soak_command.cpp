@@ -212,7 +212,7 @@ class Soak {
     }
     resend_requests(t);
     reap_hogs(t);
-    if (t - last_rss_ >= 2.0) sample_memory(t);
+    if (t - last_rss_ >= 2.0 && !stopping_) sample_memory(t);  // over the run, not the shutdown
   }
 
   /// Stops injecting: every stalled process continues, every hog stops.

@@ -7,6 +7,7 @@
 // this process is one more DDS participant beside it: it reads, it sends live commands (plug/unplug) as
 // `tandem plug` would, and it signals role processes by the pids they report (SIGKILL, SIGSTOP/SIGCONT).
 #include "soak_command.hpp"
+#include "up_command.hpp"
 
 #include <dirent.h>
 #include <signal.h>
@@ -52,14 +53,6 @@ using Clock = std::chrono::steady_clock;
 std::atomic<bool> g_soak_stop{false};
 void on_soak_signal(int) { g_soak_stop = true; }
 
-std::string self_dir() {
-  char buf[4096];
-  const ssize_t n = ::readlink("/proc/self/exe", buf, sizeof buf - 1);
-  if (n <= 0) return ".";
-  buf[n] = '\0';
-  std::string p(buf);
-  return p.substr(0, p.rfind('/'));
-}
 
 /// "90", "90s", "10m", "1h", "1.5m" -> seconds; -1 if malformed.
 double parse_duration(const std::string& s) {

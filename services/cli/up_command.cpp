@@ -92,14 +92,6 @@ struct ModuleRun {
   bool paused_for_unplug = false;    ///< a pause was asked for an unplug without standby: resume on plug
 };
 
-std::string self_dir() {
-  char buf[4096];
-  const ssize_t n = ::readlink("/proc/self/exe", buf, sizeof buf - 1);
-  if (n <= 0) return ".";
-  buf[n] = '\0';
-  std::string p(buf);
-  return p.substr(0, p.rfind('/'));
-}
 
 /// Whether this process may use SCHED_FIFO at `priority` (tried on the launcher's own thread, then undone).
 bool fifo_permitted(int priority, std::string& why) {
@@ -1268,6 +1260,15 @@ int up_command(const std::vector<std::string>& args) {
   std::printf("result: %s\n", ok ? "PASS (all processes finished, safe grasp kept)"
                                  : (g_stop ? "STOPPED" : "FAIL (see above)"));
   return ok ? 0 : 1;
+}
+
+std::string self_dir() {
+  char buf[4096];
+  const ssize_t n = ::readlink("/proc/self/exe", buf, sizeof buf - 1);
+  if (n <= 0) return ".";
+  buf[n] = '\0';
+  std::string p(buf);
+  return p.substr(0, p.rfind('/'));
 }
 
 }  // namespace tandem::cli

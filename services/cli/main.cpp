@@ -5,7 +5,9 @@
 #include <vector>
 
 #include "sim_command.hpp"
+#include "record_command.hpp"
 #include "remote_command.hpp"
+#include "report_command.hpp"
 #include "soak_command.hpp"
 #include "up_command.hpp"
 
@@ -26,9 +28,11 @@ void usage(std::FILE* f) {
       "  unplug <deploy.yaml> robot M/ARM[@S] | module NAME        detach one gracefully\n"
       "  soak <deploy.yaml>    run a deployment for a long time under a seeded fault schedule, check every\n"
       "                        invariant from what it recorded, and write a report with plots\n"
+      "  record <deploy.yaml> -o FILE.mcap   record a deployment's topics (MCAP, Protobuf messages)\n"
+      "  report FILE.mcap -o DIR             an HTML page with plots of a recording (tandem record, tandem sim)\n"
       "  help [command]        show this help, or the help of one command\n"
       "\n"
-      "Run 'tandem help sim', 'tandem help up' or 'tandem help soak' for their options. Exit codes: 0 success, 1 a run failed its grasp\n"
+      "Run 'tandem help <command>' for its options. Exit codes: 0 success, 1 a run failed its grasp\n"
       "checks, 2 bad command line or configuration.\n",
       f);
 }
@@ -50,6 +54,10 @@ int main(int argc, char** argv) {
       tandem::cli::up_usage(stdout);
     } else if (!args.empty() && args[0] == "soak") {
       tandem::cli::soak_usage(stdout);
+    } else if (!args.empty() && args[0] == "record") {
+      tandem::cli::record_usage(stdout);
+    } else if (!args.empty() && args[0] == "report") {
+      tandem::cli::report_usage(stdout);
     } else if (!args.empty() && (args[0] == "status" || args[0] == "down" || args[0] == "kill" ||
                                args[0] == "plug" || args[0] == "unplug")) {
       tandem::cli::remote_usage(stdout);
@@ -61,6 +69,8 @@ int main(int argc, char** argv) {
   if (cmd == "sim") return tandem::cli::sim_command(args);
   if (cmd == "up") return tandem::cli::up_command(args);
   if (cmd == "soak") return tandem::cli::soak_command(args);
+  if (cmd == "record") return tandem::cli::record_command(args);
+  if (cmd == "report") return tandem::cli::report_command(args);
   if (cmd == "status") return tandem::cli::status_command(args);
   if (cmd == "down") return tandem::cli::down_command(args);
   if (cmd == "kill") return tandem::cli::kill_command(args);

@@ -849,6 +849,7 @@ class Launcher {
     if (d_.coordinator) a.push_back("--continuous");
     if (!d_.overload_brake) a.push_back("--no-overload-brake");
     if (d_.test_no_brakes) a.push_back("--test-no-brakes");
+    if (!d_.record.empty()) a.insert(a.end(), {"--observers", "1"});  // lockstep: the world waits for the recorder
     return a;
   }
   void launch(Child& c, const char* note = "") {
@@ -901,7 +902,7 @@ std::string capacity_estimate(const Deployment& d) {
 
 void up_usage(std::FILE* f) {
   std::fputs(
-      "usage: tandem up <deploy.yaml> [--summary FILE] [--check]\n"
+      "usage: tandem up <deploy.yaml> [--summary FILE] [--record FILE.mcap] [--check]\n"
       "\n"
       "Starts every module of the deployment as separate processes over Fast DDS: tandem-world,\n"
       "tandem-supervisor and one tandem-robot per arm (plus standbys), and the coordinator if the file has\n"
@@ -913,6 +914,8 @@ void up_usage(std::FILE* f) {
       "go on (docs/failure-model.md). In real-time timing the world, supervisors and robots run SCHED_FIFO at the\n"
       "file's realtime_priority (default 20; a note says so if the system refuses it).\n"
       "--summary FILE also writes the summary as key=value lines (full precision).\n"
+      "--record FILE.mcap records the run with `tandem record` (as the file's `record:` key does; see 'tandem\n"
+      "help record'); `tandem report FILE.mcap -o DIR` makes the plots.\n"
       "--check validates the file and every scenario it names, prints the real-time capacity estimate (and a\n"
       "warning when the deployment needs more cores than the machine has), and starts nothing.\n"
       "Ctrl-C or SIGTERM stops every process cleanly. Schema: docs/architecture.md.\n"
@@ -923,7 +926,7 @@ void up_usage(std::FILE* f) {
 }
 
 int up_command(const std::vector<std::string>& args) {
-  std::string file, summary_file;
+  std::string file, summary_file, record_file;
   bool check_only = false;
   for (size_t i = 0; i < args.size(); ++i) {
     if (args[i] == "--help" || args[i] == "-h") {
@@ -933,6 +936,8 @@ int up_command(const std::vector<std::string>& args) {
       check_only = true;
     } else if (args[i] == "--summary" && i + 1 < args.size()) {
       summary_file = args[++i];
+    } else if (args[i] == "--record" && i + 1 < args.size()) {
+      record_file = args[++i];
     } else if (!args[i].empty() && args[i][0] == '-') {
       std::fprintf(stderr, "tandem up: unknown option '%s' (see 'tandem help up')\n", args[i].c_str());
       return 2;
@@ -955,6 +960,7 @@ int up_command(const std::vector<std::string>& args) {
     std::fprintf(stderr, "tandem up: %s\n", e.what());
     return 2;
   }
+  if (!record_file.empty()) d.record = record_file;  // --record overrides the file's record:
   Launcher L(d, file);
   try {
     for (const auto& m : d.modules) L.prepare_module(m);
@@ -1042,6 +1048,46 @@ int up_command(const std::vector<std::string>& args) {
               L.rt_priority_ > 0 ? (", SCHED_FIFO " + std::to_string(L.rt_priority_)).c_str() : "");
   const std::string capacity = capacity_estimate(d);
   if (capacity.find("warning") != std::string::npos) std::printf("tandem up: %s\n", capacity.c_str());
+  // record: the recorder joins first and is heard before any module starts, so that it has every tick (the
+  // worlds also wait for its readers in lockstep: --observers). It is stopped last, after the summaries.
+  pid_t recorder = -1;
+  if (!d.record.empty()) {
+    std::vector<std::string> rargs{"record", file, "-o", d.record, "--attached"};
+    if (!d.record_topics.empty()) rargs.insert(rargs.end(), {"--topics", d.record_topics});
+    recorder = spawn(L.dir_ + "/tandem", rargs);
+    if (recorder < 0) return 2;
+    std::printf("  started recorder             pid %d -> %s\n", recorder, d.record.c_str());
+    bool heard = false;
+    const auto asked = Clock::now();
+    while (!heard && !g_stop && Clock::now() - asked < std::chrono::seconds(10)) {
+      msg::ProcessStatus ps;
+      while (status.take(ps)) {
+        view.update(ps);
+        heard = heard || (ps.process_id() == "recorder" && ps.pid() == recorder && ps.state() == 2);
+      }
+      if (::waitpid(recorder, nullptr, WNOHANG) == recorder) {
+        std::fprintf(stderr, "tandem up: the recorder exited at start (see its message above)\n");
+        return 2;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    if (!heard) std::printf("tandem up: note: the recorder was not heard within 10 s; starting anyway\n");
+  }
+  struct RecorderStop {
+    pid_t pid;
+    ~RecorderStop() { stop(); }
+    void stop() {  // SIGTERM: it closes the file (summary section, footer); SIGKILL after 30 s
+      if (pid <= 0) return;
+      ::kill(pid, SIGTERM);
+      for (int i = 0; i < 1500 && ::waitpid(pid, nullptr, WNOHANG) == 0; ++i) ::usleep(20000);
+      if (::waitpid(pid, nullptr, WNOHANG) == 0) {
+        std::fprintf(stderr, "tandem up: the recorder did not close its file within 30 s; SIGKILL\n");
+        ::kill(pid, SIGKILL);
+        ::waitpid(pid, nullptr, 0);
+      }
+      pid = -1;
+    }
+  } recorder_stop{recorder};
   for (const auto& m : d.modules) {
     if (m.autostart) L.start_module(m.name);
   }
@@ -1235,6 +1281,12 @@ int up_command(const std::vector<std::string>& args) {
     for (size_t i = 0; i < last_coord.done().size() && out; ++i) {
       out << "coordinator.task." << last_coord.done()[i] << "=" << last_coord.done_by()[i] << "\n";
     }
+  }
+  launcher_status.set(runtime::Lifecycle::Finalized, "run over");
+  if (recorder > 0) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));  // the last summaries reach the recorder too
+    std::fflush(stdout);
+    recorder_stop.stop();
   }
   {
     msg::ProcessStatus ps;

@@ -96,7 +96,13 @@ int main(int argc, char** argv) {
         core.on_sample(static_cast<long>(smp.tick()), in, smp.braked(), other ? &applied : nullptr);
     if (!tau) return;
     cmd.tick(static_cast<uint64_t>(core.done()));
-    for (int i = 0; i < 3; ++i) cmd.tau()[static_cast<size_t>(i)] = (*tau)(i);
+    const model::ControlOutput& out = core.last_output();
+    for (int i = 0; i < 3; ++i) {
+      cmd.tau()[static_cast<size_t>(i)] = (*tau)(i);
+      cmd.e_p()[static_cast<size_t>(i)] = out.e_p(i);
+    }
+    cmd.e_h(out.e_h);
+    cmd.normal_force(out.normal_force);
     torques.write(cmd);
     interval_worst_us = std::max(interval_worst_us, std::chrono::duration<double, std::micro>(Clock::now() - last_input).count());
   };

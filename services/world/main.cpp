@@ -78,7 +78,10 @@ int main(int argc, char** argv) {
   status.set(runtime::Lifecycle::Inactive, "waiting for the supervisor and two robots");
   // Peers: a robot per arm reads its sensors and writes torques; the supervisor reads the report.
   const auto t0 = std::chrono::steady_clock::now();
-  while (!runtime::g_stop && (sensors0.matched() < 1 || sensors1.matched() < 1 || torques0.matched() < 1 || torques1.matched() < 1 ||
+  // Observers (a recorder started by the launcher) read the sensors too: lockstep waits for them, so that a
+  // recording holds every tick from the first.
+  const int readers = 1 + (opt.realtime ? 0 : opt.observers);
+  while (!runtime::g_stop && (sensors0.matched() < readers || sensors1.matched() < readers || torques0.matched() < 1 || torques1.matched() < 1 ||
                               report.matched() < 1)) {
     if (std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() > opt.timeout) {
       std::fprintf(stderr, "tandem-world: peers not found within %.1f s (sensor readers %d+%d/2, torque writers %d/2, "

@@ -4,8 +4,8 @@ namespace tandem::dds {
 namespace fdds = eprosima::fastdds::dds;
 
 namespace {
-// Per-tick topics: reliable (lockstep must not lose a tick), keep-last 32 (a reader that is one or two
-// ticks behind still gets everything; nothing older matters), volatile (a late joiner starts from the next
+// Per-tick topics: reliable (lockstep must not lose a tick), keep-last 256 (a reader that is behind, a
+// recorder, still gets everything), volatile (a late joiner starts from the next
 // tick). Summaries and status: reliable, transient-local, keep-last 1 per key, so a launcher or a
 // `tandem status` that looks late still sees the latest value; the same for task assignments and task
 // states, so a supervisor that (re)joins gets its module's current task. Control requests: reliable, keep-last 32,
@@ -25,6 +25,11 @@ void apply(Q& q, TopicKind kind) {
     // (HEARTBEAT/ACKNACK) and no queue: best effort, the newest only.
     q.reliability().kind = fdds::BEST_EFFORT_RELIABILITY_QOS;
     q.history().depth = 1;
+    q.durability().kind = fdds::VOLATILE_DURABILITY_QOS;
+  } else if (kind == TopicKind::Sensors || kind == TopicKind::Torques) {
+    // Lockstep per-tick: 256 ticks of slack, so that an observer (tandem record) that is descheduled for a
+    // while (tens of ms at lockstep's pace of ~4 ticks/ms) still gets every tick (docs/recording.md).
+    q.history().depth = 256;
     q.durability().kind = fdds::VOLATILE_DURABILITY_QOS;
   } else {
     q.history().depth = 32;

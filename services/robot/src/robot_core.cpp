@@ -41,6 +41,7 @@ std::optional<model::Vec3> RobotCore::on_sample(long k, const model::ArmSensors&
   prev_q_ = in.q;
   tracking_ = out.e_p.head<2>().norm();
   tau_ = out.tau;
+  out_ = out;
   done_ = k;
   return tau_;
 }

@@ -39,6 +39,20 @@ Deployment load_deployment(const std::string& path) {
   top.boolean("test_no_brakes", d.test_no_brakes);
   top.choice("discovery", d.discovery, {"simple", "server"});
   top.integer("discovery_port", d.discovery_port, 1024, 65535);
+  top.text("record", d.record);
+  top.text("record_topics", d.record_topics);
+  {
+    std::stringstream groups(d.record_topics);
+    std::string g;
+    while (std::getline(groups, g, ',')) {
+      bool known = g == "all";
+      for (const char* k : kRecordGroups) known = known || g == k;
+      if (!known) {
+        top.fail(root["record_topics"], "record_topics",
+                 "unknown topic group '" + g + "'; accepted: all, ticks, world, status, tasks, summaries, control, events");
+      }
+    }
+  }
   YAML::Node mods = top.sequence("modules", true);
   std::set<std::string> names;
   for (size_t i = 0; i < mods.size(); ++i) {

@@ -19,7 +19,7 @@ void usage(const char* role, bool needs_arm, std::FILE* f) {
   std::fprintf(f,
                "usage: tandem-%s --scenario FILE --case NAME [--module NAME]%s [--domain ID]\n"
                "       [--transport shm|udp] [--timeout SECONDS] [--timing lockstep|realtime]\n"
-               "       [--deployment NAME] [--continuous] [--no-overload-brake]%s\n"
+               "       [--deployment NAME] [--continuous] [--no-overload-brake] [--observers N]%s\n"
                "Started by 'tandem up'; one Fast DDS participant. Exit: 0 done, 2 bad arguments or\n"
                "configuration, 3 peers not found in time, 4 a tick timed out.\n",
                role, needs_arm ? " --arm ROBOT" : "",
@@ -95,6 +95,12 @@ bool parse_role_options(const char* role, int argc, char** argv, bool needs_arm,
         return false;
       }
       o.realtime = v == "realtime";
+    } else if (a == "--observers") {
+      o.observers = std::atoi(v.c_str());
+      if (v.empty() || v.find_first_not_of("0123456789") != std::string::npos || o.observers > 16) {
+        std::fprintf(stderr, "tandem-%s: --observers must be a count 0-16, got '%s'\n", role, v.c_str());
+        return false;
+      }
     } else if (a == "--timeout") {
       o.timeout = std::atof(v.c_str());
       if (!(o.timeout > 0.0)) {

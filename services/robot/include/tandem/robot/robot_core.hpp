@@ -31,6 +31,8 @@ class RobotCore {
 
   long done() const { return done_; }                  ///< the last tick computed (-1: none)
   const model::Vec3& last_tau() const { return tau_; }
+  /// The law's output at the last tick computed (errors e_p, e_h, normal force; for recorders).
+  const model::ControlOutput& last_output() const { return out_; }
   double wear() const { return wear_; }                ///< joint travel sum |dq| [rad]
   double workload() const { return workload_; }        ///< sum |tau| . |dq| [J]
   double tracking_error() const { return tracking_; }  ///< |x_d - x| (x, y) at the last tick [m]
@@ -45,6 +47,7 @@ class RobotCore {
   sim::RobotMeter meter_;
   long done_ = -1;
   model::Vec3 tau_ = model::Vec3::Zero();
+  model::ControlOutput out_{};
   model::Vec3 prev_q_ = model::Vec3::Zero();
   double wear_ = 0.0, workload_ = 0.0, tracking_ = 0.0;
   unsigned long long rejected_ = 0;

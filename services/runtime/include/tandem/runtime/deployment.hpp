@@ -66,7 +66,14 @@ struct Deployment {
   std::string coordinator_restart = "never";  ///< never | on-failure | always (restarted ones are standbys)
   int coordinator_restart_limit = 3;          ///< at most this many coordinator restarts ...
   double coordinator_restart_window = 30.0;   ///< ... within this many seconds
+  /// `tandem up` starts `tandem record` and writes this MCAP file ("": no recording); relative to the current
+  /// directory. record_topics: comma-separated groups of `tandem record --topics` ("" = all).
+  std::string record;
+  std::string record_topics;
 };
+
+/// The topic groups `tandem record --topics` accepts.
+inline const char* const kRecordGroups[] = {"ticks", "world", "status", "tasks", "summaries", "control", "events"};
 
 /// Finds a module of the deployment by name (nullptr if none).
 const ModuleDeployment* find_module(const Deployment& d, const std::string& name);

@@ -1,0 +1,150 @@
+// The MCAP container (own writer and reader) and the Protobuf schema records: round trip, the index a
+// seeking reader needs, and the errors a corrupt or truncated file gets.
+#include <google/protobuf/descriptor.h>
+#include <google/protobuf/descriptor.pb.h>
+#include <google/protobuf/dynamic_message.h>
+#include <tandem_record.pb.h>
+#include <unistd.h>
+
+#include <catch2/catch.hpp>
+#include <cstdio>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <vector>
+
+#include "tandem/record/mcap.hpp"
+#include "tandem/record/recording.hpp"
+
+using namespace tandem::record;
+
+namespace {
+std::string temp_path(const char* name) { return "/tmp/tandem-test-" + std::to_string(::getpid()) + "-" + name; }
+std::string slurp(const std::string& p) {
+  std::ifstream f(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(f), {}};
+}
+void spit(const std::string& p, const std::string& s) { std::ofstream(p, std::ios::binary) << s; }
+
+// Writes 3 channels x 1000 messages in small chunks; returns the commands written on channel "cmd".
+std::vector<tandem::record::TorqueCommand> write_sample(const std::string& path) {
+  RecordingWriter w(path, McapWriter::Options{4096, "", "tandem-test"});
+  w.metadata("run", {{"deployment", "test"}, {"period", "0.001"}});
+  const uint16_t cmd = w.channel("tandem/torque_commands/m1/left", tandem::record::TorqueCommand::descriptor());
+  const uint16_t sen = w.channel("tandem/arm_sensors/m1/left", tandem::record::ArmSensors::descriptor());
+  const uint16_t ev = w.channel("tandem/events", tandem::record::Event::descriptor());
+  std::vector<tandem::record::TorqueCommand> out;
+  for (int k = 0; k < 1000; ++k) {
+    tandem::record::TorqueCommand c;
+    c.set_tick(static_cast<uint64_t>(k));
+    for (int i = 0; i < 3; ++i) c.add_tau(0.5 * k + i);
+    for (int i = 0; i < 3; ++i) c.add_e_p(1e-4 * std::sin(0.01 * k + i));
+    c.set_e_h(0.1 * k);
+    c.set_strength(100);
+    w.write(cmd, c, 1000000ULL * static_cast<uint64_t>(k));
+    out.push_back(c);
+    tandem::record::ArmSensors s;
+    s.set_tick(static_cast<uint64_t>(k));
+    s.set_t(1e-3 * k);
+    w.write(sen, s, 1000000ULL * static_cast<uint64_t>(k) + 10);
+    if (k % 100 == 0) {
+      tandem::record::Event e;
+      e.set_kind("lifecycle");
+      e.set_subject("m1/left");
+      w.write(ev, e, 1000000ULL * static_cast<uint64_t>(k) + 20);
+    }
+  }
+  w.close();
+  return out;
+}
+}  // namespace
+
+TEST_CASE("crc32 is the ISO-HDLC CRC (the check value of '123456789' is 0xCBF43926)", "[record]") {
+  CHECK(crc32("123456789", 9) == 0xCBF43926U);
+  // Continued in two parts: the same value.
+  CHECK(crc32("6789", 4, crc32("12345", 5)) == 0xCBF43926U);
+}
+
+TEST_CASE("an MCAP recording reads back message for message, with its schemas and metadata", "[record]") {
+  const std::string p = temp_path("roundtrip.mcap");
+  const auto written = write_sample(p);
+  std::vector<tandem::record::TorqueCommand> got;
+  size_t sensors = 0, events = 0;
+  uint64_t last_time = 0;
+  bool ordered = true;
+  const McapInfo info = read_mcap(p, [&](const McapMessageView& v) {
+    if (v.log_time < last_time) ordered = false;
+    last_time = v.log_time;
+    if (v.channel->topic == "tandem/torque_commands/m1/left") {
+      tandem::record::TorqueCommand c;
+      REQUIRE(c.ParseFromArray(v.data, static_cast<int>(v.size)));
+      got.push_back(c);
+    } else if (v.channel->topic == "tandem/arm_sensors/m1/left") {
+      ++sensors;
+    } else {
+      ++events;
+    }
+  });
+  CHECK(info.summary);
+  CHECK_FALSE(info.salvaged);
+  CHECK(info.library == "tandem-test");
+  CHECK(info.messages == 2010);
+  CHECK(info.chunks > 10);  // 4 KiB chunks
+  CHECK(ordered);
+  REQUIRE(got.size() == written.size());
+  for (size_t i = 0; i < got.size(); ++i) {
+    CHECK(got[i].tick() == written[i].tick());
+    CHECK(got[i].e_p(1) == written[i].e_p(1));  // bit for bit
+  }
+  CHECK(sensors == 1000);
+  CHECK(events == 10);
+  REQUIRE(info.metadata.size() == 1);
+  CHECK(info.metadata[0].values.at("period") == "0.001");
+  REQUIRE(info.schemas.size() == 3);
+  // The schema data is a FileDescriptorSet from which a generic reader builds the type and decodes a message.
+  for (const auto& [id, s] : info.schemas) {
+    CHECK(s.encoding == "protobuf");
+    google::protobuf::FileDescriptorSet set;
+    REQUIRE(set.ParseFromString(s.data));
+    google::protobuf::DescriptorPool pool;
+    for (const auto& f : set.file()) REQUIRE(pool.BuildFile(f) != nullptr);
+    CHECK(pool.FindMessageTypeByName(s.name) != nullptr);
+  }
+  std::remove(p.c_str());
+}
+
+TEST_CASE("a corrupt or truncated recording gets an error that says where and what", "[record]") {
+  const std::string p = temp_path("damaged.mcap");
+  write_sample(p);
+  const std::string good = slurp(p);
+  auto expect_error = [&](const std::string& bytes, const std::string& needle) {
+    spit(p, bytes);
+    try {
+      read_mcap(p, [](const McapMessageView&) {});
+      FAIL("no error for a file that should fail with: " << needle);
+    } catch (const McapError& e) {
+      INFO(e.what());
+      CHECK(std::string(e.what()).find(needle) != std::string::npos);
+    }
+  };
+  SECTION("not MCAP at all") { expect_error("hello, world\n", "not an MCAP file"); }
+  SECTION("empty") { expect_error("", "not an MCAP file"); }
+  SECTION("cut in the middle of a chunk") { expect_error(good.substr(0, good.size() / 2), "truncated"); }
+  SECTION("cut before its footer") { expect_error(good.substr(0, good.size() - 30), "truncated"); }
+  SECTION("a flipped byte inside a chunk's messages") {
+    std::string bad = good;
+    bad[good.size() / 3] = static_cast<char>(bad[good.size() / 3] ^ 0x40);
+    expect_error(bad, "corrupt");
+  }
+  SECTION("salvage reads every intact chunk before the damage") {
+    spit(p, good.substr(0, good.size() / 2));
+    size_t n = 0;
+    const McapInfo info = read_mcap(p, [&](const McapMessageView&) { ++n; }, true);
+    CHECK(info.salvaged);
+    CHECK(info.damage.find("truncated") != std::string::npos);
+    CHECK(n > 500);
+    CHECK(n < 1500);
+    CHECK(n == info.messages);
+  }
+  std::remove(p.c_str());
+}

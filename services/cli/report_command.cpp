@@ -1,9 +1,19 @@
 // tandem report: reads a recording (tandem record, tandem sim --mcap) and writes an HTML page with plots.
 #include "report_command.hpp"
 
+#include <string>
+
 #include "tandem/record/report.hpp"
 
 namespace tandem::cli {
+
+namespace {
+std::string fmt_e(double v) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.6e", v);
+  return b;
+}
+}  // namespace
 
 void report_usage(std::FILE* f) {
   std::fputs(
@@ -62,7 +72,7 @@ int report_command(const std::vector<std::string>& args) {
     for (const auto& rb : r.robots) {
       std::printf("  %-14s %7llu ticks  e_p RMS %.6e m (its summary: %s)  e_h RMS %.4f N  min h_n %.2f N\n",
                   rb.robot_id.c_str(), static_cast<unsigned long long>(rb.ticks), rb.ep_pos_rms,
-                  rb.has_summary ? std::to_string(rb.summary_ep_pos_rms).c_str() : "not recorded", rb.eh_rms,
+                  rb.has_summary ? fmt_e(rb.summary_ep_pos_rms).c_str() : "not recorded", rb.eh_rms,
                   rb.min_normal_force);
     }
     for (const auto& c : r.cases) {
@@ -71,7 +81,11 @@ int report_command(const std::vector<std::string>& args) {
     }
   } catch (const record::McapError& e) {
     std::fprintf(stderr, "tandem report: %s\n", e.what());
-    if (!salvage) std::fprintf(stderr, "  (--salvage reports what came before the damage)\n");
+    const std::string what = e.what();
+    if (!salvage && (what.find("truncated") != std::string::npos || what.find("corrupt") != std::string::npos ||
+                     what.find("ends at byte") != std::string::npos)) {
+      std::fprintf(stderr, "  (--salvage reports what came before the damage)\n");
+    }
     return 1;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "tandem report: %s\n", e.what());

@@ -5,11 +5,17 @@
 
 #include <cctype>
 #include <cerrno>
+#include <tandem_record.pb.h>
+
 #include <chrono>
+#include <cmath>
 #include <cstdio>
+#include <map>
+#include <memory>
 #include <string>
 
 #include "tandem/model/grasp.hpp"
+#include "tandem/record/recording.hpp"
 #include "tandem/sim/embedded.hpp"
 #include "tandem/sim/module_setup.hpp"
 #include "tandem/sim/scenario_yaml.hpp"
@@ -18,13 +24,15 @@ namespace tandem::cli {
 
 void sim_usage(std::FILE* f) {
   std::fputs(
-      "usage: tandem sim <scenario.yaml> [--out DIR] [--case NAME]... [--no-csv]\n"
+      "usage: tandem sim <scenario.yaml> [--out DIR] [--case NAME]... [--no-csv] [--mcap FILE | --no-mcap]\n"
       "\n"
       "Runs every case of the scenario (or only those named with --case) on the embedded module:\n"
       "world, supervisor and both robot controllers in one process, 1 kHz control, RK4 plant.\n"
       "Prints per case and robot the RMS of e_p (position and orientation) and e_h, the grasp checks,\n"
-      "and the paper's Table IV beside the reported robot. Writes DIR/<case>.csv time series\n"
-      "(default DIR: runs/<scenario name>).\n"
+      "and the paper's Table IV beside the reported robot. Writes the time series of every case to\n"
+      "DIR/<scenario name>.mcap (MCAP, Protobuf SimSample per tick on tandem/sim/<case>; `tandem report` makes\n"
+      "the paper's figures from it; --mcap FILE elsewhere, --no-mcap not at all) and to DIR/<case>.csv\n"
+      "(--no-csv: not). Default DIR: runs/<scenario name>.\n"
       "\n"
       "RMS definition: root mean square over every control period of the whole run of\n"
       "  e_p,pos = ||(x_d - x)_xy|| [m], e_p,phi = phi_d - phi [rad], e_h = h_ref - h_n [N],\n"
@@ -48,12 +56,48 @@ bool make_dirs(const std::string& path) {
   return true;
 }
 
+/// One case's time series as SimSample messages on tandem/sim/<case> (log time = simulated time).
+void record_case(record::RecordingWriter& rec, const std::string& name, double h_sg,
+                 const std::vector<sim::SeriesRow>& rows, const sim::Scenario& sc) {
+  const uint16_t ch = rec.channel("tandem/sim/" + name, record::SimSample::descriptor(), {{"case", name}});
+  record::SimSample m;
+  m.set_case_name(name);
+  m.set_h_sg(h_sg);
+  for (int j = 0; j < 2; ++j) m.add_arms()->set_name(sc.robots[j].name);
+  uint64_t k = 0;
+  for (const auto& r : rows) {
+    m.set_tick(k++);
+    m.set_t(r.t);
+    for (int j = 0; j < 2; ++j) {
+      record::SimArm& a = *m.mutable_arms(j);
+      a.clear_x(); a.clear_x_d(); a.clear_tau(); a.clear_s();
+      for (int i = 0; i < 3; ++i) {
+        a.add_x(r.x[j](i));
+        a.add_x_d(r.xd[j](i));
+        a.add_tau(r.tau[j](i));
+        a.add_s(r.s[j](i));
+      }
+      a.set_normal_force(r.normal[j]);
+      a.set_e_h(r.e_h[j]);
+    }
+    m.clear_object();
+    m.clear_object_ref();
+    m.add_object(r.obj_c(0));
+    m.add_object(r.obj_c(1));
+    m.add_object(r.obj_psi);
+    m.add_object_ref(r.obj_ref(0));
+    m.add_object_ref(r.obj_ref(1));
+    rec.write(ch, m, static_cast<uint64_t>(std::llround(r.t * 1e9)));
+  }
+}
+
 }  // namespace
 
 int sim_command(const std::vector<std::string>& args) {
   std::string file, out_dir;
   std::vector<std::string> only;
-  bool csv = true;
+  bool csv = true, mcap = true;
+  std::string mcap_file;
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
     if (a == "--help" || a == "-h") {
@@ -67,6 +111,14 @@ int sim_command(const std::vector<std::string>& args) {
       (a == "--out" ? out_dir : (only.emplace_back(), only.back())) = args[++i];
     } else if (a == "--no-csv") {
       csv = false;
+    } else if (a == "--no-mcap") {
+      mcap = false;
+    } else if (a == "--mcap") {
+      if (i + 1 >= args.size()) {
+        std::fprintf(stderr, "tandem sim: --mcap needs a file name\n");
+        return 2;
+      }
+      mcap_file = args[++i];
     } else if (!a.empty() && a[0] == '-') {
       std::fprintf(stderr, "tandem sim: unknown option '%s' (see 'tandem help sim')\n", a.c_str());
       return 2;
@@ -109,7 +161,10 @@ int sim_command(const std::vector<std::string>& args) {
     }
   }
   if (out_dir.empty()) out_dir = "runs/" + sc.name;
-  if (csv && !make_dirs(out_dir)) {
+  if (mcap && mcap_file.empty()) mcap_file = out_dir + "/" + sim::file_name(sc.name) + ".mcap";
+  if (!mcap) mcap_file.clear();
+  if (((csv || !mcap_file.empty()) && !make_dirs(out_dir)) ||
+      (!mcap_file.empty() && mcap_file.find('/') != std::string::npos && !make_dirs(mcap_file.substr(0, mcap_file.rfind('/'))))) {
     std::fprintf(stderr, "tandem sim: cannot create output directory '%s'\n", out_dir.c_str());
     return 2;
   }
@@ -137,6 +192,18 @@ int sim_command(const std::vector<std::string>& args) {
               "e_p pos RMS", "e_p phi RMS", "e_h RMS N", "e_p steady", "min h_n N", "Table IV ep", "eh", "grasp");
   bool ok = true;
   std::vector<sim::SeriesRow> series;
+  std::unique_ptr<record::RecordingWriter> rec;
+  if (!mcap_file.empty()) {
+    try {
+      rec = std::make_unique<record::RecordingWriter>(mcap_file);
+      std::map<std::string, std::string> meta{{"scenario", sc.name}, {"scenario_file", file},
+                                              {"period", std::to_string(sc.period)}, {"duration", std::to_string(sc.duration)}};
+      rec->metadata("scenario", meta);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "tandem sim: %s\n", e.what());
+      return 2;
+    }
+  }
   for (const auto& c : sc.cases) {
     bool selected = only.empty();
     for (const auto& n : only) selected = selected || n == c.name;
@@ -144,7 +211,7 @@ int sim_command(const std::vector<std::string>& args) {
     const auto t0 = std::chrono::steady_clock::now();
     sim::CaseResult r;
     try {
-      r = sim::run_case(sc, c, {}, csv ? &series : nullptr);
+      r = sim::run_case(sc, c, {}, (csv || rec) ? &series : nullptr);
     } catch (const std::exception& e) {
       std::fprintf(stderr, "tandem sim: case '%s': %s\n", c.name.c_str(), e.what());
       return 2;
@@ -179,6 +246,14 @@ int sim_command(const std::vector<std::string>& args) {
       std::printf("%-22s   object RMS %.3e m, final %.3e m; torque limit hit in %ld periods; %.2f s wall\n", "",
                   r.object_pos_rms, r.object_final_error, r.counters.torque_saturated, secs);
     }
+    if (rec) {
+      try {
+        record_case(*rec, c.name, sim::make_module(sc, c).safe_grasp_force, series, sc);
+      } catch (const std::exception& e) {
+        std::fprintf(stderr, "tandem sim: %s\n", e.what());
+        return 2;
+      }
+    }
     if (csv) {
       try {
         sim::write_csv(out_dir + "/" + sim::file_name(c.name) + ".csv", series, sc);
@@ -191,6 +266,16 @@ int sim_command(const std::vector<std::string>& args) {
   std::printf("\nh_sg (eq. 16) = %.3f N; reference force h_ref = %.2f x h_sg. Table IV: robot on the right.\n",
               model::safe_grasp_force(sc.object.mass, sc.object.mu_s, sc.g0), sc.grasp_safety_factor);
   if (csv) std::printf("time series: %s/<case>.csv\n", out_dir.c_str());
+  if (rec) {
+    try {
+      rec->close();
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "tandem sim: %s\n", e.what());
+      return 2;
+    }
+    std::printf("recording: %s (%llu samples; tandem report %s -o DIR for the figures)\n", mcap_file.c_str(),
+                static_cast<unsigned long long>(rec->messages()), mcap_file.c_str());
+  }
   std::printf("%s\n", ok ? "result: PASS (every case that requires it kept the safe grasp)"
                          : "result: FAIL (a case lost the safe grasp; see above)");
   return ok ? 0 : 1;

@@ -347,10 +347,15 @@ ReportResult write_recording_report(const std::string& mcap, const std::string& 
       pl.ylabel = "late/s ; latency [us]";
       if (!m.late_rate.empty()) pl.series.push_back({"late arm-ticks per s", decimate(m.late_rate), "", Series::Style::Step});
       if (!m.latency.empty()) pl.series.push_back({"latency p99 [us] (100 ms windows)", decimate(m.latency), "", Series::Style::Line});
-      if (pl.series.empty()) pl.series.push_back({"late arm-ticks per s", {{0.0, 0.0}}, "", Series::Style::Step});
       pl.markers = marks;
-      body << "<h3>" << xml_escape(name) << "</h3>\n<p>" << image("module_" + svg_name(name) + "_progress", pp)
-           << "</p>\n<p>" << image("module_" + svg_name(name) + "_timing", pl) << "</p>\n";
+      bool late = false;
+      for (const auto& p : m.late_rate) late = late || p.second > 0.0;
+      body << "<h3>" << xml_escape(name) << "</h3>\n<p>" << image("module_" + svg_name(name) + "_progress", pp) << "</p>\n";
+      if (!m.latency.empty() || late) {
+        body << "<p>" << image("module_" + svg_name(name) + "_timing", pl) << "</p>\n";
+      } else {
+        body << "<p>No late arm-ticks and no latency figures: lockstep timing (the world waits for every command).</p>\n";
+      }
       const auto ws = world_sums.find(name);
       if (ws != world_sums.end()) {
         const auto& w = ws->second;
@@ -441,7 +446,10 @@ ReportResult write_recording_report(const std::string& mcap, const std::string& 
   }
 
   std::ostringstream html;
-  const std::string title = deployment.count("deployment") != 0 ? "tandem run " + deployment["deployment"] : "tandem recording";
+  std::string title = deployment.count("deployment") != 0 ? "tandem run " + deployment["deployment"] : "tandem recording";
+  for (const auto& md : info.metadata) {
+    if (md.name == "scenario" && md.values.count("scenario") != 0) title = "tandem sim " + md.values.at("scenario");
+  }
   html << "<!doctype html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>" << xml_escape(title)
        << "</title>\n<style>body{font-family:sans-serif;max-width:1200px;margin:2em auto;color:#222}"
           "table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #ccc;padding:2px 8px;font-size:90%}"

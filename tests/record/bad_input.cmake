@@ -1,0 +1,90 @@
+# Corrupt, truncated and foreign files given to `tandem report` get exit 1 and a message that says what and
+# where (no crash, no report written); --salvage reports the intact part and says so. Bad `tandem record`
+# arguments get exit 2 and name what is accepted.
+set(W ${WORK}/bad)
+file(REMOVE_RECURSE ${W})
+file(MAKE_DIRECTORY ${W})
+execute_process(COMMAND ${TANDEM} sim ${SRC}/config/scenarios/paper.yaml --case SOSM --no-csv --out ${W} --mcap ${W}/good.mcap
+                RESULT_VARIABLE rc OUTPUT_QUIET ERROR_VARIABLE err)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "tandem sim: exit ${rc}: ${err}")
+endif()
+file(SIZE ${W}/good.mcap size)
+math(EXPR half "${size} / 2")
+math(EXPR third "${size} / 3")
+math(EXPR rest "${size} - ${third} - 1")
+math(EXPR most "${size} - 100")
+execute_process(COMMAND head -c ${half} ${W}/good.mcap OUTPUT_FILE ${W}/truncated.mcap)
+execute_process(COMMAND head -c ${most} ${W}/good.mcap OUTPUT_FILE ${W}/cut-footer.mcap)
+# One byte changed a third of the way in (inside a chunk's messages).
+execute_process(COMMAND sh -c "head -c ${third} '${W}/good.mcap'; printf 'Z'; tail -c ${rest} '${W}/good.mcap'"
+                OUTPUT_FILE ${W}/flipped.mcap)
+file(WRITE ${W}/text.mcap "this is not a recording\n")
+set(cases
+  "truncated.mcap|truncated: the Chunk record"
+  "cut-footer.mcap|truncated"
+  "flipped.mcap|is corrupt"
+  "text.mcap|not an MCAP file"
+  "missing.mcap|cannot open")
+foreach(c IN LISTS cases)
+  string(REPLACE "|" ";" parts "${c}")
+  list(GET parts 0 f)
+  list(GET parts 1 expect)
+  execute_process(COMMAND ${TANDEM} report ${W}/${f} -o ${W}/report-${f}
+                  RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  if(NOT rc EQUAL 1)
+    message(FATAL_ERROR "report of ${f}: expected exit 1, got ${rc}\n${out}\n${err}")
+  endif()
+  string(FIND "${err}" "${expect}" pos)
+  if(pos EQUAL -1)
+    message(FATAL_ERROR "report of ${f}: message lacks '${expect}':\n${err}")
+  endif()
+  if(EXISTS ${W}/report-${f}/index.html)
+    message(FATAL_ERROR "report of ${f}: a report was written despite the error")
+  endif()
+  message(STATUS "${f}: ${err}")
+endforeach()
+# Cut in its summary (as when the recorder is killed after its last chunk): every chunk is intact.
+execute_process(COMMAND ${TANDEM} report ${W}/cut-footer.mcap -o ${W}/salvaged --salvage
+                RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(NOT rc EQUAL 0 OR NOT EXISTS ${W}/salvaged/index.html)
+  message(FATAL_ERROR "--salvage of a truncated file: exit ${rc}\n${out}\n${err}")
+endif()
+if(NOT out MATCHES "case SOSM +5000 ticks")
+  message(FATAL_ERROR "--salvage did not report the 5000 ticks before the damage:\n${out}")
+endif()
+file(READ ${W}/salvaged/index.html html)
+string(FIND "${html}" "This recording is damaged" pos)
+if(pos EQUAL -1)
+  message(FATAL_ERROR "the salvaged report does not say the recording is damaged")
+endif()
+set(cases
+  "--topics|ticks,bogus|unknown topic group 'bogus'"
+  "--duration|-5|--duration '-5' is not a number of seconds > 0"
+  "--frobnicate|-|unknown option '--frobnicate'")
+foreach(c IN LISTS cases)
+  string(REPLACE "|" ";" parts "${c}")
+  list(GET parts 0 opt)
+  list(GET parts 1 val)
+  list(GET parts 2 expect)
+  set(cmd ${TANDEM} record ${SRC}/deploy/one-module.yaml -o ${W}/never.mcap ${opt})
+  if(NOT val STREQUAL "-")
+    list(APPEND cmd ${val})
+  endif()
+  execute_process(COMMAND ${cmd} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err TIMEOUT 30)
+  if(NOT rc EQUAL 2)
+    message(FATAL_ERROR "record ${opt} ${val}: expected exit 2, got ${rc}\n${out}\n${err}")
+  endif()
+  string(FIND "${err}" "${expect}" pos)
+  if(pos EQUAL -1)
+    message(FATAL_ERROR "record ${opt} ${val}: message lacks '${expect}':\n${err}")
+  endif()
+endforeach()
+if(EXISTS ${W}/never.mcap)
+  message(FATAL_ERROR "a refused tandem record created its file")
+endif()
+execute_process(COMMAND ${TANDEM} record ${SRC}/deploy/one-module.yaml RESULT_VARIABLE rc ERROR_VARIABLE err)
+string(FIND "${err}" "missing -o FILE.mcap" pos)
+if(NOT rc EQUAL 2 OR pos EQUAL -1)
+  message(FATAL_ERROR "record without -o: exit ${rc}\n${err}")
+endif()

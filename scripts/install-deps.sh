@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Installs the Debian packages this project builds and runs with, only when some are missing.
 # Safe to run repeatedly; needs root (or sudo) only when something must be installed.
+# Usage: scripts/install-deps.sh [--tests]   (--tests: also what the test suite needs: Chromium for the report
+# page checks, and Node.js with npm for the independent MCAP reader, when no node is on the PATH)
 set -euo pipefail
 
 PACKAGES=(
@@ -11,6 +13,11 @@ PACKAGES=(
   libyaml-cpp-dev
   catch2
 )
+
+if [ "${1:-}" = "--tests" ]; then
+  PACKAGES+=(chromium)
+  if ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1; then PACKAGES+=(nodejs npm); fi
+fi
 
 missing=()
 for p in "${PACKAGES[@]}"; do

@@ -5,7 +5,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 preset=default
 if [ $# -gt 0 ] && [ "${1#-}" = "$1" ]; then preset="$1"; shift; fi
-bash scripts/build.sh "$preset"
+bash scripts/build.sh "$preset" --tests
 dir=build
 [ "$preset" = default ] || dir="build-$preset"
 ctest --test-dir "$dir" --output-on-failure -j 2 "$@"

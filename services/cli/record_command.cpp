@@ -272,11 +272,9 @@ class Recorder {
         t->sensors_listener.fn = [tap = t.get()](fdds::DataReader* r) { tap->on_sensors(r); };
         t->torques_listener.fn = [tap = t.get()](fdds::DataReader* r) { tap->on_torques(r); };
         t->sensors = std::make_unique<bus::Reader<msg::ArmSensors, msg::ArmSensorsPubSubType>>(
-            part, bus::arm_topic(bus::kSensorsTopic, arm), reader_kind(realtime_, true), &t->sensors_listener,
-            tick_data_sharing());
+            part, bus::arm_topic(bus::kSensorsTopic, arm), reader_kind(realtime_, true), &t->sensors_listener);
         t->torques = std::make_unique<bus::Reader<msg::TorqueCommand, msg::TorqueCommandPubSubType>>(
-            part, bus::arm_topic(bus::kTorquesTopic, arm), reader_kind(realtime_, false), &t->torques_listener,
-            tick_data_sharing());
+            part, bus::arm_topic(bus::kTorquesTopic, arm), reader_kind(realtime_, false), &t->torques_listener);
         taps_.push_back(std::move(t));
       }
     }
@@ -304,11 +302,6 @@ class Recorder {
                                                                                        bus::TopicKind::Record);
     control_ = std::make_unique<bus::Reader<msg::ControlRequest, msg::ControlRequestPubSubType>>(
         part, bus::kControlTopic, bus::TopicKind::Control);
-  }
-
-  static bool tick_data_sharing() {
-    const char* e = std::getenv("TANDEM_RECORD_DATA_SHARING");
-    return e == nullptr || std::string(e) != "0";
   }
 
   /// Takes what the keyed topics hold (called every 20 ms by the main loop). Returns the launcher's state if heard.

@@ -203,7 +203,7 @@ std::map<std::string, int> serving_strengths(const std::string& serving) {
     const std::string arm = item.substr(0, eq), who = item.substr(eq + 1);
     const auto at = who.find('@');
     int s = 0;
-    if (who.empty() || who == "-" || who == "braked" || who == "none") {
+    if (who.empty() || who.rfind("braked", 0) == 0) {  // "braked", "braked(load)": no robot serves it
       s = 0;
     } else if (at == std::string::npos) {
       s = 100;
@@ -221,9 +221,8 @@ const char* state_name(unsigned s) { return s < 5 ? kStateNames[s] : "?"; }
 /// The recorder: one participant, a reader per chosen topic, one writer of the file.
 class Recorder {
  public:
-  Recorder(const runtime::Deployment& d, const std::string& file, const std::string& out, std::set<std::string> groups,
-           bool attached)
-      : d_(d), groups_(std::move(groups)), attached_(attached), w_(out) {
+  Recorder(const runtime::Deployment& d, const std::string& file, const std::string& out, std::set<std::string> groups)
+      : d_(d), groups_(std::move(groups)), w_(out) {
     realtime_ = d.timing == "realtime";
     std::map<std::string, std::string> meta{{"deployment", d.name},
                                             {"deployment_file", file},
@@ -304,7 +303,7 @@ class Recorder {
         part, bus::kControlTopic, bus::TopicKind::Control);
   }
 
-  /// Takes what the keyed topics hold (called every 20 ms by the main loop). Returns the launcher's state if heard.
+  /// Takes what the keyed topics hold (called every 20 ms by the main loop) and writes the file out every second.
   void poll() {
     const uint64_t now = pb::now_ns();
     msg::ProcessStatus ps;
@@ -313,7 +312,9 @@ class Recorder {
       if (!ps.deployment().empty() && ps.deployment() != d_.name) continue;
       if (ps.process_id() == "launcher") launcher_state_ = ps.state();
       if (groups_.count("status") != 0) put("tandem/process_status", convert(ps), now);
-      auto& last = states_[ps.process_id()];
+      auto known = states_.find(ps.process_id());
+      if (known == states_.end()) known = states_.emplace(ps.process_id(), -1).first;
+      int& last = known->second;
       if (last != static_cast<int>(ps.state())) {
         event("lifecycle", ps.module_id(), ps.process_id(),
               std::string(last < 0 ? "(new)" : state_name(static_cast<unsigned>(last))) + " -> " +
@@ -509,7 +510,7 @@ class Recorder {
 
   const runtime::Deployment& d_;
   std::set<std::string> groups_;
-  bool attached_ = false, realtime_ = false;
+  bool realtime_ = false;
   std::mutex mu_;  ///< the writer: per-tick listener threads and the main loop
   pb::RecordingWriter w_;
   bool closing_ = false;
@@ -656,16 +657,18 @@ int record_command(const std::vector<std::string>& args) {
     std::printf("tandem record: note: cannot raise the recorder's priority (%s); a loaded machine may make it miss "
                 "ticks, which it reports as gaps\n", std::strerror(errno));
   }
+  // The participant outlives the recorder's readers (declared first, destroyed last).
+  std::unique_ptr<bus::Participant> part;
   std::unique_ptr<Recorder> rec;
   try {
-    rec = std::make_unique<Recorder>(d, file, out, groups, attached);
+    rec = std::make_unique<Recorder>(d, file, out, groups);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "tandem record: %s\n", e.what());
     return 2;
   }
-  bus::Participant part(d.domain_id, "recorder/" + d.name, runtime::transport_of(d));
-  rec->start(part);
-  runtime::StatusPublisher status(part, "recorder", "recorder", "");
+  part = std::make_unique<bus::Participant>(d.domain_id, "recorder/" + d.name, runtime::transport_of(d));
+  rec->start(*part);
+  runtime::StatusPublisher status(*part, "recorder", "recorder", "");
   status.msg().deployment(d.name);
   status.set(runtime::Lifecycle::Active, "recording to " + out);
   if (!attached) std::printf("tandem record: recording %s (domain %d) to %s; Ctrl-C to stop\n", d.name.c_str(), d.domain_id, out.c_str());

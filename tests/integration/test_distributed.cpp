@@ -176,6 +176,13 @@ std::string after_first_tick(const std::string& log, double seconds) {
          std::to_string(seconds) + "; ";
 }
 
+std::string read_file_text(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
 bool processes_left(int domain) {
   // The bracket keeps pgrep (and its shell) from matching their own command lines.
   return run("pgrep -f 'tandem-[wrsc][a-z]* .*--domain " + std::to_string(domain) + " '").exit_code == 0;
@@ -370,6 +377,41 @@ TEST_CASE("SIGKILL of a primary robot: its hot standby takes over and nothing ch
   CHECK(kv.at("m1/left@50.eh_rms") == Approx(e.robots[0].eh_rms).epsilon(1e-12));
   CHECK(kv.at("m1.object_final0") == Approx(e.final_state.c(0)).margin(1e-12));
   CHECK_FALSE(processes_left(domain));
+}
+
+TEST_CASE("a recorded failover: the report marks it, and the standby's RMS from the recording equals its summary", "[distributed]") {
+  const int domain = test_domain(22);
+  const std::string deploy = write_deployment("recfail", domain, "SOSM", "lockstep", 1, "", kCrashTransport, kill_scenario());
+  const std::string summary = work_dir() + "/recfail.summary";
+  const std::string up_log = work_dir() + "/recfail.log";
+  const std::string rec = work_dir() + "/recfail.mcap";
+  const std::string report = work_dir() + "/recfail-report";
+  const std::string cmd = kBin + "/tandem up " + deploy + " --summary " + summary + " --record " + rec + " > " + up_log +
+                          " 2>&1 & up=$!; " + after_first_tick(up_log, 0.4) + kBin + "/tandem kill " + deploy +
+                          " m1/left && echo killed; wait $up; echo up_rc=$?; " + kBin + "/tandem report " + rec +
+                          " -o " + report + "; echo report_rc=$?";
+  const Run r = run("bash -c '" + cmd + "'");
+  const std::string log = read_file_text(up_log);
+  INFO(r.output << "\n--- tandem up ---\n" << log);
+  REQUIRE(r.output.find("killed") != std::string::npos);
+  CHECK(r.output.find("up_rc=0") != std::string::npos);
+  REQUIRE(r.output.find("report_rc=0") != std::string::npos);
+  CHECK(log.find("0 tick(s) missed in 0 gap(s)") != std::string::npos);
+  const auto kv = read_summary(summary);
+  const auto rep = read_summary(report + "/summary.txt");
+  // The standby commanded every tick in shadow and after: its RMS recomputed from the recorded commands is its own.
+  CHECK(rep.at("robot.m1/left@50.ticks") == kv.at("m1/left@50.ticks"));
+  CHECK(rep.at("robot.m1/left@50.ep_pos_rms") == Approx(kv.at("m1/left@50.ep_pos_rms")).epsilon(1e-9));
+  CHECK(rep.at("robot.m1/left@50.eh_rms") == Approx(kv.at("m1/left@50.eh_rms")).epsilon(1e-9));
+  // The killed primary's commands stop where it died: fewer ticks than the run's.
+  CHECK(rep.at("robot.m1/left.ticks") < kv.at("m1.ticks"));
+  CHECK(rep.at("sensors.m1/left.ticks") == kv.at("m1.ticks"));
+  // The failover is an event of the recording, shown on the page and marked on the arm's plot.
+  const std::string html = read_file_text(report + "/index.html");
+  CHECK(html.find("<td>failover</td><td>m1</td><td>m1/left</td>") != std::string::npos);
+  CHECK(read_file_text(report + "/robot_m1_left_error.svg").find("failover m1/left") != std::string::npos);
+  CHECK_FALSE(processes_left(domain));
+  CHECK(run("pgrep -f \"tandem [r]ecord .*recfail\"").exit_code != 0);  // the bracket: not pgrep itself
 }
 
 namespace {

@@ -72,6 +72,12 @@ fdds::DataWriterQos writer_qos(TopicKind kind, int32_t strength, bool data_shari
     // Pool slots beyond the history, so that a write never waits for a slow reader to release one.
     q.resource_limits().extra_samples = 8;
   }
+  if (kind == TopicKind::Sensors || kind == TopicKind::Torques) {
+    // Lockstep over UDP: a datagram a reader lost (a recorder's socket overflowing while it was descheduled)
+    // is repaired only after the writer's next heartbeat (3 s by default), long after 256 ticks have pushed
+    // it out of the history. 20 ms keeps the repair inside the history (docs/recording.md).
+    q.reliable_writer_qos().times.heartbeatPeriod = eprosima::fastrtps::Duration_t(0, 20000000);
+  }
   return q;
 }
 

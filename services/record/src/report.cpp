@@ -89,7 +89,12 @@ struct ModuleTrace {
   std::vector<std::pair<double, double>> progress, latency, late_rate, tasks_done, normal_min;
   double last_late_t = -1.0;
   uint64_t last_late = 0;
-  std::vector<std::pair<double, std::string>> marks;  // wall time, label
+  struct Mark {
+    double wall;     // wall time since the recording began [s]
+    uint64_t tick;   // the world tick it refers to (0: unknown)
+    std::string label;
+  };
+  std::vector<Mark> marks;
   std::vector<std::pair<double, double>> paused;      // (t, 0/1)
 };
 struct SimCase {
@@ -202,8 +207,8 @@ ReportResult write_recording_report(const std::string& mcap, const std::string& 
           const std::string& k = e.kind();
           if (k == "failover" || k == "takeover" || k == "brake" || k == "load_pause" ||
               (k == "lifecycle" && e.detail().find("-> error") != std::string::npos)) {
-            modules[e.module_id().empty() ? module_of(e.subject()) : e.module_id()].marks.emplace_back(
-                wall, k + " " + e.subject());
+            modules[e.module_id().empty() ? module_of(e.subject()) : e.module_id()].marks.push_back(
+                {wall, e.tick(), k + " " + e.subject()});
           }
         } else if (topic == "tandem/robot_summary") {
           tandem::record::RobotSummary s;
@@ -317,8 +322,12 @@ ReportResult write_recording_report(const std::string& mcap, const std::string& 
       }
       const double hsg = h_sg_of(module_of(arm));
       if (hsg > 0) ph.hlines.push_back({hsg, "h_sg " + fmt(hsg, "%.1f") + " N"});
+      // Per-tick plots run on tick x period: an event is placed by the world tick it names.
+      const double per = period_of(module_of(arm));
       for (const auto& mk : modules[module_of(arm)].marks) {
-        if (mk.second.find(arm) != std::string::npos) pe.markers.push_back({mk.first, mk.second, "#999999"});
+        if (mk.tick > 0 && mk.label.find(arm) != std::string::npos) {
+          pe.markers.push_back({static_cast<double>(mk.tick) * per, mk.label, "#999999"});
+        }
       }
       body << "<h3>" << xml_escape(arm) << "</h3>\n<p>" << image("robot_" + svg_name(arm) + "_error", pe) << "</p>\n<p>"
            << image("robot_" + svg_name(arm) + "_force", ph) << "</p>\n";
@@ -332,7 +341,7 @@ ReportResult write_recording_report(const std::string& mcap, const std::string& 
     for (auto& [name, m] : modules) {
       if (name.empty()) continue;
       std::vector<RefLine> marks;
-      for (const auto& mk : m.marks) marks.push_back({mk.first, mk.second, "#999999"});
+      for (const auto& mk : m.marks) marks.push_back({mk.wall, mk.label, "#999999"});
       Plot pp;
       pp.title = "Module " + name + ": task progress, tasks done and pauses";
       pp.xlabel = "wall time [s]";

@@ -178,7 +178,7 @@ ReportResult write_recording_report(const std::string& mcap, const std::string& 
           parse(st);
           if (st.role() != "world") return;
           ModuleTrace& m = modules[st.module_id()];
-          m.progress.emplace_back(wall, st.progress());
+          if (st.progress() >= 0.0) m.progress.emplace_back(wall, st.progress());  // -1: tasks from a coordinator
           if (st.latency_p99_us() > 0) m.latency.emplace_back(wall, st.latency_p99_us());
           if (m.last_late_t >= 0 && wall > m.last_late_t + 0.05) {
             const double d = st.late() >= m.last_late ? static_cast<double>(st.late() - m.last_late) : 0.0;
@@ -346,20 +346,21 @@ ReportResult write_recording_report(const std::string& mcap, const std::string& 
       pp.title = "Module " + name + ": task progress, tasks done and pauses";
       pp.xlabel = "wall time [s]";
       pp.ylabel = "fraction / count";
-      pp.series.push_back({"world progress", decimate(m.progress), "", Series::Style::Line});
+      if (!m.progress.empty()) pp.series.push_back({"task progress (fraction)", decimate(m.progress), "", Series::Style::Line});
       if (!m.tasks_done.empty()) pp.series.push_back({"tasks done", m.tasks_done, "", Series::Style::Step});
       if (!m.paused.empty()) pp.series.push_back({"paused or braked (1)", m.paused, "#c0392b", Series::Style::Step});
       pp.markers = marks;
       Plot pl;
-      pl.title = "Module " + name + ": late arm-ticks per second and sample->command latency p99";
+      pl.title = "Module " + name + ": late arm-ticks per second, sample->command latency p99 per 100 ms";
       pl.xlabel = "wall time [s]";
       pl.ylabel = "late/s ; latency [us]";
       if (!m.late_rate.empty()) pl.series.push_back({"late arm-ticks per s", decimate(m.late_rate), "", Series::Style::Step});
-      if (!m.latency.empty()) pl.series.push_back({"latency p99 [us] (100 ms windows)", decimate(m.latency), "", Series::Style::Line});
+      if (!m.latency.empty()) pl.series.push_back({"latency p99 [us]", decimate(m.latency), "", Series::Style::Line});
       pl.markers = marks;
       bool late = false;
       for (const auto& p : m.late_rate) late = late || p.second > 0.0;
-      body << "<h3>" << xml_escape(name) << "</h3>\n<p>" << image("module_" + svg_name(name) + "_progress", pp) << "</p>\n";
+      body << "<h3>" << xml_escape(name) << "</h3>\n";
+      if (!pp.series.empty()) body << "<p>" << image("module_" + svg_name(name) + "_progress", pp) << "</p>\n";
       if (!m.latency.empty() || late) {
         body << "<p>" << image("module_" + svg_name(name) + "_timing", pl) << "</p>\n";
       } else {

@@ -18,7 +18,7 @@ std::string num(double v) {
 std::string tick_text(double v) {
   char b[32];
   if (v != 0.0 && (std::fabs(v) >= 1e5 || std::fabs(v) < 1e-3)) {
-    std::snprintf(b, sizeof b, "%.0e", v);
+    std::snprintf(b, sizeof b, "%.3g", v);  // 1.5e-07, not 2e-07 (two ticks must not read alike)
   } else {
     std::snprintf(b, sizeof b, "%g", v);
   }

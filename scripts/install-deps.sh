@@ -2,7 +2,8 @@
 # Installs the Debian packages this project builds and runs with, only when some are missing.
 # Safe to run repeatedly; needs root (or sudo) only when something must be installed.
 # Usage: scripts/install-deps.sh [--tests]   (--tests: also what the test suite needs: Chromium for the report
-# page checks, and Node.js with npm for the independent MCAP reader, when no node is on the PATH)
+# page checks, Cyclone DDS for the interop tests, and Node.js with npm for the independent MCAP reader when no
+# node is on the PATH)
 set -euo pipefail
 
 PACKAGES=(
@@ -15,7 +16,7 @@ PACKAGES=(
 )
 
 if [ "${1:-}" = "--tests" ]; then
-  PACKAGES+=(chromium)
+  PACKAGES+=(chromium cyclonedds-dev cyclonedds-tools)
   if ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1; then PACKAGES+=(nodejs npm); fi
 fi
 

@@ -1120,6 +1120,7 @@ int up_command(const std::vector<std::string>& args) {
     }
   };
   std::string running_labels;
+  auto launcher_published = Clock::now();
   while (L.busy()) {
     L.poll();
     L.escalate();
@@ -1129,10 +1130,13 @@ int up_command(const std::vector<std::string>& args) {
       for (const auto& c : L.children_) {
         if (c.running) labels += (labels.empty() ? "" : ",") + c.label;
       }
-      if (labels != running_labels) {
+      // Also every 100 ms, like every other process: a late joiner that has matched hears the launcher within
+      // 100 ms whatever its vendor's repair handshake (docs/interop.md).
+      if (labels != running_labels || Clock::now() - launcher_published > std::chrono::milliseconds(100)) {
         running_labels = labels;
         launcher_status.msg().serving(labels);
         launcher_status.publish();
+        launcher_published = Clock::now();
       }
     }
     collect();

@@ -66,11 +66,20 @@ void apply_data_sharing(Q& q, TopicKind kind, bool data_sharing) {
 fdds::DataWriterQos writer_qos(TopicKind kind, int32_t strength, bool data_sharing) {
   fdds::DataWriterQos q = fdds::DATAWRITER_QOS_DEFAULT;
   apply(q, kind);
+  // The wire encoding, pinned: XCDR1 (plain CDR, final types), what other vendors' readers of these types
+  // expect today (docs/interop.md). Fast DDS 2.9 writes it by default; pinned so that an upgrade cannot move it.
+  q.representation().m_value.assign(1, fdds::XCDR_DATA_REPRESENTATION);
   apply_data_sharing(q, kind, data_sharing);
   if (per_tick(kind)) {
     q.endpoint().history_memory_policy = eprosima::fastrtps::rtps::PREALLOCATED_MEMORY_MODE;
     // Pool slots beyond the history, so that a write never waits for a slow reader to release one.
     q.resource_limits().extra_samples = 8;
+  }
+  if (kind == TopicKind::Summary || kind == TopicKind::Status || kind == TopicKind::Task) {
+    // Transient-local state: a late joiner (tandem status, a restarted supervisor, another vendor's reader)
+    // is repaired at the writer's next heartbeat; 100 ms instead of Fast DDS's 3 s. Heartbeats go out only
+    // while a reader has not acknowledged everything, so a settled domain pays nothing.
+    q.reliable_writer_qos().times.heartbeatPeriod = eprosima::fastrtps::Duration_t(0, 100000000);
   }
   if (kind == TopicKind::Sensors || kind == TopicKind::Torques) {
     // Lockstep over UDP: a datagram a reader lost (a recorder's socket overflowing while it was descheduled)

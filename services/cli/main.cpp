@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "sim_command.hpp"
+#include "keys_command.hpp"
 #include "record_command.hpp"
 #include "remote_command.hpp"
 #include "report_command.hpp"
@@ -30,6 +31,7 @@ void usage(std::FILE* f) {
       "                        invariant from what it recorded, and write a report with plots\n"
       "  record <deploy.yaml> -o FILE.mcap   record a deployment's topics (MCAP, Protobuf messages)\n"
       "  report FILE.mcap -o DIR             an HTML page with plots of a recording (tandem record, tandem sim)\n"
+      "  keys <deploy.yaml>    make the deployment's DDS-Security keys and documents (security: in the file)\n"
       "  help [command]        show this help, or the help of one command\n"
       "\n"
       "Run 'tandem help <command>' for its options. Exit codes: 0 success, 1 a run failed its grasp\n"
@@ -54,6 +56,8 @@ int main(int argc, char** argv) {
       tandem::cli::up_usage(stdout);
     } else if (!args.empty() && args[0] == "soak") {
       tandem::cli::soak_usage(stdout);
+    } else if (!args.empty() && args[0] == "keys") {
+      tandem::cli::keys_usage(stdout);
     } else if (!args.empty() && args[0] == "record") {
       tandem::cli::record_usage(stdout);
     } else if (!args.empty() && args[0] == "report") {
@@ -70,6 +74,7 @@ int main(int argc, char** argv) {
   if (cmd == "up") return tandem::cli::up_command(args);
   if (cmd == "soak") return tandem::cli::soak_command(args);
   if (cmd == "record") return tandem::cli::record_command(args);
+  if (cmd == "keys") return tandem::cli::keys_command(args);
   if (cmd == "report") return tandem::cli::report_command(args);
   if (cmd == "status") return tandem::cli::status_command(args);
   if (cmd == "down") return tandem::cli::down_command(args);

@@ -26,6 +26,7 @@
 
 #include "tandem/record/recording.hpp"
 #include "tandem/runtime/deployment.hpp"
+#include "tandem/runtime/security.hpp"
 #include "tandem/runtime/status.hpp"
 #include "tandem/sim/module_setup.hpp"
 #include "tandem/sim/scenario_yaml.hpp"
@@ -260,6 +261,8 @@ class Recorder {
       return rt ? bus::TopicKind::TorquesRealtime : bus::TopicKind::Torques;
     };
     if (groups_.count("ticks") != 0) {
+      // Every channel first: once the first reader exists its listener thread writes to the file, and the
+      // writer's channel table is not to be changed beside it (channels of keyed topics are made under mu_).
       for (const auto& arm : arms_) {
         auto t = std::make_unique<TickTap>();
         t->arm = arm;
@@ -270,11 +273,13 @@ class Recorder {
                                         {{"arm", arm}});
         t->sensors_listener.fn = [tap = t.get()](fdds::DataReader* r) { tap->on_sensors(r); };
         t->torques_listener.fn = [tap = t.get()](fdds::DataReader* r) { tap->on_torques(r); };
-        t->sensors = std::make_unique<bus::Reader<msg::ArmSensors, msg::ArmSensorsPubSubType>>(
-            part, bus::arm_topic(bus::kSensorsTopic, arm), reader_kind(realtime_, true), &t->sensors_listener);
-        t->torques = std::make_unique<bus::Reader<msg::TorqueCommand, msg::TorqueCommandPubSubType>>(
-            part, bus::arm_topic(bus::kTorquesTopic, arm), reader_kind(realtime_, false), &t->torques_listener);
         taps_.push_back(std::move(t));
+      }
+      for (auto& t : taps_) {
+        t->sensors = std::make_unique<bus::Reader<msg::ArmSensors, msg::ArmSensorsPubSubType>>(
+            part, bus::arm_topic(bus::kSensorsTopic, t->arm), reader_kind(realtime_, true), &t->sensors_listener);
+        t->torques = std::make_unique<bus::Reader<msg::TorqueCommand, msg::TorqueCommandPubSubType>>(
+            part, bus::arm_topic(bus::kTorquesTopic, t->arm), reader_kind(realtime_, false), &t->torques_listener);
       }
     }
     if (groups_.count("world") != 0 || groups_.count("events") != 0) {
@@ -343,6 +348,10 @@ class Recorder {
     }
     msg::WorldSummary ws;
     while (world_sum_->take(ws)) {
+      {
+        std::lock_guard<std::mutex> lock(mu_);
+        world_ticks_[ws.module_id()] = ws.ticks();
+      }
       if (groups_.count("summaries") != 0) put(bus::kWorldSummaryTopic, convert(ws), now);
     }
     msg::TaskAssignment ta;
@@ -385,12 +394,23 @@ class Recorder {
     uint64_t gaps = 0, gap_ticks = 0, per_tick = 0;
     std::map<std::string, std::string> stats;
     for (const auto& t : taps_) {
-      gaps += t->gaps;
-      gap_ticks += t->gap_ticks;
+      // Besides the gaps seen between samples: ticks before the first sample and after the last one, against the
+      // world's own count (its summary, when it was heard), and torque commands that skipped ticks.
+      uint64_t missed = t->gap_ticks + t->command_gap_ticks, holes = t->gaps + t->command_gaps;
+      const auto w = world_ticks_.find(t->arm.substr(0, t->arm.find('/')));
+      if (w != world_ticks_.end() && w->second > 0) {
+        const auto world = static_cast<long long>(w->second);
+        const long long head = t->first_tick < 0 ? world : t->first_tick;
+        const long long tail = t->last_tick < 0 ? 0 : world - 1 - t->last_tick;
+        if (head > 0) missed += static_cast<uint64_t>(head), ++holes;
+        if (tail > 0) missed += static_cast<uint64_t>(tail), ++holes;
+      }
+      gaps += holes;
+      gap_ticks += missed;
       per_tick += t->sensor_samples + t->torque_samples;
       stats["arm." + t->arm + ".sensor_samples"] = std::to_string(t->sensor_samples);
       stats["arm." + t->arm + ".torque_samples"] = std::to_string(t->torque_samples);
-      stats["arm." + t->arm + ".missed_ticks"] = std::to_string(t->gap_ticks);
+      stats["arm." + t->arm + ".missed_ticks"] = std::to_string(missed);
     }
     stats["messages"] = std::to_string(w_.messages());
     stats["gaps"] = std::to_string(gaps);
@@ -422,8 +442,9 @@ class Recorder {
     msg::TorqueCommand c;
     pb::ArmSensors ps;
     pb::TorqueCommand pc;
-    long long last_tick = -1;
-    uint64_t gaps = 0, gap_ticks = 0, sensor_samples = 0, torque_samples = 0;
+    long long last_tick = -1, first_tick = -1;
+    std::map<int, long long> last_command;  ///< per robot strength: the last tick commanded
+    uint64_t gaps = 0, gap_ticks = 0, sensor_samples = 0, torque_samples = 0, command_gaps = 0, command_gap_ticks = 0;
     void on_sensors(fdds::DataReader* r) {
       fdds::SampleInfo info;
       while (r->take_next_sample(&s, &info) == ReturnCode_t::RETCODE_OK) {
@@ -440,6 +461,7 @@ class Recorder {
                                  std::to_string(k), s.tick(), now);
         }
         if (k > last_tick) last_tick = k;
+        if (first_tick < 0) first_tick = k;
         convert(s, ps);
         ++sensor_samples;
         self->w_.write(sensors_channel, ps, now, static_cast<uint64_t>(info.source_timestamp.to_ns()));
@@ -452,6 +474,17 @@ class Recorder {
         const uint64_t now = pb::now_ns();
         std::lock_guard<std::mutex> lock(self->mu_);
         if (self->closing_) return;
+        // A robot commands every tick it is given (lockstep, and standbys in shadow): a jump is a gap.
+        long long& lc = last_command.emplace(c.strength(), -1).first->second;
+        const auto k = static_cast<long long>(c.tick());
+        if (lc >= 0 && k > lc + 1 && !c.leaving()) {
+          ++command_gaps;
+          command_gap_ticks += static_cast<uint64_t>(k - lc - 1);
+          self->event_locked("gap", arm.substr(0, arm.find('/')), arm + "@" + std::to_string(c.strength()),
+                             std::to_string(k - lc - 1) + " torque command(s) not received before tick " +
+                                 std::to_string(k), c.tick(), now);
+        }
+        if (k > lc) lc = k;
         convert(c, pc);
         ++torque_samples;
         self->w_.write(torques_channel, pc, now, static_cast<uint64_t>(info.source_timestamp.to_ns()));
@@ -537,6 +570,7 @@ class Recorder {
   };
   std::map<std::string, WorldPrev> world_prev_;
   int launcher_state_ = -1;
+  std::map<std::string, uint64_t> world_ticks_;  ///< module -> ticks of its world's summary (under mu_)
 };
 
 }  // namespace
@@ -647,9 +681,19 @@ int record_command(const std::vector<std::string>& args) {
   }
   struct sigaction sa {};
   sa.sa_handler = on_record_signal;
-  ::sigaction(SIGINT, &sa, nullptr);
   ::sigaction(SIGTERM, &sa, nullptr);
+  // Started by the launcher, it shares the terminal's process group: Ctrl-C is for the launcher, which stops the
+  // recorder last (SIGTERM), after the modules' final summaries.
+  if (attached) {
+    ::signal(SIGINT, SIG_IGN);
+  } else {
+    ::sigaction(SIGINT, &sa, nullptr);
+  }
   runtime::use_discovery(d);
+  if (const std::string err = runtime::use_security(d, "recorder"); !err.empty()) {
+    std::fprintf(stderr, "tandem record: %s\n", err.c_str());
+    return 2;
+  }
   // Lockstep runs as fast as the machine allows and every tick must reach the file: the recorder is woken
   // ahead of the busy module processes (nice -10, where permitted). In real time the per-tick processes run
   // SCHED_FIFO above it, and it stays at normal priority so as not to take their time.
@@ -657,18 +701,21 @@ int record_command(const std::vector<std::string>& args) {
     std::printf("tandem record: note: cannot raise the recorder's priority (%s); a loaded machine may make it miss "
                 "ticks, which it reports as gaps\n", std::strerror(errno));
   }
-  // The participant outlives the recorder's readers (declared first, destroyed last).
+  // The participant outlives the recorder's readers (declared first, destroyed last); it is made before the
+  // recorder truncates the file, so that a domain it cannot join leaves an earlier recording alone.
   std::unique_ptr<bus::Participant> part;
   std::unique_ptr<Recorder> rec;
+  std::unique_ptr<runtime::StatusPublisher> status_pub;
   try {
+    part = std::make_unique<bus::Participant>(d.domain_id, "recorder/" + d.name, runtime::transport_of(d));
     rec = std::make_unique<Recorder>(d, file, out, groups);
+    rec->start(*part);
+    status_pub = std::make_unique<runtime::StatusPublisher>(*part, "recorder", "recorder", "");
   } catch (const std::exception& e) {
     std::fprintf(stderr, "tandem record: %s\n", e.what());
     return 2;
   }
-  part = std::make_unique<bus::Participant>(d.domain_id, "recorder/" + d.name, runtime::transport_of(d));
-  rec->start(*part);
-  runtime::StatusPublisher status(*part, "recorder", "recorder", "");
+  runtime::StatusPublisher& status = *status_pub;
   status.msg().deployment(d.name);
   status.set(runtime::Lifecycle::Active, "recording to " + out);
   if (!attached) std::printf("tandem record: recording %s (domain %d) to %s; Ctrl-C to stop\n", d.name.c_str(), d.domain_id, out.c_str());

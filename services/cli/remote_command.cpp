@@ -10,6 +10,7 @@
 
 #include "tandem/runtime/deployment.hpp"
 #include "tandem/runtime/role.hpp"
+#include "tandem/runtime/security.hpp"
 #include "live_view.hpp"
 #include "tandem/dds/bus.hpp"
 
@@ -81,6 +82,10 @@ int status_command(const std::vector<std::string>& args) {
   Deployment d;
   if (!parse_target("status", args, d)) return 2;
   runtime::use_discovery(d);
+  if (const std::string err = runtime::use_security(d, "cli"); !err.empty()) {
+    std::fprintf(stderr, "tandem status: %s\n", err.c_str());
+    return 2;
+  }
   bus::Participant part(d.domain_id, "tandem-status", runtime::transport_of(d));
   bus::Reader<msg::ProcessStatus, msg::ProcessStatusPubSubType> status(part, bus::kStatusTopic, bus::TopicKind::Status);
   LiveView view(d.name);
@@ -128,6 +133,10 @@ int send_request(const char* verb, const Deployment& d, const std::string& targe
     return 2;
   }
   runtime::use_discovery(d);
+  if (const std::string err = runtime::use_security(d, "cli"); !err.empty()) {
+    std::fprintf(stderr, "tandem %s: %s\n", verb, err.c_str());
+    return 2;
+  }
   bus::Participant part(d.domain_id, std::string("tandem-") + verb, runtime::transport_of(d));
   bus::Writer<msg::ControlRequest, msg::ControlRequestPubSubType> control(part, bus::kControlTopic, bus::TopicKind::Control);
   bus::Reader<msg::ProcessStatus, msg::ProcessStatusPubSubType> status(part, bus::kStatusTopic, bus::TopicKind::Status);

@@ -28,6 +28,7 @@
 #include <deque>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <set>
 #include <sstream>
 #include <string>
@@ -38,6 +39,7 @@
 #include "tandem/launcher/restart_policy.hpp"
 #include "tandem/dds/bus.hpp"
 #include "tandem/runtime/deployment.hpp"
+#include "tandem/runtime/security.hpp"
 #include "tandem/runtime/role.hpp"
 #include "tandem/runtime/shm_clean.hpp"
 #include "tandem/runtime/status.hpp"
@@ -109,7 +111,7 @@ bool fifo_permitted(int priority, std::string& why) {
 /// Starts `exe` with `args`; with rt_priority > 0 the child runs SCHED_FIFO at that priority, and so do the
 /// threads it creates (Fast DDS's receive and event threads inherit it: the whole tick path is real time).
 pid_t spawn(const std::string& exe, const std::vector<std::string>& args, int rt_priority = 0,
-            int participant_id = -1) {
+            int participant_id = -1, const std::string& identity = "") {
   // Everything the child needs is built before fork: after fork only async-signal-safe calls.
   std::vector<char*> argv;
   argv.push_back(const_cast<char*>(exe.c_str()));
@@ -117,9 +119,13 @@ pid_t spawn(const std::string& exe, const std::vector<std::string>& args, int rt
   argv.push_back(nullptr);
   std::vector<std::string> env_text;
   for (char** e = environ; *e != nullptr; ++e) {
-    if (std::strncmp(*e, "TANDEM_PARTICIPANT_ID=", 22) != 0) env_text.emplace_back(*e);
+    if (std::strncmp(*e, "TANDEM_PARTICIPANT_ID=", 22) != 0 && std::strncmp(*e, "TANDEM_IDENTITY=", 16) != 0) {
+      env_text.emplace_back(*e);
+    }
   }
   if (participant_id >= 0) env_text.push_back("TANDEM_PARTICIPANT_ID=" + std::to_string(participant_id));
+  // DDS-Security: the child's identity (its slot's key; TANDEM_SECURITY_DIR is inherited from the launcher).
+  if (!identity.empty()) env_text.push_back("TANDEM_IDENTITY=" + identity);
   std::vector<char*> envp;
   for (auto& e : env_text) envp.push_back(e.data());
   envp.push_back(nullptr);
@@ -849,8 +855,22 @@ class Launcher {
     if (d_.coordinator) a.push_back("--continuous");
     if (!d_.overload_brake) a.push_back("--no-overload-brake");
     if (d_.test_no_brakes) a.push_back("--test-no-brakes");
-    if (!d_.record.empty()) a.insert(a.end(), {"--observers", "1"});  // lockstep: the world waits for the recorder
+    // Lockstep with a recorder of the per-tick topics: the world waits for every reader of its sensors (the
+    // robots of the arm and the recorder) before tick 0, so that the recording has every tick.
+    if (records_ticks()) a.insert(a.end(), {"--observers", std::to_string(m.standby + 1)});
     return a;
+  }
+  /// The DDS-Security identity of a child ("" without security): its slot's (runtime::identities).
+  std::string identity_of(const Child& c) const {
+    if (d_.security_keys.empty()) return "";
+    if (c.role == "robot") return runtime::identity_name("robot", c.module, c.arm.substr(c.arm.find('/') + 1));
+    return runtime::identity_name(c.role, c.module);
+  }
+  bool records_ticks() const {
+    if (d_.record.empty()) return false;
+    if (d_.record_topics.empty()) return true;
+    const std::string t = "," + d_.record_topics + ",";
+    return t.find(",ticks,") != std::string::npos || t.find(",all,") != std::string::npos;
   }
   void launch(Child& c, const char* note = "") {
     // The participant id left longest ago (see services/dds/src/participant.cpp); none left: Fast DDS picks.
@@ -859,7 +879,7 @@ class Launcher {
       c.participant_id = free_ids_.front();
       free_ids_.pop_front();
     }
-    c.pid = spawn(c.exe, c.args, c.role == "coordinator" ? 0 : rt_priority_, c.participant_id);
+    c.pid = spawn(c.exe, c.args, c.role == "coordinator" ? 0 : rt_priority_, c.participant_id, identity_of(c));
     c.running = true;
     c.started = Clock::now();
     c.heard = false;
@@ -969,6 +989,16 @@ int up_command(const std::vector<std::string>& args) {
     return 2;
   }
 
+  // DDS-Security: every identity's files are there and valid before anything starts; the launcher joins as
+  // "launcher", its children inherit the keys' directory and get their slot's identity (identity_of).
+  if (!d.security_keys.empty()) {
+    const std::string err = runtime::check_keys(d);
+    if (!err.empty()) {
+      std::fprintf(stderr, "tandem up: %s\n", err.c_str());
+      return 2;
+    }
+    (void)runtime::use_security(d, "launcher");
+  }
   if (check_only) {
     std::printf("tandem up: %s is valid: %zu module(s), domain %d, %s timing\n%s\n", file.c_str(), d.modules.size(),
                 d.domain_id, d.timing.c_str(), capacity_estimate(d).c_str());
@@ -1010,7 +1040,14 @@ int up_command(const std::vector<std::string>& args) {
       pid = -1;
     }
   } server_stop{discovery_server};
-  bus::Participant part(d.domain_id, "launcher/" + d.name, runtime::transport_of(d));
+  std::unique_ptr<bus::Participant> part_owner;
+  try {
+    part_owner = std::make_unique<bus::Participant>(d.domain_id, "launcher/" + d.name, runtime::transport_of(d));
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "tandem up: %s\n", e.what());
+    return 2;
+  }
+  bus::Participant& part = *part_owner;
   bus::Reader<msg::RobotSummary, msg::RobotSummaryPubSubType> robot_sum(part, bus::kRobotSummaryTopic,
                                                                        bus::TopicKind::Summary);
   bus::Reader<msg::WorldSummary, msg::WorldSummaryPubSubType> world_sum(part, bus::kWorldSummaryTopic,
@@ -1054,7 +1091,7 @@ int up_command(const std::vector<std::string>& args) {
   if (!d.record.empty()) {
     std::vector<std::string> rargs{"record", file, "-o", d.record, "--attached"};
     if (!d.record_topics.empty()) rargs.insert(rargs.end(), {"--topics", d.record_topics});
-    recorder = spawn(L.dir_ + "/tandem", rargs);
+    recorder = spawn(L.dir_ + "/tandem", rargs, 0, -1, d.security_keys.empty() ? "" : "recorder");
     if (recorder < 0) return 2;
     std::printf("  started recorder             pid %d -> %s\n", recorder, d.record.c_str());
     bool heard = false;
@@ -1075,19 +1112,32 @@ int up_command(const std::vector<std::string>& args) {
   }
   struct RecorderStop {
     pid_t pid;
+    int status = 0;  ///< exit code (128 + signal if killed); 0 until it ended
     ~RecorderStop() { stop(); }
+    /// Whether it has exited by itself (it should not before it is stopped: a failed recording).
+    bool exited() {
+      int st = 0;
+      if (pid <= 0 || ::waitpid(pid, &st, WNOHANG) != pid) return false;
+      status = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+      pid = -1;
+      return true;
+    }
     void stop() {  // SIGTERM: it closes the file (summary section, footer); SIGKILL after 30 s
       if (pid <= 0) return;
       ::kill(pid, SIGTERM);
-      for (int i = 0; i < 1500 && ::waitpid(pid, nullptr, WNOHANG) == 0; ++i) ::usleep(20000);
-      if (::waitpid(pid, nullptr, WNOHANG) == 0) {
-        std::fprintf(stderr, "tandem up: the recorder did not close its file within 30 s; SIGKILL\n");
-        ::kill(pid, SIGKILL);
-        ::waitpid(pid, nullptr, 0);
+      for (int i = 0; i < 1500; ++i) {
+        if (exited()) return;
+        ::usleep(20000);
       }
+      std::fprintf(stderr, "tandem up: the recorder did not close its file within 30 s; SIGKILL\n");
+      ::kill(pid, SIGKILL);
+      int st = 0;
+      ::waitpid(pid, &st, 0);
+      status = 128 + SIGKILL;
       pid = -1;
     }
   } recorder_stop{recorder};
+  bool recording_failed = false;
   for (const auto& m : d.modules) {
     if (m.autostart) L.start_module(m.name);
   }
@@ -1160,6 +1210,11 @@ int up_command(const std::vector<std::string>& args) {
                                      answer->second.text);
         launcher_status.publish();
       }
+    }
+    if (recorder_stop.exited()) {
+      std::printf("tandem up: the recorder exited during the run (code %d); %s is incomplete\n", recorder_stop.status,
+                  d.record.c_str());
+      recording_failed = true;
     }
     // Shared-memory files of killed children, once the others had 2 s to let go of them (unmapped ones only).
     if (L.shm_dirty_ && Clock::now() - L.killed_at_ > std::chrono::seconds(2)) {
@@ -1291,6 +1346,10 @@ int up_command(const std::vector<std::string>& args) {
     std::this_thread::sleep_for(std::chrono::milliseconds(300));  // the last summaries reach the recorder too
     std::fflush(stdout);
     recorder_stop.stop();
+    if (recorder_stop.status != 0) {
+      std::printf("tandem up: the recorder failed (code %d): %s is incomplete\n", recorder_stop.status, d.record.c_str());
+      recording_failed = true;
+    }
   }
   {
     msg::ProcessStatus ps;
@@ -1311,7 +1370,7 @@ int up_command(const std::vector<std::string>& args) {
     if (removed > 0) std::printf("removed %d shared-memory file(s) left by killed processes\n", removed);
   }
   if (d.coordinator && !L.coordinator_done_) failed = true;
-  const bool ok = !failed && !g_stop && grasp_ok;
+  const bool ok = !failed && !g_stop && grasp_ok && !recording_failed;
   if (out && d.coordinator) out << "coordinator.done=" << (L.coordinator_done_ ? 1 : 0) << "\n";
   std::printf("result: %s\n", ok ? "PASS (all processes finished, safe grasp kept)"
                                  : (g_stop ? "STOPPED" : "FAIL (see above)"));

@@ -78,9 +78,13 @@ int main(int argc, char** argv) {
   status.set(runtime::Lifecycle::Inactive, "waiting for the supervisor and two robots");
   // Peers: a robot per arm reads its sensors and writes torques; the supervisor reads the report.
   const auto t0 = std::chrono::steady_clock::now();
-  // Observers (a recorder started by the launcher) read the sensors too: lockstep waits for them, so that a
-  // recording holds every tick from the first.
-  const int readers = 1 + (opt.realtime ? 0 : opt.observers);
+  // Lockstep with a recorder: --observers counts the sensor readers besides the first robot (the arm's standbys
+  // and the recorder), and the world waits for all of them, so that a recording holds every tick from the first.
+  // A standby that is slow to come must not hold the module for long: after half the timeout, one reader
+  // besides the first is enough (the recorder, started before any module, is normally there by then).
+  const int readers_all = 1 + (opt.realtime ? 0 : opt.observers);
+  const int readers_min = std::min(readers_all, 2);
+  int readers = readers_all;
   while (!runtime::g_stop && (sensors0.matched() < readers || sensors1.matched() < readers || torques0.matched() < 1 || torques1.matched() < 1 ||
                               report.matched() < 1)) {
     if (std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() > opt.timeout) {
@@ -89,6 +93,11 @@ int main(int argc, char** argv) {
                    torques0.matched() + torques1.matched(), report.matched());
       status.set(runtime::Lifecycle::Error, "peers not found");
       return 3;
+    }
+    if (readers > readers_min && std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() > 0.5 * opt.timeout) {
+      std::fprintf(stderr, "tandem-world %s: %d of %d sensor readers after %.1f s; starting with %d\n", opt.module.c_str(),
+                   std::min(sensors0.matched(), sensors1.matched()), readers_all, 0.5 * opt.timeout, readers_min);
+      readers = readers_min;
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }

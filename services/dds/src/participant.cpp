@@ -36,9 +36,31 @@ Participant::Participant(int domain_id, const std::string& name, Transport trans
         std::make_shared<eprosima::fastdds::rtps::SharedMemTransportDescriptor>());
   }
   qos.transport().user_transports.push_back(std::make_shared<eprosima::fastdds::rtps::UDPv4TransportDescriptor>());
+  // DDS-Security (docs/security.md): the deployment's keys (TANDEM_SECURITY_DIR, made by `tandem keys`) and this
+  // process's identity (TANDEM_IDENTITY), set by runtime::use_security or handed down by the launcher.
+  std::string security;
+  if (const char* dir = std::getenv("TANDEM_SECURITY_DIR"); dir != nullptr && *dir != '\0') {
+    const char* id = std::getenv("TANDEM_IDENTITY");
+    if (id == nullptr || *id == '\0') {
+      throw std::runtime_error("TANDEM_SECURITY_DIR is set but TANDEM_IDENTITY is not: no identity to join with");
+    }
+    const std::string d = std::string("file://") + dir + "/";  // Fast DDS: file:// and the path (absolute)
+    auto& props = qos.properties().properties();
+    props.emplace_back("dds.sec.auth.plugin", "builtin.PKI-DH");
+    props.emplace_back("dds.sec.auth.builtin.PKI-DH.identity_ca", d + "ca.pem");
+    props.emplace_back("dds.sec.auth.builtin.PKI-DH.identity_certificate", d + id + ".pem");
+    props.emplace_back("dds.sec.auth.builtin.PKI-DH.private_key", d + id + ".key");
+    props.emplace_back("dds.sec.access.plugin", "builtin.Access-Permissions");
+    props.emplace_back("dds.sec.access.builtin.Access-Permissions.permissions_ca", d + "ca.pem");
+    props.emplace_back("dds.sec.access.builtin.Access-Permissions.governance", d + "governance.p7s");
+    props.emplace_back("dds.sec.access.builtin.Access-Permissions.permissions", d + "permissions.p7s");
+    props.emplace_back("dds.sec.crypto.plugin", "builtin.AES-GCM-GMAC");
+    security = std::string(" with DDS-Security identity '") + id + "' (keys in " + dir +
+               ": missing, expired or not signed by its CA? make them with `tandem keys`)";
+  }
   participant_ = fdds::DomainParticipantFactory::get_instance()->create_participant(domain_id, qos);
   if (participant_ == nullptr) {
-    throw std::runtime_error("cannot create a DDS participant on domain " + std::to_string(domain_id));
+    throw std::runtime_error("cannot create a DDS participant on domain " + std::to_string(domain_id) + security);
   }
   publisher_ = participant_->create_publisher(fdds::PUBLISHER_QOS_DEFAULT);
   subscriber_ = participant_->create_subscriber(fdds::SUBSCRIBER_QOS_DEFAULT);

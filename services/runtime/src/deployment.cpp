@@ -88,6 +88,18 @@ Deployment load_deployment(const std::string& path) {
     d.modules.push_back(m);
   }
   if (d.modules.empty()) top.fail(mods, "modules", "list at least one module");
+  if (top.has("security")) {
+    sim::yaml::MapReader se = top.child("security");
+    se.text("keys", d.security_keys, true);
+    if (d.security_keys.empty()) se.fail(root["security"]["keys"], "security.keys", "expected a directory (made by `tandem keys`)");
+    if (d.security_keys[0] != '/') d.security_keys = dir + "/" + d.security_keys;
+    se.finish();
+    if (d.discovery == "server") {
+      top.fail(root["security"], "security",
+               "security with 'discovery: server' is not supported (the Fast DDS Discovery Server started by the "
+               "launcher has no identity); use 'discovery: simple'");
+    }
+  }
   if (top.has("coordinator")) {
     sim::yaml::MapReader co = top.child("coordinator");
     d.coordinator = true;

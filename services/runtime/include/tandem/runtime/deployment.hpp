@@ -70,6 +70,9 @@ struct Deployment {
   /// directory. record_topics: comma-separated groups of `tandem record --topics` ("" = all).
   std::string record;
   std::string record_topics;
+  /// DDS-Security (docs/security.md): the directory of the keys `tandem keys` makes (`security: {keys: DIR}`,
+  /// relative to the deployment file); "" = no security.
+  std::string security_keys;
 };
 
 /// The topic groups `tandem record --topics` accepts.

@@ -1,0 +1,198 @@
+// tandem keys: makes a deployment's DDS-Security files with openssl: a CA, one key and certificate per identity
+// (runtime::identities: per slot), and the governance and permissions documents derived from the deployment,
+// signed by the CA. Keys are made at set-up and never committed.
+#include "keys_command.hpp"
+
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdlib>
+#include <cstring>
+#include <ctime>
+#include <fstream>
+
+#include "tandem/runtime/deployment.hpp"
+#include "tandem/runtime/security.hpp"
+
+namespace tandem::cli {
+
+namespace {
+
+bool run(const std::string& cmd, std::string& err) {
+  const std::string full = cmd + " 2>&1";
+  FILE* p = ::popen(full.c_str(), "r");
+  if (p == nullptr) {
+    err = "cannot run: " + cmd;
+    return false;
+  }
+  std::string out;
+  char buf[256];
+  while (std::fgets(buf, sizeof buf, p) != nullptr) out += buf;
+  const int rc = ::pclose(p);
+  if (rc != 0) {
+    err = "openssl failed: " + cmd + "\n" + out;
+    return false;
+  }
+  return true;
+}
+
+std::string iso(std::time_t t) {
+  char b[32];
+  std::tm tm{};
+  ::gmtime_r(&t, &tm);
+  std::strftime(b, sizeof b, "%Y-%m-%dT%H:%M:%S", &tm);
+  return b;
+}
+
+bool write_text(const std::string& path, const std::string& text) {
+  std::ofstream f(path);
+  f << text;
+  return static_cast<bool>(f);
+}
+
+bool make_dirs(const std::string& path) {
+  std::string cur;
+  for (size_t i = 0; i <= path.size(); ++i) {
+    if (i == path.size() || path[i] == '/') {
+      if (!cur.empty() && ::mkdir(cur.c_str(), 0700) != 0 && errno != EEXIST) return false;
+    }
+    if (i < path.size()) cur += path[i];
+  }
+  return true;
+}
+
+}  // namespace
+
+void keys_usage(std::FILE* f) {
+  std::fputs(
+      "usage: tandem keys <deploy.yaml> [--dir DIR] [--days N] [--new-ca]\n"
+      "\n"
+      "Makes the DDS-Security files of a deployment with openssl (docs/security.md), into DIR (default: the\n"
+      "deployment's security.keys):\n"
+      "  ca.pem, ca.key            the deployment's CA (identity and permissions CA); kept and reused on later\n"
+      "                            runs (a module added later gets keys from the same CA); --new-ca replaces it\n"
+      "  <identity>.pem, .key      one ECDSA P-256 key and certificate (CN=<identity>) per identity: robot.<m>.<r>\n"
+      "                            (every robot of arm <m>/<r>: primary, standbys, restarts), world.<m>,\n"
+      "                            supervisor.<m>, coordinator, launcher, cli, recorder\n"
+      "  governance.p7s            authenticated participants only; read and write access control on every topic;\n"
+      "                            discovery and data encrypted (AES-GCM)\n"
+      "  permissions.p7s           least privilege per identity: a robot writes only its own arm's torques and\n"
+      "                            reads only its own arm's sensors; only the launcher and the CLI write control\n"
+      "                            requests; the recorder reads everything and writes only its status\n"
+      "Certificates and grants are valid for N days (default 365). Keys are 0600 in a 0700 directory; never\n"
+      "commit them. `tandem up` refuses to start with a missing or expired file and names it.\n"
+      "Exit: 0 made, 1 openssl failed or DIR cannot be written, 2 bad command line or deployment.\n",
+      f);
+}
+
+int keys_command(const std::vector<std::string>& args) {
+  std::string file, dir;
+  int days = 365;
+  bool new_ca = false;
+  for (size_t i = 0; i < args.size(); ++i) {
+    const std::string& a = args[i];
+    if (a == "--help" || a == "-h") {
+      keys_usage(stdout);
+      return 0;
+    } else if ((a == "--dir" || a == "--days") && i + 1 < args.size()) {
+      if (a == "--dir") {
+        dir = args[++i];
+      } else {
+        char* end = nullptr;
+        const long v = std::strtol(args[++i].c_str(), &end, 10);
+        if (*end != '\0' || v < 1 || v > 3650) {
+          std::fprintf(stderr, "tandem keys: --days '%s': expected a whole number of days in [1, 3650]\n", args[i].c_str());
+          return 2;
+        }
+        days = static_cast<int>(v);
+      }
+    } else if (a == "--new-ca") {
+      new_ca = true;
+    } else if (!a.empty() && a[0] == '-') {
+      std::fprintf(stderr, "tandem keys: unknown option '%s' (or missing value; see 'tandem help keys')\n", a.c_str());
+      return 2;
+    } else if (file.empty()) {
+      file = a;
+    } else {
+      std::fprintf(stderr, "tandem keys: one deployment file expected, got '%s' too\n", a.c_str());
+      return 2;
+    }
+  }
+  if (file.empty()) {
+    std::fprintf(stderr, "tandem keys: missing the deployment file\n\n");
+    keys_usage(stderr);
+    return 2;
+  }
+  runtime::Deployment d;
+  std::vector<runtime::Identity> ids;
+  try {
+    d = runtime::load_deployment(file);
+    ids = runtime::identities(d);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "tandem keys: %s\n", e.what());
+    return 2;
+  }
+  if (dir.empty()) dir = d.security_keys;
+  if (dir.empty()) {
+    std::fprintf(stderr, "tandem keys: %s has no 'security: {keys: DIR}' and no --dir was given\n", file.c_str());
+    return 2;
+  }
+  if (std::system("openssl version >/dev/null 2>&1") != 0) {
+    std::fprintf(stderr, "tandem keys: needs the openssl command (Debian package openssl)\n");
+    return 1;
+  }
+  if (!make_dirs(dir)) {
+    std::fprintf(stderr, "tandem keys: cannot create %s: %s\n", dir.c_str(), std::strerror(errno));
+    return 1;
+  }
+  ::chmod(dir.c_str(), 0700);
+  const std::string q = "'" + dir + "/";
+  const std::string ds = std::to_string(days);
+  std::string err;
+  const bool have_ca = ::access((dir + "/ca.key").c_str(), R_OK) == 0 && ::access((dir + "/ca.pem").c_str(), R_OK) == 0;
+  const mode_t old_mask = ::umask(077);
+  bool ok = true;
+  if (!have_ca || new_ca) {
+    ok = run("openssl genpkey -algorithm EC -pkeyopt ec_paramgen_curve:P-256 -out " + q + "ca.key'", err) &&
+         run("openssl req -new -x509 -sha256 -days " + ds + " -key " + q + "ca.key' -out " + q +
+                 "ca.pem' -subj '/O=tandem/CN=tandem CA " + d.name + "'", err);
+    if (ok) std::printf("tandem keys: made a CA for %s\n", d.name.c_str());
+  } else {
+    std::printf("tandem keys: reusing the CA in %s (--new-ca makes a new one)\n", dir.c_str());
+  }
+  for (size_t i = 0; ok && i < ids.size(); ++i) {
+    const std::string& n = ids[i].name;
+    ok = run("openssl genpkey -algorithm EC -pkeyopt ec_paramgen_curve:P-256 -out " + q + n + ".key'", err) &&
+         run("openssl req -new -sha256 -key " + q + n + ".key' -out " + q + n + ".csr' -subj '/CN=" + n + "'", err) &&
+         run("openssl x509 -req -sha256 -days " + ds + " -in " + q + n + ".csr' -CA " + q + "ca.pem' -CAkey " + q +
+                 "ca.key' -set_serial " + std::to_string(std::time(nullptr) * 100 + static_cast<long>(i)) + " -out " + q + n + ".pem'",
+             err);
+    ::unlink((dir + "/" + n + ".csr").c_str());
+  }
+  const std::time_t now = std::time(nullptr);
+  if (ok) {
+    ok = write_text(dir + "/governance.xml", runtime::governance_xml(d.domain_id)) &&
+         write_text(dir + "/permissions.xml",
+                    runtime::permissions_xml(ids, d.domain_id, iso(now - 3600), iso(now + 86400L * days)));
+    if (!ok) err = "cannot write the governance or permissions document into " + dir;
+  }
+  for (const char* doc : {"governance", "permissions"}) {
+    ok = ok && run(std::string("openssl smime -sign -text -in ") + q + doc + ".xml' -out " + q + doc + ".p7s' -signer " +
+                       q + "ca.pem' -inkey " + q + "ca.key'",
+                   err);
+  }
+  ::umask(old_mask);
+  if (!ok) {
+    std::fprintf(stderr, "tandem keys: %s\n", err.c_str());
+    return 1;
+  }
+  std::printf("tandem keys: %zu identities for %s (domain %d) in %s, valid %d days:", ids.size(), d.name.c_str(),
+              d.domain_id, dir.c_str(), days);
+  for (const auto& id : ids) std::printf(" %s", id.name.c_str());
+  std::printf("\n");
+  return 0;
+}
+
+}  // namespace tandem::cli

@@ -1,0 +1,55 @@
+// DDS-Security of a deployment (docs/security.md): who may do what, derived from the deployment. One identity
+// per slot, not per process: every robot of an arm (primary, standbys, restarts) is "robot.<module>.<robot>",
+// every supervisor of a module "supervisor.<module>", every coordinator "coordinator", plus "world.<module>",
+// "launcher", "cli" and "recorder". A slot is the unit of privilege (a standby must be able to do what the
+// primary does, and restarts get new process labels), so a slot's processes share its key.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "tandem/runtime/deployment.hpp"
+
+namespace tandem::runtime {
+
+struct Identity {
+  std::string name;                    ///< "robot.m1.left": the certificate's CN and the files' base name
+  std::vector<std::string> publish;    ///< topics it may write (Fast DDS matches them as fnmatch patterns)
+  std::vector<std::string> subscribe;  ///< topics it may read
+};
+
+/// Every identity of the deployment (every module, autostart or not), with least-privilege topic lists.
+/// Loads each module's scenario for its robot names. Throws sim::ConfigError as load_deployment does.
+std::vector<Identity> identities(const Deployment& d);
+
+/// The identity of a process of the deployment: role "world" | "supervisor" | "robot" | "coordinator" |
+/// "launcher" | "cli" | "recorder"; module and robot where the role has them.
+std::string identity_name(const std::string& role, const std::string& module = "", const std::string& robot = "");
+
+/// The governance document (unsigned XML) for the deployment's domain: authenticated participants only, join
+/// access control, read and write access control on every topic, discovery and data encrypted (AES-GCM).
+std::string governance_xml(int domain_id);
+
+/// The permissions document (unsigned XML): one grant per identity, valid from `not_before` to `not_after`
+/// (ISO 8601, "2026-11-23T00:00:00"), default DENY.
+std::string permissions_xml(const std::vector<Identity>& ids, int domain_id, const std::string& not_before,
+                            const std::string& not_after);
+
+/// The directory of the deployment's keys (security.keys, resolved against the deployment file), "" if the
+/// deployment has no `security:`.
+inline const std::string& keys_dir(const Deployment& d) { return d.security_keys; }
+
+/// The files a participant with identity `name` needs, in `dir`; the first missing one, or "" if all are there.
+std::string missing_key_file(const std::string& dir, const std::string& name);
+
+/// Every identity's files are in the keys' directory and its certificate is valid now (openssl x509
+/// -checkend). Returns "" or an error naming the file, what is wrong and the command that makes new keys.
+std::string check_keys(const Deployment& d);
+
+/// Makes the participants this process creates from now on (and the processes it starts) use DDS-Security
+/// with identity `name` and the deployment's keys (TANDEM_SECURITY_DIR, TANDEM_IDENTITY; read by
+/// dds::Participant). Nothing for a deployment without `security:`. Returns "" or an error naming the missing
+/// or unusable file and the command that makes the keys.
+std::string use_security(const Deployment& d, const std::string& name);
+
+}  // namespace tandem::runtime

@@ -131,7 +131,7 @@ TEST_CASE("a corrupt or truncated recording gets an error that says where and wh
   SECTION("empty") { expect_error("", "not an MCAP file"); }
   SECTION("cut in the middle of a chunk") { expect_error(good.substr(0, good.size() / 2), "truncated"); }
   SECTION("cut before its footer") { expect_error(good.substr(0, good.size() - 30), "truncated"); }
-  SECTION("a flipped byte inside a chunk's messages") {
+  SECTION("a flipped byte a third of the way in (a chunk or its index: CRC)") {
     std::string bad = good;
     bad[good.size() / 3] = static_cast<char>(bad[good.size() / 3] ^ 0x40);
     expect_error(bad, "corrupt");
@@ -146,5 +146,70 @@ TEST_CASE("a corrupt or truncated recording gets an error that says where and wh
     CHECK(n < 1500);
     CHECK(n == info.messages);
   }
+  std::remove(p.c_str());
+}
+
+namespace {
+uint64_t le(const std::string& b, size_t at, int n) {
+  uint64_t v = 0;
+  for (int i = 0; i < n; ++i) v |= static_cast<uint64_t>(static_cast<unsigned char>(b.at(at + static_cast<size_t>(i)))) << (8 * i);
+  return v;
+}
+}  // namespace
+
+TEST_CASE("the summary's chunk and message indexes point at the chunks and messages they name", "[record]") {
+  // A seeking reader (Foxglove, @mcap/core's indexed reader) follows these offsets without reading the data
+  // section; this test follows them by hand, byte by byte, from the footer.
+  const std::string p = temp_path("index.mcap");
+  write_sample(p);
+  const std::string f = slurp(p);
+  const size_t footer = f.size() - 8 - (1 + 8 + 20);
+  REQUIRE(static_cast<unsigned char>(f[footer]) == 0x02);
+  const uint64_t summary_start = le(f, footer + 9, 8), offsets_start = le(f, footer + 17, 8);
+  REQUIRE(summary_start > 0);
+  REQUIRE(offsets_start > summary_start);
+  // The summary offsets name the chunk-index group.
+  uint64_t group = 0, group_len = 0;
+  for (size_t at = offsets_start; at < footer;) {
+    REQUIRE(static_cast<unsigned char>(f[at]) == 0x0E);
+    if (static_cast<unsigned char>(f[at + 9]) == 0x08) {
+      group = le(f, at + 10, 8);
+      group_len = le(f, at + 18, 8);
+    }
+    at += 9 + le(f, at + 1, 8);
+  }
+  REQUIRE(group > 0);
+  size_t chunks = 0, messages = 0;
+  for (size_t at = group; at < group + group_len; at += 9 + le(f, at + 1, 8)) {
+    REQUIRE(static_cast<unsigned char>(f[at]) == 0x08);
+    const size_t c = at + 9;
+    const uint64_t start_time = le(f, c, 8), end_time = le(f, c + 8, 8), chunk_at = le(f, c + 16, 8),
+                   chunk_len = le(f, c + 24, 8);
+    // The chunk record is there, as long as said.
+    REQUIRE(static_cast<unsigned char>(f[chunk_at]) == 0x06);
+    CHECK(9 + le(f, chunk_at + 1, 8) == chunk_len);
+    const size_t records = chunk_at + 9 + 8 + 8 + 8 + 4 + 4 + le(f, chunk_at + 9 + 28, 4) + 8;  // after compression ""
+    const uint32_t map_len = static_cast<uint32_t>(le(f, c + 32, 4));
+    for (size_t m = c + 36; m < c + 36 + map_len; m += 10) {
+      const uint64_t channel = le(f, m, 2), index_at = le(f, m + 2, 8);
+      // Each message index is a MessageIndex of that channel, whose entries are its messages in the chunk.
+      REQUIRE(static_cast<unsigned char>(f[index_at]) == 0x07);
+      CHECK(le(f, index_at + 9, 2) == channel);
+      const uint32_t n = static_cast<uint32_t>(le(f, index_at + 11, 4));
+      for (size_t e = index_at + 15; e < index_at + 15 + n; e += 16) {
+        const uint64_t log_time = le(f, e, 8), offset = le(f, e + 8, 8);
+        const size_t msg = records + offset;
+        REQUIRE(static_cast<unsigned char>(f[msg]) == 0x05);
+        CHECK(le(f, msg + 9, 2) == channel);
+        CHECK(le(f, msg + 15, 8) == log_time);
+        CHECK(log_time >= start_time);
+        CHECK(log_time <= end_time);
+        ++messages;
+      }
+    }
+    ++chunks;
+  }
+  CHECK(chunks > 10);
+  CHECK(messages == 2010);
   std::remove(p.c_str());
 }

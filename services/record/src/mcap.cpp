@@ -538,13 +538,14 @@ McapInfo read_mcap(const std::string& path, const std::function<void(const McapM
             uint64_t ilen = 0;
             for (int i = 0; i < 8; ++i) ilen |= static_cast<uint64_t>(static_cast<unsigned char>(recs[q + 1 + i])) << (8 * i);
             if (ilen > rlen - q - 9) throw McapError(where + ": " + rec_name + ": a record inside runs past the chunk");
-            Cursor ic(recs + q + 9, ilen, pos + q, where + ": " + rec_name);
+            const auto at = static_cast<uint64_t>(recs - m.p) + q;  // the inner record's offset in the file
+            Cursor ic(recs + q + 9, ilen, at + 9, where + ": " + rec_name);
             if (iop == kSchema) {
               schema(ic, false);
             } else if (iop == kChannel) {
               channel(ic);
             } else if (iop == kMessage) {
-              msgs.push_back({pos + q, recs + q + 9, ilen});
+              msgs.push_back({at, recs + q + 9, ilen});
             } else {
               throw McapError(where + ": " + rec_name + " holds a " + op_name(iop) + " record, which a chunk may not");
             }

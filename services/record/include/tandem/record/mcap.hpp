@@ -1,8 +1,10 @@
 // The MCAP container (https://mcap.dev/spec, format version 0), written and read by the project's own code:
 // no Debian package ships it. The writer puts messages into uncompressed chunks with a CRC, a message index
 // per channel after every chunk, and a summary section (schemas, channels, statistics, chunk and metadata
-// indexes, summary offsets) so that a reader can seek; the reader checks every length, opcode and CRC and
-// reports where a file is corrupt or truncated. Nothing here knows the message encoding (docs/recording.md).
+// indexes, summary offsets) so that a reader can seek. The reader reads the file from start to end: it checks
+// every record's length, the records a chunk may hold, the chunk, data and summary CRCs and the statistics, and
+// reports where a file is corrupt or truncated; index records (message, chunk, metadata indexes, summary
+// offsets) it skips, as it does not seek. Nothing here knows the message encoding (docs/recording.md).
 #pragma once
 
 #include <cstdint>

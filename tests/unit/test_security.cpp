@@ -1,0 +1,95 @@
+// The security documents derived from a deployment (runtime::identities, permissions_xml, governance_xml):
+// least privilege per identity, checked on deploy/secure-one-module.yaml.
+#include <unistd.h>
+
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <cstdio>
+#include <fstream>
+#include <string>
+
+#include "tandem/runtime/security.hpp"
+
+using namespace tandem::runtime;
+
+namespace {
+const Identity& find(const std::vector<Identity>& ids, const std::string& name) {
+  const auto it = std::find_if(ids.begin(), ids.end(), [&](const Identity& i) { return i.name == name; });
+  REQUIRE(it != ids.end());
+  return *it;
+}
+bool has(const std::vector<std::string>& v, const std::string& s) { return std::find(v.begin(), v.end(), s) != v.end(); }
+}  // namespace
+
+TEST_CASE("each identity may publish and read only what its role needs", "[security]") {
+  const Deployment d = load_deployment(std::string(TANDEM_SOURCE_DIR) + "/deploy/secure-one-module.yaml");
+  REQUIRE_FALSE(d.security_keys.empty());
+  const auto ids = identities(d);
+  CHECK(ids.size() == 8);  // 2 robots, world, supervisor, coordinator, launcher, cli, recorder
+  const Identity& left = find(ids, "robot.m1.left");
+  CHECK(has(left.publish, "tandem/torque_commands/m1/left"));
+  CHECK_FALSE(has(left.publish, "tandem/torque_commands/m1/right"));
+  CHECK_FALSE(has(left.publish, "tandem/control"));
+  CHECK(has(left.subscribe, "tandem/arm_sensors/m1/left"));
+  CHECK_FALSE(has(left.subscribe, "tandem/arm_sensors/m1/right"));
+  // Only the launcher and the CLI write control requests.
+  for (const auto& id : ids) {
+    INFO(id.name);
+    CHECK(has(id.publish, "tandem/control") == (id.name == "launcher" || id.name == "cli"));
+    for (const auto& t : id.publish) CHECK(t.find('*') == std::string::npos);  // no wildcard writes
+  }
+  const Identity& world = find(ids, "world.m1");
+  CHECK(has(world.publish, "tandem/arm_sensors/m1/left"));
+  CHECK(has(world.subscribe, "tandem/torque_commands/m1/right"));
+  CHECK(find(ids, "recorder").publish == std::vector<std::string>{"tandem/process_status"});
+  CHECK(identity_name("robot", "m2", "right") == "robot.m2.right");
+  CHECK(identity_name("supervisor", "m2") == "supervisor.m2");
+}
+
+TEST_CASE("the permissions document has one default-deny grant per identity, on the deployment's domain", "[security]") {
+  const Deployment d = load_deployment(std::string(TANDEM_SOURCE_DIR) + "/deploy/secure-one-module.yaml");
+  const auto ids = identities(d);
+  const std::string x = permissions_xml(ids, d.domain_id, "2026-01-01T00:00:00", "2027-01-01T00:00:00");
+  size_t grants = 0;
+  for (size_t at = x.find("<grant "); at != std::string::npos; at = x.find("<grant ", at + 1)) ++grants;
+  CHECK(grants == ids.size());
+  CHECK(x.find("<subject_name>CN=robot.m1.left</subject_name>") != std::string::npos);
+  CHECK(x.find("<domains><id>48</id></domains>") != std::string::npos);
+  CHECK(x.find("<default>DENY</default>") != std::string::npos);
+  const std::string g = governance_xml(d.domain_id);
+  CHECK(g.find("<allow_unauthenticated_participants>false</allow_unauthenticated_participants>") != std::string::npos);
+  CHECK(g.find("<data_protection_kind>ENCRYPT</data_protection_kind>") != std::string::npos);
+  CHECK(g.find("<enable_write_access_control>true</enable_write_access_control>") != std::string::npos);
+}
+
+TEST_CASE("security in a deployment: a missing keys directory or a discovery server is refused by name", "[security]") {
+  // use_security names the missing file and the command that makes it.
+  Deployment d = load_deployment(std::string(TANDEM_SOURCE_DIR) + "/deploy/secure-one-module.yaml");
+  d.security_keys = "/nonexistent-tandem-keys";
+  const std::string err = use_security(d, "cli");
+  CHECK(err.find("/nonexistent-tandem-keys/ca.pem is missing") != std::string::npos);
+  CHECK(err.find("tandem keys") != std::string::npos);
+  CHECK(check_keys(d).find("is missing") != std::string::npos);
+}
+
+TEST_CASE("security with a discovery server, or without a keys directory, is refused when the file is read", "[security]") {
+  const std::string path = "/tmp/tandem-security-test-" + std::to_string(::getpid()) + ".yaml";
+  const std::string scenario = std::string(TANDEM_SOURCE_DIR) + "/config/scenarios/paper.yaml";
+  auto load = [&](const std::string& extra) {
+    std::ofstream(path) << "name: s\ndomain_id: 3\n" << extra << "modules:\n  - {name: m1, scenario: " << scenario
+                        << ", case: SOSM}\n";
+    try {
+      load_deployment(path);
+    } catch (const std::exception& e) {
+      std::remove(path.c_str());
+      return std::string(e.what());
+    }
+    std::remove(path.c_str());
+    return std::string();
+  };
+  CHECK(load("discovery: server\nsecurity: {keys: k}\n").find("not supported") != std::string::npos);
+  CHECK(load("security: {}\n").find("security.keys") != std::string::npos);
+  CHECK(load("security: {keys: k, cipher: rot13}\n").find("cipher") != std::string::npos);
+  CHECK(load("security: {keys: k}\n").empty());
+}

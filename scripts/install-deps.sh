@@ -2,8 +2,8 @@
 # Installs the Debian packages this project builds and runs with, only when some are missing.
 # Safe to run repeatedly; needs root (or sudo) only when something must be installed.
 # Usage: scripts/install-deps.sh [--tests]   (--tests: also what the test suite needs: Chromium for the report
-# page checks, Cyclone DDS for the interop tests, and Node.js with npm for the independent MCAP reader when no
-# node is on the PATH)
+# page checks, Cyclone DDS for the interop tests, python3 for the security test's packet capture, and Node.js
+# with npm for the independent MCAP reader when no node is on the PATH). openssl: `tandem keys`.
 set -euo pipefail
 
 PACKAGES=(
@@ -13,10 +13,11 @@ PACKAGES=(
   libprotobuf-dev protobuf-compiler
   libyaml-cpp-dev
   catch2
+  openssl
 )
 
 if [ "${1:-}" = "--tests" ]; then
-  PACKAGES+=(chromium cyclonedds-dev cyclonedds-tools)
+  PACKAGES+=(chromium cyclonedds-dev cyclonedds-tools python3)
   if ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1; then PACKAGES+=(nodejs npm); fi
 fi
 

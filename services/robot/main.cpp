@@ -120,6 +120,16 @@ int main(int argc, char** argv) {
       if (info.valid_data) on_sample(s);
     }
   };
+  // Lockstep with a recorder (--observers, set by the launcher): the first command waits until the recorder's
+  // reader of this arm's torques has matched too (the world is the other reader), so that the recording has
+  // this robot's every command. A recorder that is slow to match holds the robot for half the timeout at most.
+  if (!opt.realtime && opt.observers > 0) {
+    const auto w0 = Clock::now();
+    while (!runtime::g_stop && torques.matched() < 2 &&
+           std::chrono::duration<double>(Clock::now() - w0).count() < 0.5 * opt.timeout) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+  }
   bus::Reader<msg::ArmSensors, msg::ArmSensorsPubSubType> sensors(
       part, bus::arm_topic(bus::kSensorsTopic, my_arm), opt.realtime ? bus::TopicKind::SensorsRealtime : bus::TopicKind::Sensors,
       &listener);

@@ -18,6 +18,18 @@ pids=()
 cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; wait "$p" 2>/dev/null || true; done; }
 trap cleanup EXIT
 fail() { echo "FAIL: $*"; exit 1; }
+# A secured run whose processes did not all match at start-up is run once more, saying so: now and then a pair of
+# secured participants never matches (open finding, docs/security.md). What is checked here is what a secured
+# deployment lets through, not that finding.
+up_secured() {  # file summary log
+  local rc=0
+  "$bin/tandem" up "$1" --summary "$2" > "$3" 2>&1 || rc=$?
+  if [ "$rc" -ne 0 ] && grep -q "peers not found\|no valid torque\|no report from the world" "$3"; then
+    echo "RETRY: $1 did not come up (start-up matching, the open finding): $(grep -m1 'peers not found\|no valid torque\|no report from the world' "$3")"
+    rc=0; "$bin/tandem" up "$1" --summary "$2" > "$3" 2>&1 || rc=$?
+  fi
+  return "$rc"
+}
 sed "s/ duration: 5.0 / duration: 120.0 /" "$src/config/scenarios/paper.yaml" > long.yaml
 deploy() {  # name domain timing transport scenario security(yes|no)
   {
@@ -49,7 +61,7 @@ echo "expired certificate refused: $(grep -o 'security: .*' up1.log | head -1)"
 cp world.m1.pem.good keys/world.m1.pem
 
 echo "== 2. the default deployment with security runs and passes, with the same numbers"
-"$bin/tandem" up secure.yaml --summary secure.sum > up2.log 2>&1 || { tail -30 up2.log; fail "secured run did not pass"; }
+up_secured secure.yaml secure.sum up2.log || { tail -30 up2.log; fail "secured run did not pass"; }
 sed -i "s/domain_id: $base/domain_id: $((base + 1))/" plain.yaml
 "$bin/tandem" up plain.yaml --summary plain.sum > up3.log 2>&1 || { tail -30 up3.log; fail "plain run did not pass"; }
 for key in m1/left.ep_pos_rms m1/right.eh_rms m1.ticks; do
@@ -111,7 +123,7 @@ for mode in plain secure; do
   python3 "$src/tests/security/capture.py" capture lo "cap-$mode.bin" 60 > "cap-$mode.txt" &
   cap=$!; pids+=($cap)
   sleep 0.5
-  "$bin/tandem" up "cap-$mode.yaml" > "up-cap-$mode.log" 2>&1 || { tail -20 "up-cap-$mode.log"; fail "capture run ($mode)"; }
+  up_secured "cap-$mode.yaml" "cap-$mode.sum" "up-cap-$mode.log" || { tail -20 "up-cap-$mode.log"; fail "capture run ($mode)"; }
   kill "$cap"; wait "$cap" || true; pids=()
   found=$(python3 "$src/tests/security/capture.py" find "cap-$mode.bin" 1000 1999 0.001)
   echo "$mode run over UDP: $(cat "cap-$mode.txt"), $found"

@@ -33,7 +33,8 @@ up_secured() {  # file summary log
 sed "s/ duration: 5.0 / duration: 120.0 /" "$src/config/scenarios/paper.yaml" > long.yaml
 deploy() {  # name domain timing transport scenario security(yes|no)
   {
-    echo "name: $1"; echo "domain_id: $2"; echo "timing: $3"; echo "transport: $4"; echo "timeout: 10"
+    # Secured runs wait up to 60 s for their peers: the pairwise handshakes can take long on a loaded machine.
+    echo "name: $1"; echo "domain_id: $2"; echo "timing: $3"; echo "transport: $4"; echo "timeout: $([ "$6" = yes ] && echo 60 || echo 10)"
     [ "$6" = yes ] && printf "security:\n  keys: keys\n"
     printf "modules:\n  - {name: m1, scenario: %s, case: SOSM}\n" "$5"
   }

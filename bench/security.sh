@@ -79,6 +79,8 @@ for n in "${ns[@]}"; do
         END {printf "%d %d %.0f %.0f\n", late, ticks, c50 ? p50 / c50 : 0, p99}' "$sum" 2>/dev/null || echo "0 0 0 0")
       pct=$(awk -v l="$late" -v t="$ticks" 'BEGIN {if (t > 0) printf "%.2f", 100 * l / (2 * t); else print "nan"}')
       result=$([ "$rc" -eq 0 ] && echo PASS || echo "FAIL($rc)")
+      # Why a run failed, in a line: the first process that exited with an error, or the launcher's own error.
+      [ "$rc" -eq 0 ] || echo "    $(grep -m1 'exited with code\|peers not found\|tandem up: ' "$log" | cut -c1-150)"
       printf "%-3s %-7s %-7s %-7s %-7s %-8s %-8s %-8s\n" "$n" "$sec" "$pct" "$p50" "$p99" "$cpu" "$startup" "$result"
       sleep 1
     done

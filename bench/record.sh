@@ -54,14 +54,14 @@ for n in "${ns[@]}"; do
       up=$!
       first=""
       while kill -0 "$up" 2>/dev/null; do
-        c=$(grep -c "first tick" "$log" || true)
+        c=$(grep -c "first tick at wall" "$log" || true)
         if [ "$c" -ge "$n" ]; then first=1; break; fi
         sleep 0.1
       done
       cpu=nan; rcpu=-
       if [ -n "$first" ]; then
         sleep 1
-        pids=$(pgrep -P "$up" -f "tandem-(world|robot|supervisor)" | tr '\n' ' ')
+        pids=$( (pgrep -P "$up" -f "tandem-(world|robot|supervisor)" || true) | tr '\n' ' ')
         rpid=$(pgrep -P "$up" -f "tandem record" || true)
         snap() { for p in $pids $rpid; do [ -r /proc/$p/stat ] && echo "$p $(awk '{print $14 + $15}' /proc/$p/stat)"; done; }
         snap > "$work/t0"; w0=$(date +%s.%N)

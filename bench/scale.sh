@@ -61,7 +61,7 @@ for n in "${ns[@]}"; do
   # Wait for every world's first tick (or the launcher's end).
   first=""
   while kill -0 "$up" 2>/dev/null; do
-    c=$(grep -c "first tick" "$log" || true)
+    c=$(grep -c "first tick at wall" "$log" || true)
     if [ "$c" -ge "$n" ]; then first=$(date +%s.%N); break; fi
     sleep 0.1
   done
@@ -69,7 +69,7 @@ for n in "${ns[@]}"; do
   if [ -n "$first" ]; then
     sleep 1
     # The role processes (the discovery server is not one of them), counted only if alive at both samples.
-    pids=$(pgrep -P "$up" -f "tandem-(world|robot|supervisor)" | tr '\n' ' ')
+    pids=$( (pgrep -P "$up" -f "tandem-(world|robot|supervisor)" || true) | tr '\n' ' ')
     snap() { for p in $pids; do [ -r /proc/$p/stat ] && echo "$p $(awk '{print $14 + $15}' /proc/$p/stat)"; done; }
     snap > "$work/t0"; w0=$(date +%s.%N)
     sleep 3

@@ -54,15 +54,15 @@ for n in "${ns[@]}"; do
       up=$!
       first=""
       while kill -0 "$up" 2>/dev/null; do
-        c=$(grep -c "first tick" "$log" || true)
+        c=$(grep -c "first tick at wall" "$log" || true)
         if [ "$c" -ge "$n" ]; then first=1; break; fi
         sleep 0.05
       done
       cpu=nan
-      startup=$(grep -o "first tick at wall [0-9.]*" "$log" | awk -v s="$start" '{v = $5 - s; if (v > m) m = v} END {printf "%.2f", m}')
+      startup=$( (grep -o "first tick at wall [0-9.]*" "$log" || true) | awk -v s="$start" '{v = $5 - s; if (v > m) m = v} END {printf "%.2f", m}')
       if [ -n "$first" ]; then
         sleep 1
-        pids=$(pgrep -P "$up" -f "tandem-(world|robot|supervisor)" | tr '\n' ' ')
+        pids=$( (pgrep -P "$up" -f "tandem-(world|robot|supervisor)" || true) | tr '\n' ' ')
         snap() { for p in $pids; do [ -r /proc/$p/stat ] && echo "$p $(awk '{print $14 + $15}' /proc/$p/stat)"; done; }
         snap > "$work/t0"; w0=$(date +%s.%N)
         sleep 3

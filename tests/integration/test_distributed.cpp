@@ -172,7 +172,8 @@ std::string sosm_modules(int n, const std::string& extra = "") {
 // Shell: waits (at most 10 s) until the world of the deployment logging to `log` has started ticking, then
 // `seconds` more: a fault lands mid-run however long start-up took (lockstep runs 5000 ticks in about 1.5 s).
 std::string after_first_tick(const std::string& log, double seconds) {
-  return "for i in $(seq 200); do grep -q \"first tick\" " + log + " && break; sleep 0.05; done; sleep " +
+  // "first tick at wall": the world's own line (a robot's status reads "waiting for ... the first tick").
+  return "for i in $(seq 200); do grep -q \"first tick at wall\" " + log + " && break; sleep 0.05; done; sleep " +
          std::to_string(seconds) + "; ";
 }
 

@@ -20,8 +20,8 @@ Y
 up=$!
 cleanup() { kill "$up" 2>/dev/null || true; wait "$up" 2>/dev/null || true; }
 trap cleanup EXIT
-for i in $(seq 200); do grep -q "first tick" up.log && break; sleep 0.05; done
-grep -q "first tick" up.log || { echo "the deployment did not start"; cat up.log; exit 1; }
+for i in $(seq 200); do grep -q "first tick at wall" up.log && break; sleep 0.05; done
+grep -q "first tick at wall" up.log || { echo "the deployment did not start"; cat up.log; exit 1; }
 "$observer" "$domain" sensors m1/left 200 10 | tee sensors.txt
 grep -q "^samples=200 " sensors.txt || { echo "FAIL: Cyclone DDS did not read 200 sensor samples"; exit 1; }
 worst=0

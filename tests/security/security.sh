@@ -78,8 +78,8 @@ deploy live "$d3" realtime shm long.yaml no > live-plain.yaml
 "$bin/tandem" keys live.yaml > keys3.log 2>&1 || { cat keys3.log; fail "tandem keys live.yaml"; }
 "$bin/tandem" up live.yaml --summary live.sum > up4.log 2>&1 &
 pids+=($!); up=$!
-for i in $(seq 200); do grep -q "first tick" up4.log && break; sleep 0.05; done
-grep -q "first tick" up4.log || { cat up4.log; fail "the secured deployment did not start"; }
+for i in $(seq 200); do grep -q "first tick at wall" up4.log && break; sleep 0.05; done
+grep -q "first tick at wall" up4.log || { cat up4.log; fail "the secured deployment did not start"; }
 # Plain Fast DDS without credentials: reads nothing (a recorder of the sensor topics), hears no launcher.
 "$bin/tandem" record live-plain.yaml -o plain.mcap --topics ticks --duration 3 > rec.log 2>&1 || true
 grep -q "(0 per-tick samples)" rec.log || { cat rec.log; fail "a participant without credentials read sensor samples"; }

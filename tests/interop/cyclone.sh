@@ -23,7 +23,8 @@ trap cleanup EXIT
 for i in $(seq 200); do grep -q "first tick at wall" up.log && break; sleep 0.05; done
 grep -q "first tick at wall" up.log || { echo "the deployment did not start"; cat up.log; exit 1; }
 "$observer" "$domain" sensors m1/left 200 10 | tee sensors.txt
-grep -q "^samples=200 " sensors.txt || { echo "FAIL: Cyclone DDS did not read 200 sensor samples"; exit 1; }
+n=$(sed -n 's/^samples=\([0-9]*\).*/\1/p' sensors.txt)
+[ "${n:-0}" -ge 200 ] || { echo "FAIL: Cyclone DDS read ${n:-no} sensor samples, 200 expected"; exit 1; }
 worst=0
 for i in $(seq 5); do
   line=$("$observer" "$domain" late-join interop 10) || { echo "FAIL: no launcher status ($line)"; exit 1; }

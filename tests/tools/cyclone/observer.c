@@ -113,7 +113,7 @@ static int sensors(dds_entity_t pp, const char *arm, int count, double timeout_s
     if (n > 0) dds_return_loan(rd, samples, n);
     dds_sleepfor(DDS_MSECS(1));
   }
-  printf("samples=%d first_tick=%lld\n", got, first);
+  printf("samples=%d first_tick=%lld\n", got, first);  /* the last batch may pass COUNT */
   return got >= count ? 0 : 1;
 }
 

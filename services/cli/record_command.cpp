@@ -17,6 +17,7 @@
 #include <csignal>
 #include <cstdio>
 #include <functional>
+#include <iterator>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -43,7 +44,7 @@ namespace {
 std::atomic<bool> g_record_stop{false};
 void on_record_signal(int) { g_record_stop = true; }
 
-const std::set<std::string> kGroups = {"ticks", "world", "status", "tasks", "summaries", "control", "events"};
+const std::set<std::string> kGroups(std::begin(runtime::kRecordGroups), std::end(runtime::kRecordGroups));
 
 template <class Seq>
 void copy_to(const Seq& from, google::protobuf::RepeatedField<double>* to) {

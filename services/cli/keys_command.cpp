@@ -15,6 +15,7 @@
 
 #include "tandem/runtime/deployment.hpp"
 #include "tandem/runtime/security.hpp"
+#include "tandem/soak/files.hpp"
 
 namespace tandem::cli {
 
@@ -46,22 +47,7 @@ std::string iso(std::time_t t) {
   return b;
 }
 
-bool write_text(const std::string& path, const std::string& text) {
-  std::ofstream f(path);
-  f << text;
-  return static_cast<bool>(f);
-}
 
-bool make_dirs(const std::string& path) {
-  std::string cur;
-  for (size_t i = 0; i <= path.size(); ++i) {
-    if (i == path.size() || path[i] == '/') {
-      if (!cur.empty() && ::mkdir(cur.c_str(), 0700) != 0 && errno != EEXIST) return false;
-    }
-    if (i < path.size()) cur += path[i];
-  }
-  return true;
-}
 
 }  // namespace
 
@@ -143,7 +129,7 @@ int keys_command(const std::vector<std::string>& args) {
     std::fprintf(stderr, "tandem keys: needs the openssl command (Debian package openssl)\n");
     return 1;
   }
-  if (!make_dirs(dir)) {
+  if (!soak::make_dirs(dir, 0700)) {
     std::fprintf(stderr, "tandem keys: cannot create %s: %s\n", dir.c_str(), std::strerror(errno));
     return 1;
   }
@@ -173,10 +159,14 @@ int keys_command(const std::vector<std::string>& args) {
   }
   const std::time_t now = std::time(nullptr);
   if (ok) {
-    ok = write_text(dir + "/governance.xml", runtime::governance_xml(d.domain_id)) &&
-         write_text(dir + "/permissions.xml",
-                    runtime::permissions_xml(ids, d.domain_id, iso(now - 3600), iso(now + 86400L * days)));
-    if (!ok) err = "cannot write the governance or permissions document into " + dir;
+    try {
+      soak::write_file(dir + "/governance.xml", runtime::governance_xml(d.domain_id));
+      soak::write_file(dir + "/permissions.xml",
+                       runtime::permissions_xml(ids, d.domain_id, iso(now - 3600), iso(now + 86400L * days)));
+    } catch (const std::exception& e) {
+      ok = false;
+      err = std::string(e.what()) + " (the governance or permissions document)";
+    }
   }
   for (const char* doc : {"governance", "permissions"}) {
     ok = ok && run(std::string("openssl smime -sign -text -in ") + q + doc + ".xml' -out " + q + doc + ".p7s' -signer " +

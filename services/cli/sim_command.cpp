@@ -16,6 +16,7 @@
 
 #include "tandem/model/grasp.hpp"
 #include "tandem/record/recording.hpp"
+#include "tandem/soak/files.hpp"
 #include "tandem/sim/embedded.hpp"
 #include "tandem/sim/module_setup.hpp"
 #include "tandem/sim/scenario_yaml.hpp"
@@ -45,16 +46,6 @@ void sim_usage(std::FILE* f) {
 
 namespace {
 
-bool make_dirs(const std::string& path) {
-  std::string cur;
-  for (size_t i = 0; i <= path.size(); ++i) {
-    if (i == path.size() || path[i] == '/') {
-      if (!cur.empty() && ::mkdir(cur.c_str(), 0755) != 0 && errno != EEXIST) return false;
-    }
-    if (i < path.size()) cur += path[i];
-  }
-  return true;
-}
 
 /// One case's time series as SimSample messages on tandem/sim/<case> (log time = simulated time).
 void record_case(record::RecordingWriter& rec, const std::string& name, double h_sg,
@@ -163,8 +154,8 @@ int sim_command(const std::vector<std::string>& args) {
   if (out_dir.empty()) out_dir = "runs/" + sc.name;
   if (mcap && mcap_file.empty()) mcap_file = out_dir + "/" + sim::file_name(sc.name) + ".mcap";
   if (!mcap) mcap_file.clear();
-  if (((csv || !mcap_file.empty()) && !make_dirs(out_dir)) ||
-      (!mcap_file.empty() && mcap_file.find('/') != std::string::npos && !make_dirs(mcap_file.substr(0, mcap_file.rfind('/'))))) {
+  if (((csv || !mcap_file.empty()) && !soak::make_dirs(out_dir)) ||
+      (!mcap_file.empty() && mcap_file.find('/') != std::string::npos && !soak::make_dirs(mcap_file.substr(0, mcap_file.rfind('/'))))) {
     std::fprintf(stderr, "tandem sim: cannot create output directory '%s'\n", out_dir.c_str());
     return 2;
   }

@@ -11,6 +11,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "tandem/soak/files.hpp"
 #include "tandem/soak/svg.hpp"
 
 namespace tandem::record {
@@ -19,6 +20,7 @@ namespace {
 using soak::Plot;
 using soak::RefLine;
 using soak::Series;
+using soak::write_file;
 using soak::xml_escape;
 
 std::string fmt(double v, const char* f = "%.4g") {
@@ -27,25 +29,8 @@ std::string fmt(double v, const char* f = "%.4g") {
   return b;
 }
 
-void write_file(const std::string& path, const std::string& text) {
-  std::ofstream out(path);
-  if (!out) throw std::runtime_error("cannot write " + path);
-  out << text;
-  if (!out) throw std::runtime_error("cannot write " + path);
-}
-
 void make_dirs(const std::string& dir) {
-  std::string p;
-  std::stringstream ss(dir);
-  std::string part;
-  if (!dir.empty() && dir[0] == '/') p = "/";
-  while (std::getline(ss, part, '/')) {
-    if (part.empty()) continue;
-    p += part + "/";
-    ::mkdir(p.c_str(), 0755);
-  }
-  struct stat st {};
-  if (::stat(dir.c_str(), &st) != 0 || !S_ISDIR(st.st_mode)) throw std::runtime_error("cannot create the directory " + dir);
+  if (!soak::make_dirs(dir)) throw std::runtime_error("cannot create the directory " + dir);
 }
 
 /// Keeps a plot readable and its file small: at most ~n points, per bucket the extreme (max, or min with

@@ -11,6 +11,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "tandem/soak/files.hpp"
 #include "tandem/soak/svg.hpp"
 
 namespace tandem::soak {
@@ -20,13 +21,6 @@ std::string f2(double v, const char* f = "%.2f") {
   char b[64];
   std::snprintf(b, sizeof b, f, v);
   return b;
-}
-
-void write_file(const std::string& path, const std::string& text) {
-  std::ofstream out(path);
-  if (!out) throw std::runtime_error("cannot write " + path);
-  out << text;
-  if (!out) throw std::runtime_error("cannot write " + path);
 }
 
 std::vector<RefLine> fault_markers(const History& h) {

@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include "agent_command.hpp"
 #include "sim_command.hpp"
 #include "keys_command.hpp"
 #include "record_command.hpp"
@@ -32,6 +33,7 @@ void usage(std::FILE* f) {
       "  record <deploy.yaml> -o FILE.mcap   record a deployment's topics (MCAP, Protobuf messages)\n"
       "  report FILE.mcap -o DIR             an HTML page with plots of a recording (tandem record, tandem sim)\n"
       "  keys <deploy.yaml>    make the deployment's DDS-Security keys and documents (security: in the file)\n"
+      "  agent <deploy.yaml> --host NAME    the agent of one host of a multi-host deployment (hosts:)\n"
       "  help [command]        show this help, or the help of one command\n"
       "\n"
       "Run 'tandem help <command>' for its options. Exit codes: 0 success, 1 a run failed its grasp\n"
@@ -60,6 +62,8 @@ int main(int argc, char** argv) {
       tandem::cli::keys_usage(stdout);
     } else if (!args.empty() && args[0] == "record") {
       tandem::cli::record_usage(stdout);
+    } else if (!args.empty() && args[0] == "agent") {
+      return tandem::cli::agent_command({"--help"});
     } else if (!args.empty() && args[0] == "report") {
       tandem::cli::report_usage(stdout);
     } else if (!args.empty() && (args[0] == "status" || args[0] == "down" || args[0] == "kill" ||
@@ -72,6 +76,7 @@ int main(int argc, char** argv) {
   }
   if (cmd == "sim") return tandem::cli::sim_command(args);
   if (cmd == "up") return tandem::cli::up_command(args);
+  if (cmd == "agent") return tandem::cli::agent_command(args);
   if (cmd == "soak") return tandem::cli::soak_command(args);
   if (cmd == "record") return tandem::cli::record_command(args);
   if (cmd == "keys") return tandem::cli::keys_command(args);

@@ -56,7 +56,7 @@ void remote_usage(std::FILE* f) {
       "       tandem down   <deploy.yaml> | --domain ID --name NAME\n"
       "       tandem kill   <deploy.yaml> | --domain ID --name NAME  PROCESS\n"
       "       tandem plug   <deploy.yaml> | --domain ID --name NAME  robot MODULE/ARM [--standby | --primary]\n"
-      "       tandem plug   <deploy.yaml> | --domain ID --name NAME  module NAME [--scenario FILE --case CASE]\n"
+      "       tandem plug   <deploy.yaml> | --domain ID --name NAME  module NAME [--scenario FILE --case CASE [--host H]]\n"
       "       tandem unplug <deploy.yaml> | --domain ID --name NAME  robot MODULE/ARM[@STRENGTH] | module NAME\n"
       "status: prints the lifecycle state and live figures of every process of the deployment(s) on the domain;\n"
       "        with a launcher, it waits (at most 10 s) until every process the launcher runs has been heard.\n"
@@ -69,7 +69,8 @@ void remote_usage(std::FILE* f) {
       "        a standby computing in shadow. Plugged into a paused module (arm braked), it releases the brake and\n"
       "        the module resumes.\n"
       "plug module: starts a module of the deployment file not yet running (autostart: false), or a new one\n"
-      "        with --scenario and --case; the coordinator gives it tasks.\n"
+      "        with --scenario and --case (and --host, a host of the deployment's hosts:, in a multi-host\n"
+      "        deployment); the coordinator gives it tasks.\n"
       "unplug robot: graceful. With another robot on the arm, it hands over at once (its writer is deleted\n"
       "        first). Without, the module pauses (object brought to rest, the arm braked) until a robot is plugged.\n"
       "unplug module: the module finishes its task, takes no new one, and its processes stop.\n"
@@ -242,7 +243,7 @@ int plug_or_unplug(const char* verb, const std::vector<std::string>& args_in) {
   if (args.size() < 2 || (args[0] != "robot" && args[0] != "module")) return bad("expected 'robot <label>' or 'module <name>'");
   const bool robot = args[0] == "robot";
   const std::string name = args[1];
-  std::string option, scenario, case_name;
+  std::string option, scenario, case_name, host;
   for (size_t i = 2; i < args.size(); ++i) {
     if (plug && robot && (args[i] == "--standby" || args[i] == "--primary")) {
       option = args[i].substr(2);
@@ -250,6 +251,8 @@ int plug_or_unplug(const char* verb, const std::vector<std::string>& args_in) {
       scenario = args[++i];
     } else if (plug && !robot && args[i] == "--case" && i + 1 < args.size()) {
       case_name = args[++i];
+    } else if (plug && !robot && args[i] == "--host" && i + 1 < args.size()) {
+      host = args[++i];
     } else {
       return bad("unexpected '" + args[i] + "'");
     }
@@ -269,6 +272,10 @@ int plug_or_unplug(const char* verb, const std::vector<std::string>& args_in) {
       char resolved[4096];
       if (::realpath(scenario.c_str(), resolved) == nullptr) return bad("cannot open the scenario '" + scenario + "'");
       option = "scenario=" + std::string(resolved) + " case=" + case_name;
+    }
+    if (!host.empty()) {
+      if (scenario.empty()) return bad("--host places a new module: give --scenario and --case too");
+      option += " host=" + host;
     }
   }
   Deployment d;

@@ -36,7 +36,9 @@
 #include <vector>
 
 #include "live_view.hpp"
+#include "tandem/launcher/host_watch.hpp"
 #include "tandem/launcher/restart_policy.hpp"
+#include "tandem/launcher/spawn.hpp"
 #include "tandem/dds/bus.hpp"
 #include "tandem/runtime/deployment.hpp"
 #include "tandem/runtime/security.hpp"
@@ -82,6 +84,11 @@ struct Child {
   Clock::time_point started{};     ///< when it was started
   int participant_id = -1;         ///< its DDS participant id (TANDEM_PARTICIPANT_ID), -1: Fast DDS's choice
   bool heard = false;              ///< its status was heard over DDS (it is part of the domain)
+  // Multi-host: started by the agent of `host` ("" = by the launcher, on this machine).
+  std::string host;
+  unsigned long long spawn_id = 0;  ///< the launcher's request id (AgentRequest.spawn_id)
+  bool acked = false;               ///< the agent reported it (pid known, or failed to start)
+  Clock::time_point sent{};         ///< when the start request was last sent (re-sent until acked)
 };
 
 struct ModuleRun {
@@ -108,47 +115,11 @@ bool fifo_permitted(int priority, std::string& why) {
   return true;
 }
 
-/// Starts `exe` with `args`; with rt_priority > 0 the child runs SCHED_FIFO at that priority, and so do the
-/// threads it creates (Fast DDS's receive and event threads inherit it: the whole tick path is real time).
+/// Starts a process on this machine (launcher::spawn); with rt_priority > 0 the child runs SCHED_FIFO at that
+/// priority, and so do the threads it creates (Fast DDS's receive and event threads inherit it).
 pid_t spawn(const std::string& exe, const std::vector<std::string>& args, int rt_priority = 0,
             int participant_id = -1, const std::string& identity = "") {
-  // Everything the child needs is built before fork: after fork only async-signal-safe calls.
-  std::vector<char*> argv;
-  argv.push_back(const_cast<char*>(exe.c_str()));
-  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-  argv.push_back(nullptr);
-  std::vector<std::string> env_text;
-  for (char** e = environ; *e != nullptr; ++e) {
-    if (std::strncmp(*e, "TANDEM_PARTICIPANT_ID=", 22) != 0 && std::strncmp(*e, "TANDEM_IDENTITY=", 16) != 0) {
-      env_text.emplace_back(*e);
-    }
-  }
-  if (participant_id >= 0) env_text.push_back("TANDEM_PARTICIPANT_ID=" + std::to_string(participant_id));
-  // DDS-Security: the child's identity (its slot's key; TANDEM_SECURITY_DIR is inherited from the launcher).
-  if (!identity.empty()) env_text.push_back("TANDEM_IDENTITY=" + identity);
-  std::vector<char*> envp;
-  for (auto& e : env_text) envp.push_back(e.data());
-  envp.push_back(nullptr);
-  const pid_t launcher = ::getpid();
-  const pid_t pid = ::fork();
-  if (pid < 0) {
-    std::fprintf(stderr, "tandem up: cannot start %s: fork failed: %s\n", exe.c_str(), std::strerror(errno));
-    return -1;
-  }
-  if (pid != 0) return pid;
-  ::signal(SIGINT, SIG_DFL);  // the launcher's handlers must not be inherited
-  ::signal(SIGTERM, SIG_DFL);
-  ::prctl(PR_SET_PDEATHSIG, SIGTERM);  // never outlive the launcher
-  if (::getppid() != launcher) ::_exit(127);
-  if (rt_priority > 0) {
-    sched_param sp{};
-    sp.sched_priority = rt_priority;
-    (void)::sched_setscheduler(0, SCHED_FIFO, &sp);  // checked by fifo_permitted() before any start
-  }
-  ::execve(exe.c_str(), argv.data(), envp.data());
-  static const char msg[] = "tandem up: cannot exec a role process\n";
-  (void)!::write(2, msg, sizeof msg - 1);
-  ::_exit(127);
+  return launcher::spawn("tandem up", exe, args, launcher::SpawnOptions{rt_priority, participant_id, identity});
 }
 
 // Parses "key=value key=value" (the option of `plug module`).
@@ -192,6 +163,13 @@ class Launcher {
     w.module = m.name;
     w.exe = dir_ + "/tandem-world";
     w.args = common_args(m);
+    // On several hosts the world also waits for every robot of each arm (standbys included) before its first
+    // tick: the primaries' host may answer later than a standby's, and the arms would start braked. (With a
+    // recorder common_args counts them already.)
+    if (!d_.hosts.empty() && !records_ticks() && m.standby > 0) {
+      w.args.insert(w.args.end(), {"--observers", std::to_string(m.standby)});
+    }
+    w.host = runtime::host_of(m, "world", "", false);
     launch(w);
     for (int i = 0; i <= m.supervisor_standby; ++i) {
       start_supervisor(m.name, i == 0 ? runtime::RoleOptions::kPrimaryStrength : 60 - 10 * i, "");
@@ -221,6 +199,7 @@ class Launcher {
     if (standby) c.args.push_back("--standby");
     // A restart: the queue has a history, so it must take over with its state, never afresh.
     if (std::strcmp(note, " (restart)") == 0) c.args.push_back("--resume");
+    c.host = runtime::coordinator_host_of(d_, standby);
     launch(c, note);
   }
 
@@ -249,8 +228,8 @@ class Launcher {
     c.args = common_args(modules_.at(module).cfg);
     extra.insert(extra.end(), {"--strength", std::to_string(strength)});
     c.args.insert(c.args.end(), extra.begin(), extra.end());
-    launch(c, note);
-    return c.pid > 0;
+    c.host = runtime::host_of(modules_.at(module).cfg, role, slot, strength != runtime::RoleOptions::kPrimaryStrength);
+    return launch(c, note);
   }
 
   /// Strength for a new standby of `arm`: below every live robot of the arm (50 if none), 0 if none is left.
@@ -324,8 +303,9 @@ class Launcher {
     for (auto& c : children_) {
       if (!c.running) continue;
       if (c.label == target || (c.module == target && !target.empty())) {
-        say(true, "fault injection: SIGKILL %s (pid %d)\n", c.label.c_str(), c.pid);
-        ::kill(c.pid, SIGKILL);
+        say(true, "fault injection: SIGKILL %s (pid %d%s%s)\n", c.label.c_str(), c.pid, c.host.empty() ? "" : " on ",
+            c.host.c_str());
+        signal_child(c, SIGKILL);
         found = true;
       }
     }
@@ -400,6 +380,17 @@ class Launcher {
       cfg.name = name;
       cfg.scenario = kv.at("scenario");
       cfg.case_name = kv.at("case");
+      if (!d_.hosts.empty()) {
+        const auto h = kv.find("host");
+        if (h == kv.end() || runtime::find_host(d_, h->second) == nullptr) {
+          std::string list;
+          for (const auto& x : d_.hosts) list += (list.empty() ? "" : ", ") + x.name;
+          say(false, "'plug module %s': a multi-host deployment places a new module on a host: give --host (hosts: %s)\n",
+              name.c_str(), list.c_str());
+          return;
+        }
+        cfg.host = h->second;
+      }
       try {
         prepare_module(cfg);
       } catch (const std::exception& e) {
@@ -467,6 +458,7 @@ class Launcher {
 
   void poll() {
     reap();
+    watch_hosts();
     for (auto& c : children_) {
       if (c.running || c.handled) continue;
       c.handled = true;
@@ -513,7 +505,7 @@ class Launcher {
       if (Clock::now() - c.started > std::chrono::duration<double>(kSilentStartS)) {
         std::printf("tandem up: %s (pid %d) was not heard on the domain within %.0f s of its start; SIGKILL, its "
                     "restart policy applies\n", c.label.c_str(), c.pid, kSilentStartS);
-        ::kill(c.pid, SIGKILL);
+        signal_child(c, SIGKILL);
         c.heard = true;  // once
       }
     }
@@ -521,7 +513,7 @@ class Launcher {
     for (auto& c : children_) {
       if (c.running && c.term_at != Clock::time_point{} && Clock::now() - c.term_at > std::chrono::seconds(5)) {
         std::printf("tandem up: %s did not stop within 5 s of SIGTERM; sending SIGKILL\n", c.label.c_str());
-        ::kill(c.pid, SIGKILL);
+        signal_child(c, SIGKILL);
         c.term_at = Clock::time_point{};
       }
     }
@@ -700,8 +692,8 @@ class Launcher {
 
   /// Asks one process to stop (SIGTERM); poll() sends SIGKILL if it is still there 5 s later.
   void terminate(Child& c) {
-    if (!c.running || c.pid <= 0) return;
-    ::kill(c.pid, SIGTERM);
+    if (!c.running || (c.pid <= 0 && c.host.empty())) return;
+    signal_child(c, SIGTERM);
     if (c.term_at == Clock::time_point{}) c.term_at = Clock::now();
   }
 
@@ -722,7 +714,7 @@ class Launcher {
     if (!stopping_) stop_started_ = Clock::now();
     stopping_ = true;
     for (auto& c : children_) {
-      if (c.running && c.pid > 0) ::kill(c.pid, sig);
+      if (c.running && (c.pid > 0 || !c.host.empty())) signal_child(c, sig);
     }
   }
 
@@ -737,6 +729,7 @@ class Launcher {
 
   void reap(bool block = false) {
     for (auto& c : children_) {
+      if (!c.host.empty()) continue;  // started by an agent: its exit comes in the agent's state (on_agent_state)
       if (c.running && c.pid <= 0) {  // never started
         c.running = false;
         c.status = 127;
@@ -817,6 +810,10 @@ class Launcher {
   std::map<std::string, Clock::time_point> world_done_;  ///< modules whose world finished its task, and when
   std::map<std::string, msg::TaskState> task_states_;
   bus::Writer<msg::ControlRequest, msg::ControlRequestPubSubType>* control_out_ = nullptr;
+  bus::Writer<msg::AgentRequest, msg::AgentRequestPubSubType>* agent_out_ = nullptr;
+  std::unique_ptr<launcher::HostWatch> hosts_;  ///< multi-host: the agents' liveness (nullptr without hosts:)
+  unsigned long long spawns_ = 0;
+  std::set<unsigned long long> fenced_;  ///< processes of a host that came back, SIGKILLed once
   bus::Writer<msg::CoordinatorState, msg::CoordinatorStatePubSubType>* coord_state_out_ = nullptr;
   msg::CoordinatorState last_coord_state_;  ///< the latest queue state heard from a coordinator
   bool have_coord_state_ = false;
@@ -872,20 +869,156 @@ class Launcher {
     const std::string t = "," + d_.record_topics + ",";
     return t.find(",ticks,") != std::string::npos || t.find(",all,") != std::string::npos;
   }
-  void launch(Child& c, const char* note = "") {
+  /// Starts `c` (here, or by its host's agent); false if it could not be started.
+  bool launch(Child& c, const char* note = "") {
     // The participant id left longest ago (see services/dds/src/participant.cpp); none left: Fast DDS picks.
     c.participant_id = -1;
     if (!free_ids_.empty()) {
       c.participant_id = free_ids_.front();
       free_ids_.pop_front();
     }
-    c.pid = spawn(c.exe, c.args, c.role == "coordinator" ? 0 : rt_priority_, c.participant_id, identity_of(c));
     c.running = true;
     c.started = Clock::now();
     c.heard = false;
-    std::printf("  started %-22s pid %d%s\n", c.label.c_str(), c.pid, note);
+    if (c.host.empty()) {
+      c.pid = spawn(c.exe, c.args, rt_priority_of(c), c.participant_id, identity_of(c));
+      std::printf("  started %-22s pid %d%s\n", c.label.c_str(), c.pid, note);
+    } else if (hosts_ != nullptr && hosts_->lost(c.host)) {
+      std::printf("  cannot start %-18s on %s: the host is lost%s\n", c.label.c_str(), c.host.c_str(), note);
+      c.pid = -1;
+      c.running = false;
+      c.status = 127;
+    } else {
+      c.pid = 0;  // known when the agent reports it
+      c.spawn_id = (static_cast<unsigned long long>(::getpid()) << 20) | ++spawns_;
+      c.acked = false;
+      send_start(c);
+      std::printf("  started %-22s on %s%s\n", c.label.c_str(), c.host.c_str(), note);
+    }
     children_.push_back(c);
+    return c.running && (c.pid > 0 || !c.host.empty());
   }
+  int rt_priority_of(const Child& c) const { return c.role == "coordinator" ? 0 : rt_priority_; }
+
+ public:
+  // ---- multi-host: the agents ------------------------------------------------------------------------------
+
+  void send_start(Child& c) {
+    msg::AgentRequest r;
+    r.host(c.host);
+    r.deployment(d_.name);
+    r.kind("start");
+    r.spawn_id(c.spawn_id);
+    r.label(c.label);
+    r.role(c.role);
+    r.args(c.args);
+    r.rt_priority(rt_priority_of(c));
+    r.participant_id(c.participant_id);
+    r.identity(identity_of(c));
+    agent_out_->write(r);
+    c.sent = Clock::now();
+  }
+
+  /// Sends `sig` to a child: here with kill(2), on another host through its agent.
+  void signal_child(Child& c, int sig) {
+    if (c.host.empty()) {
+      if (c.pid > 0) ::kill(c.pid, sig);
+      return;
+    }
+    if (hosts_ != nullptr && hosts_->lost(c.host)) return;  // counted as gone already
+    msg::AgentRequest r;
+    r.host(c.host);
+    r.deployment(d_.name);
+    r.kind("signal");
+    r.spawn_id(c.spawn_id);
+    r.label(c.label);
+    r.signal(sig);
+    agent_out_->write(r);
+  }
+
+  /// A child is gone: exited with `status` (128 + signal if killed), or counted as failed (its host was lost).
+  void mark_exited(Child& c, int status) {
+    c.running = false;
+    c.status = status;
+    if (c.participant_id >= 0) free_ids_.push_back(c.participant_id);
+    c.participant_id = -1;
+  }
+
+  /// An agent's heartbeat and the state of the processes it started for this launcher.
+  void on_agent_state(const msg::AgentState& st) {
+    if (st.deployment() != d_.name || hosts_ == nullptr || !hosts_->known(st.host())) return;
+    if (hosts_->heard(st.host(), seconds())) {
+      std::printf("tandem up: host %s is back (its agent is heard again); its processes were replaced meanwhile\n",
+                  st.host().c_str());
+    }
+    for (const auto& ac : st.children()) {
+      Child* c = nullptr;
+      for (auto& x : children_) {
+        if (x.spawn_id == ac.spawn_id() && x.host == st.host()) c = &x;
+      }
+      if (c == nullptr || !c->running) {
+        // A process this launcher counts as gone (its host was lost, or another launcher's): fenced off, so that
+        // two robots never command one arm as primaries.
+        if (ac.running() && (st.launcher_pid() == static_cast<unsigned long long>(::getpid())) &&
+            fenced_.insert(ac.spawn_id()).second) {
+          std::printf("tandem up: %s on %s still runs but was counted as failed; SIGKILL\n", ac.label().c_str(),
+                      st.host().c_str());
+          msg::AgentRequest r;
+          r.host(st.host());
+          r.deployment(d_.name);
+          r.kind("signal");
+          r.spawn_id(ac.spawn_id());
+          r.label(ac.label());
+          r.signal(SIGKILL);
+          agent_out_->write(r);
+        }
+        continue;
+      }
+      if (!c->acked) {
+        c->acked = true;
+        c->pid = static_cast<pid_t>(ac.pid());
+        if (ac.pid() > 0) std::printf("  %-30s runs on %s as pid %lld\n", c->label.c_str(), c->host.c_str(), static_cast<long long>(ac.pid()));
+      }
+      if (!ac.running()) {
+        if (ac.pid() <= 0) std::printf("tandem up: the agent of %s could not start %s: %s\n", st.host().c_str(), c->label.c_str(), st.detail().c_str());
+        mark_exited(*c, ac.status());
+        if (c->status >= 128) {
+          shm_dirty_ = true;
+          killed_at_ = Clock::now();
+        }
+      }
+    }
+  }
+
+  /// Hosts whose agent fell silent: their processes count as failed (on_exit: standbys elsewhere take over, a
+  /// module without its world is re-planned). Start requests not yet answered are re-sent.
+  void watch_hosts() {
+    if (hosts_ == nullptr) return;
+    for (const auto& h : hosts_->newly_lost(seconds())) {
+      std::string labels;
+      int n = 0;
+      for (auto& c : children_) {
+        if (!c.running || c.host != h) continue;
+        labels += (labels.empty() ? "" : ", ") + c.label;
+        ++n;
+        mark_exited(c, 128 + SIGKILL);
+      }
+      std::printf("tandem up: host %s lost: no word from its agent for %.1f s; its %d process(es) count as failed%s%s\n",
+                  h.c_str(), d_.host_timeout, n, n > 0 ? ": " : "", labels.c_str());
+    }
+    const auto now = Clock::now();
+    for (auto& c : children_) {
+      if (!c.running || c.host.empty() || c.acked) continue;
+      if (now - c.started > std::chrono::seconds(10)) {
+        std::printf("tandem up: the agent of %s did not start %s within 10 s; counted as failed to start\n",
+                    c.host.c_str(), c.label.c_str());
+        mark_exited(c, 127);
+      } else if (now - c.sent > std::chrono::milliseconds(200)) {
+        send_start(c);
+      }
+    }
+  }
+  double seconds() const { return std::chrono::duration<double>(Clock::now() - t0_).count(); }
 };
 
 // The real-time capacity estimate: "" in lockstep, else what the deployment needs against what the machine has,
@@ -1014,17 +1147,27 @@ int up_command(const std::vector<std::string>& args) {
   // the launcher) and makes itself and every process it starts a client of it.
   const std::time_t launcher_started = std::time(nullptr) - 1;  // shared-memory files of this run: newer
   pid_t discovery_server = -1;
-  if (d.discovery == "server") {
+  if (d.discovery == "server" && d.discovery_start == "external") {
+    std::printf("  discovery server             %s:%d (external)\n", d.discovery_address.c_str(), runtime::discovery_port_of(d));
+    runtime::use_discovery(d);
+  } else if (d.discovery == "server") {
     const std::string exe = "/usr/bin/fast-discovery-server";
     if (::access(exe.c_str(), X_OK) != 0) {
       std::fprintf(stderr, "tandem up: discovery: server needs %s (Debian package fastdds-tools)\n", exe.c_str());
       return 2;
     }
-    discovery_server = spawn(exe, {"-i", "0", "-l", "127.0.0.1", "-p", std::to_string(runtime::discovery_port_of(d))});
+    discovery_server = spawn(exe, {"-i", "0", "-l", d.discovery_address, "-p", std::to_string(runtime::discovery_port_of(d))});
     if (discovery_server < 0) return 2;
-    std::printf("  started discovery server     pid %d on 127.0.0.1:%d\n", discovery_server, runtime::discovery_port_of(d));
+    std::printf("  started discovery server     pid %d on %s:%d\n", discovery_server, d.discovery_address.c_str(),
+                runtime::discovery_port_of(d));
     runtime::use_discovery(d);
     std::this_thread::sleep_for(std::chrono::milliseconds(300));  // listening before the first client comes
+    if (::waitpid(discovery_server, nullptr, WNOHANG) == discovery_server) {
+      std::fprintf(stderr, "tandem up: the Discovery Server exited at start: is %s an address of this machine, and "
+                           "port %d free? (discovery_start: external uses one that runs already)\n",
+                   d.discovery_address.c_str(), runtime::discovery_port_of(d));
+      return 2;
+    }
   }
   struct ServerStop {
     pid_t pid;
@@ -1065,6 +1208,10 @@ int up_command(const std::vector<std::string>& args) {
   bus::Writer<msg::CoordinatorState, msg::CoordinatorStatePubSubType> coord_state_out(part, bus::kCoordinatorStateTopic,
                                                                                     bus::TopicKind::Task);
   L.coord_state_out_ = &coord_state_out;
+  // Multi-host: the agents (docs/multihost.md). Every host's agent is heard before anything starts.
+  bus::Writer<msg::AgentRequest, msg::AgentRequestPubSubType> agent_out(part, bus::kAgentRequestTopic, bus::TopicKind::Control);
+  bus::Reader<msg::AgentState, msg::AgentStatePubSubType> agent_state(part, bus::kAgentStateTopic, bus::TopicKind::Status);
+  L.agent_out_ = &agent_out;
   runtime::StatusPublisher launcher_status(part, "launcher", "launcher", "");
   launcher_status.msg().deployment(d.name);
   launcher_status.set(runtime::Lifecycle::Active, "");
@@ -1079,6 +1226,36 @@ int up_command(const std::vector<std::string>& args) {
                   "RLIMIT_RTPRIO; 'realtime_priority: 0' silences this)\n",
                   d.realtime_priority, why.c_str());
     }
+  }
+  if (!d.hosts.empty()) {
+    std::vector<std::string> names;
+    for (const auto& h : d.hosts) names.push_back(h.name);
+    L.hosts_ = std::make_unique<launcher::HostWatch>(names, d.host_timeout);
+    const auto asked = Clock::now();
+    auto last_note = asked - std::chrono::seconds(10);
+    while (!g_stop) {
+      msg::AgentState st;
+      while (agent_state.take(st)) L.on_agent_state(st);
+      const auto waiting = L.hosts_->waiting();
+      if (waiting.empty()) break;
+      std::string list;
+      for (const auto& h : waiting) list += (list.empty() ? "" : ", ") + h;
+      if (Clock::now() - asked > std::chrono::seconds(30)) {
+        std::fprintf(stderr, "tandem up: no agent heard within 30 s for host(s) %s; start `tandem agent %s --host NAME` "
+                             "on each (same domain %d, discovery %s)\n",
+                     list.c_str(), file.c_str(), d.domain_id,
+                     d.discovery == "server" ? (d.discovery_address + ":" + std::to_string(runtime::discovery_port_of(d))).c_str() : "simple");
+        return 2;
+      }
+      if (Clock::now() - last_note > std::chrono::seconds(3)) {
+        std::printf("tandem up: waiting for the agents of %s\n", list.c_str());
+        std::fflush(stdout);
+        last_note = Clock::now();
+      }
+      launcher_status.publish();  // the agents learn that a launcher is there
+      agent_state.wait(0.1);
+    }
+    std::printf("tandem up: %zu host(s), every agent heard\n", d.hosts.size());
   }
   std::printf("tandem up %s: %zu module(s), domain %d, %s, %s timing%s\n", d.name.c_str(), d.modules.size(),
               d.domain_id, d.transport.c_str(), d.timing.c_str(),
@@ -1190,6 +1367,10 @@ int up_command(const std::vector<std::string>& args) {
       }
     }
     collect();
+    {
+      msg::AgentState st;
+      while (agent_state.take(st)) L.on_agent_state(st);
+    }
     msg::ProcessStatus ps;
     while (status.take(ps)) {
       view.update(ps);
@@ -1375,15 +1556,6 @@ int up_command(const std::vector<std::string>& args) {
   std::printf("result: %s\n", ok ? "PASS (all processes finished, safe grasp kept)"
                                  : (g_stop ? "STOPPED" : "FAIL (see above)"));
   return ok ? 0 : 1;
-}
-
-std::string self_dir() {
-  char buf[4096];
-  const ssize_t n = ::readlink("/proc/self/exe", buf, sizeof buf - 1);
-  if (n <= 0) return ".";
-  buf[n] = '\0';
-  std::string p(buf);
-  return p.substr(0, p.rfind('/'));
 }
 
 }  // namespace tandem::cli

@@ -78,11 +78,12 @@ int main(int argc, char** argv) {
   status.set(runtime::Lifecycle::Inactive, "waiting for the supervisor and two robots");
   // Peers: a robot per arm reads its sensors and writes torques; the supervisor reads the report.
   const auto t0 = std::chrono::steady_clock::now();
-  // Lockstep with a recorder: --observers counts the sensor readers besides the first robot (the arm's standbys
-  // and the recorder), and the world waits for all of them, so that a recording holds every tick from the first.
-  // A standby that is slow to come must not hold the module for long: after half the timeout, one reader
+  // --observers counts the sensor readers besides the first robot (the arm's standbys, and a recorder), and the
+  // world waits for all of them: with a recorder, so that a recording holds every tick from the first; on several
+  // hosts, so that the arms do not start braked because their primaries' host answered later than a standby's.
+  // A reader that is slow to come must not hold the module for long: after half the timeout, one reader
   // besides the first is enough (the recorder, started before any module, is normally there by then).
-  const int readers_all = 1 + (opt.realtime ? 0 : opt.observers);
+  const int readers_all = 1 + opt.observers;
   const int readers_min = std::min(readers_all, 2);
   int readers = readers_all;
   while (!runtime::g_stop && (sensors0.matched() < readers || sensors1.matched() < readers || torques0.matched() < 1 || torques1.matched() < 1 ||

@@ -1,5 +1,7 @@
 #include "tandem/runtime/deployment.hpp"
 
+#include <arpa/inet.h>
+
 #include <algorithm>
 #include <fstream>
 #include <set>
@@ -10,6 +12,68 @@
 #include "tandem/sim/yaml_reader.hpp"
 
 namespace tandem::runtime {
+
+namespace {
+bool ipv4(const std::string& text) {
+  in_addr a{};
+  return ::inet_pton(AF_INET, text.c_str(), &a) == 1;
+}
+
+/// A host key (`host:`, `supervisor_host:`, ...): a name of `hosts:`; "" if the key is absent.
+std::string read_host(sim::yaml::MapReader& r, const YAML::Node& node, const std::string& key, const Deployment& d) {
+  std::string h;
+  r.text(key, h);
+  if (!r.has(key)) return "";
+  if (d.hosts.empty()) r.fail(node[key], r.key_path(key), "placing a process on a host needs a top-level 'hosts:' list");
+  if (find_host(d, h) == nullptr) {
+    std::string list;
+    for (const auto& x : d.hosts) list += (list.empty() ? "" : ", ") + x.name;
+    r.fail(node[key], r.key_path(key), "unknown host '" + h + "'; hosts: " + list);
+  }
+  return h;
+}
+
+/// robot_hosts / standby_hosts: {robot: host}.
+std::map<std::string, std::string> read_robot_hosts(sim::yaml::MapReader& r, const YAML::Node& node,
+                                                    const std::string& key, const Deployment& d) {
+  std::map<std::string, std::string> out;
+  if (!r.has(key)) return out;
+  sim::yaml::MapReader m = r.child(key);
+  for (const auto& kv : node[key]) {
+    const std::string robot = kv.first.Scalar();
+    out[robot] = read_host(m, node[key], robot, d);
+  }
+  m.finish();
+  return out;
+}
+}  // namespace
+
+const HostSpec* find_host(const Deployment& d, const std::string& name) {
+  for (const auto& h : d.hosts) {
+    if (h.name == name) return &h;
+  }
+  return nullptr;
+}
+
+std::string coordinator_host_of(const Deployment& d, bool standby) {
+  return standby && !d.coordinator_standby_host.empty() ? d.coordinator_standby_host : d.coordinator_host;
+}
+
+std::string host_of(const ModuleDeployment& m, const std::string& role, const std::string& slot, bool standby) {
+  auto pick = [&](const std::string& h) { return h.empty() ? m.host : h; };
+  if (role == "supervisor") return pick(standby && !m.supervisor_standby_host.empty() ? m.supervisor_standby_host : m.supervisor_host);
+  if (role == "robot") {
+    const auto& map = standby ? m.standby_hosts : m.robot_hosts;
+    const auto it = map.find(slot);
+    if (it != map.end()) return it->second;
+    if (standby) {  // a standby without its own host: on its primary's
+      const auto p = m.robot_hosts.find(slot);
+      if (p != m.robot_hosts.end()) return p->second;
+    }
+    return m.host;
+  }
+  return m.host;  // world
+}
 
 Deployment load_deployment(const std::string& path) {
   std::ifstream in(path);
@@ -39,6 +103,37 @@ Deployment load_deployment(const std::string& path) {
   top.boolean("test_no_brakes", d.test_no_brakes);
   top.choice("discovery", d.discovery, {"simple", "server"});
   top.integer("discovery_port", d.discovery_port, 1024, 65535);
+  top.text("discovery_address", d.discovery_address);
+  if (!ipv4(d.discovery_address)) {
+    top.fail(root["discovery_address"], "discovery_address",
+             "expected an IPv4 address (the Discovery Server's), got '" + d.discovery_address + "'");
+  }
+  top.choice("discovery_start", d.discovery_start, {"launcher", "external"});
+  top.num("host_timeout", d.host_timeout, 0.2, 60.0);
+  if (top.has("hosts")) {
+    sim::yaml::MapReader hr = top.child("hosts");
+    for (const auto& kv : root["hosts"]) {
+      HostSpec h;
+      h.name = kv.first.Scalar();
+      if (h.name.empty() || h.name.find_first_of("/ ,") != std::string::npos) {
+        hr.fail(kv.first, hr.key_path(h.name), "host names must be non-empty, without '/', ',' or spaces");
+      }
+      sim::yaml::MapReader one = hr.child(h.name);
+      one.text("address", h.address, true);
+      if (!ipv4(h.address)) {
+        one.fail(kv.second["address"], one.key_path("address"), "expected an IPv4 address, got '" + h.address + "'");
+      }
+      one.finish();
+      for (const auto& o : d.hosts) {
+        if (o.address == h.address) {
+          one.fail(kv.second["address"], one.key_path("address"), "hosts '" + o.name + "' and '" + h.name + "' have the same address " + h.address);
+        }
+      }
+      d.hosts.push_back(h);
+    }
+    hr.finish();
+    if (d.hosts.empty()) top.fail(root["hosts"], "hosts", "list at least one host (name: {address: IPv4})");
+  }
   top.text("record", d.record);
   top.text("record_topics", d.record_topics);
   {
@@ -73,6 +168,15 @@ Deployment load_deployment(const std::string& path) {
     mr.num("restart_backoff", m.restart_backoff, 0.0, 60.0);
     mr.choice("restart_as", m.restart_as, {"standby", "primary"});
     mr.boolean("autostart", m.autostart);
+    m.host = read_host(mr, mods[i], "host", d);
+    if (!d.hosts.empty() && m.host.empty()) {
+      mr.fail(mods[i], mr.key_path("host"), "with 'hosts:', every module needs a host (its world's, and the default "
+                                            "of its other processes)");
+    }
+    m.supervisor_host = read_host(mr, mods[i], "supervisor_host", d);
+    m.supervisor_standby_host = read_host(mr, mods[i], "supervisor_standby_host", d);
+    m.robot_hosts = read_robot_hosts(mr, mods[i], "robot_hosts", d);
+    m.standby_hosts = read_robot_hosts(mr, mods[i], "standby_hosts", d);
     mr.finish();
     // Validate what each process will load, before anything starts.
     const sim::Scenario sc = sim::load_scenario(m.scenario);
@@ -84,6 +188,21 @@ Deployment load_deployment(const std::string& path) {
     }
     if (!found) {
       mr.fail(mods[i]["case"], mr.key_path("case"), "no case '" + m.case_name + "' in " + m.scenario + "; cases: " + list);
+    }
+    for (const auto* placed : {&m.robot_hosts, &m.standby_hosts}) {
+      for (const auto& [robot, host] : *placed) {
+        bool known = false;
+        std::string robots;
+        for (const auto& r : sc.robots) {
+          known = known || r.name == robot;
+          robots += (robots.empty() ? "" : ", ") + r.name;
+        }
+        const char* key = placed == &m.robot_hosts ? "robot_hosts" : "standby_hosts";
+        if (!known) {
+          mr.fail(mods[i][key][robot], mr.key_path(std::string(key) + "." + robot),
+                  "no robot '" + robot + "' in " + m.scenario + "; robots: " + robots);
+        }
+      }
     }
     d.modules.push_back(m);
   }
@@ -107,6 +226,11 @@ Deployment load_deployment(const std::string& path) {
     co.integer("standby", d.coordinator_standby, 0, 3);
     co.choice("restart", d.coordinator_restart, {"never", "on-failure", "always"});
     co.integer("restart_limit", d.coordinator_restart_limit, 0, 100);
+    d.coordinator_host = read_host(co, root["coordinator"], "host", d);
+    d.coordinator_standby_host = read_host(co, root["coordinator"], "standby_host", d);
+    if (!d.hosts.empty() && d.coordinator_host.empty()) {
+      co.fail(root["coordinator"], "coordinator.host", "with 'hosts:', the coordinator needs a host");
+    }
     co.num("restart_window", d.coordinator_restart_window, 0.1, 86400.0);
     YAML::Node tasks = co.sequence("tasks", true);
     for (size_t i = 0; i < tasks.size(); ++i) {
@@ -165,6 +289,10 @@ Deployment load_deployment(const std::string& path) {
         }
       }
     }
+  }
+  if (!d.hosts.empty() && !d.security_keys.empty()) {
+    top.fail(root["hosts"], "hosts",
+             "hosts with security are not supported yet: the agents have no identity in `tandem keys` (docs/multihost.md)");
   }
   top.finish();
   return d;

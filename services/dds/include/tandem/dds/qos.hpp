@@ -49,5 +49,7 @@ inline constexpr const char* kTaskAssignmentTopic = "tandem/task_assignment";
 inline constexpr const char* kTaskStateTopic = "tandem/task_state";
 inline constexpr const char* kCoordinatorStateTopic = "tandem/coordinator_state";
 inline constexpr const char* kSupervisorPlanTopic = "tandem/supervisor_plan";
+inline constexpr const char* kAgentRequestTopic = "tandem/agent_request";
+inline constexpr const char* kAgentStateTopic = "tandem/agent_state";
 
 }  // namespace tandem::dds

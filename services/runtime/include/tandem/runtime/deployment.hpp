@@ -3,6 +3,7 @@
 
 #include <cstdlib>
 
+#include <map>
 #include <string>
 #include <vector>
 
@@ -30,6 +31,20 @@ struct ModuleDeployment {
   std::string restart_as = "standby";
   /// false: listed but not started by `tandem up`; `tandem plug module NAME` starts it later.
   bool autostart = true;
+  /// Multi-host (docs/multihost.md; "" without hosts:): the host of the world, and of every other process of the
+  /// module not placed otherwise; the supervisor's and its standbys' hosts; per robot (arm) the primary's and the
+  /// standbys' hosts.
+  std::string host;
+  std::string supervisor_host;
+  std::string supervisor_standby_host;
+  std::map<std::string, std::string> robot_hosts;
+  std::map<std::string, std::string> standby_hosts;
+};
+
+/// A host of a multi-host deployment: its agent (`tandem agent --host NAME`) starts the processes placed on it.
+struct HostSpec {
+  std::string name;
+  std::string address;  ///< IPv4 address of the host on the network that joins the hosts
 };
 
 /// A task of the coordinator's queue: waypoints of the object's absolute pose, from wherever it is.
@@ -54,10 +69,20 @@ struct Deployment {
   /// Test only: the worlds never brake an arm whose controller is gone (it keeps its last torque and the object
   /// falls). Exists to show that `tandem soak`'s checker catches a dropped object; never for real deployments.
   bool test_no_brakes = false;
-  /// simple: every participant announces itself to every other (Fast DDS's default); server: the launcher
-  /// starts a Fast DDS Discovery Server on 127.0.0.1:discovery_port and every process is its client.
+  /// simple: every participant announces itself to every other (Fast DDS's default); server: every process is
+  /// a client of a Fast DDS Discovery Server at discovery_address:discovery_port, which the launcher starts
+  /// (discovery_start: launcher) or which runs already (external: `fastdds discovery -i 0 -l ADDR -p PORT`).
   std::string discovery = "simple";
   int discovery_port = 0;  ///< 0: 11811 + domain_id
+  std::string discovery_address = "127.0.0.1";
+  std::string discovery_start = "launcher";  ///< launcher | external
+  /// Multi-host: the hosts (empty: every process runs on the launcher's machine, started by the launcher). With
+  /// hosts, every role process is started by its host's agent, and a host whose agent is silent for host_timeout
+  /// seconds is lost: its processes count as failed.
+  std::vector<HostSpec> hosts;
+  double host_timeout = 1.0;
+  std::string coordinator_host;          ///< multi-host: the coordinator's host
+  std::string coordinator_standby_host;  ///< multi-host: its standbys' host (default: coordinator_host)
   std::vector<ModuleDeployment> modules;
   bool coordinator = false;        ///< a coordinator hands out `tasks`; modules run until it is done
   std::vector<TaskSpec> tasks;
@@ -96,9 +121,17 @@ inline int discovery_port_of(const Deployment& d) {
 /// creation). Nothing for `discovery: simple`.
 inline void use_discovery(const Deployment& d) {
   if (d.discovery != "server") return;
-  const std::string addr = "127.0.0.1:" + std::to_string(discovery_port_of(d));
+  const std::string addr = d.discovery_address + ":" + std::to_string(discovery_port_of(d));
   ::setenv("ROS_DISCOVERY_SERVER", addr.c_str(), 1);
 }
+
+/// Multi-host: the host a process of module `m` runs on ("" without hosts:). role: world | supervisor | robot;
+/// slot: the robot's name; standby: not the slot's primary.
+std::string host_of(const ModuleDeployment& m, const std::string& role, const std::string& slot, bool standby);
+/// Multi-host: the host of the coordinator (standby: of a standby coordinator).
+std::string coordinator_host_of(const Deployment& d, bool standby);
+/// The host named `name` (nullptr if none).
+const HostSpec* find_host(const Deployment& d, const std::string& name);
 
 /// Reads and validates a deployment, including every scenario and case it names. Throws sim::ConfigError.
 Deployment load_deployment(const std::string& path);

@@ -1,0 +1,26 @@
+// Starting role processes (the launcher's and the agents'): fork + execve with the child's environment built
+// before the fork, SCHED_FIFO on request, and PR_SET_PDEATHSIG so that no child outlives its parent.
+#pragma once
+
+#include <sys/types.h>
+
+#include <string>
+#include <vector>
+
+namespace tandem::launcher {
+
+struct SpawnOptions {
+  int rt_priority = 0;      ///< > 0: the child (and the threads it creates) run SCHED_FIFO at this priority
+  int participant_id = -1;  ///< TANDEM_PARTICIPANT_ID for the child, -1: Fast DDS's choice
+  std::string identity;     ///< TANDEM_IDENTITY (DDS-Security) for the child, "": inherited environment only
+};
+
+/// Starts `exe` with `args`; the child gets SIGTERM when its parent dies. Returns its pid, -1 if fork failed
+/// (with a message naming `who` and the executable on stderr). An exec failure shows as exit code 127.
+pid_t spawn(const std::string& who, const std::string& exe, const std::vector<std::string>& args,
+            const SpawnOptions& opt = {});
+
+/// The directory of this process's executable (its siblings, tandem-world etc., live there).
+std::string self_dir();
+
+}  // namespace tandem::launcher

@@ -1,0 +1,66 @@
+#include "tandem/launcher/spawn.hpp"
+
+#include <sched.h>
+#include <sys/prctl.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <csignal>
+#include <cstdio>
+#include <cstring>
+
+extern char** environ;
+
+namespace tandem::launcher {
+
+pid_t spawn(const std::string& who, const std::string& exe, const std::vector<std::string>& args,
+            const SpawnOptions& opt) {
+  // Everything the child needs is built before fork: after fork only async-signal-safe calls.
+  std::vector<char*> argv;
+  argv.push_back(const_cast<char*>(exe.c_str()));
+  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+  argv.push_back(nullptr);
+  std::vector<std::string> env_text;
+  for (char** e = environ; *e != nullptr; ++e) {
+    if (std::strncmp(*e, "TANDEM_PARTICIPANT_ID=", 22) != 0 && std::strncmp(*e, "TANDEM_IDENTITY=", 16) != 0) {
+      env_text.emplace_back(*e);
+    }
+  }
+  if (opt.participant_id >= 0) env_text.push_back("TANDEM_PARTICIPANT_ID=" + std::to_string(opt.participant_id));
+  // DDS-Security: the child's identity (its slot's key; TANDEM_SECURITY_DIR is inherited from the parent).
+  if (!opt.identity.empty()) env_text.push_back("TANDEM_IDENTITY=" + opt.identity);
+  std::vector<char*> envp;
+  for (auto& e : env_text) envp.push_back(e.data());
+  envp.push_back(nullptr);
+  const pid_t parent = ::getpid();
+  const pid_t pid = ::fork();
+  if (pid < 0) {
+    std::fprintf(stderr, "%s: cannot start %s: fork failed: %s\n", who.c_str(), exe.c_str(), std::strerror(errno));
+    return -1;
+  }
+  if (pid != 0) return pid;
+  ::signal(SIGINT, SIG_DFL);  // the parent's handlers must not be inherited
+  ::signal(SIGTERM, SIG_DFL);
+  ::prctl(PR_SET_PDEATHSIG, SIGTERM);  // never outlive the parent
+  if (::getppid() != parent) ::_exit(127);
+  if (opt.rt_priority > 0) {
+    sched_param sp{};
+    sp.sched_priority = opt.rt_priority;
+    (void)::sched_setscheduler(0, SCHED_FIFO, &sp);  // the parent checked that it is permitted
+  }
+  ::execve(exe.c_str(), argv.data(), envp.data());
+  static const char msg[] = "tandem: cannot exec a role process\n";
+  (void)!::write(2, msg, sizeof msg - 1);
+  ::_exit(127);
+}
+
+std::string self_dir() {
+  char buf[4096];
+  const ssize_t n = ::readlink("/proc/self/exe", buf, sizeof buf - 1);
+  if (n <= 0) return ".";
+  buf[n] = '\0';
+  std::string p(buf);
+  return p.substr(0, p.rfind('/'));
+}
+
+}  // namespace tandem::launcher

@@ -3,7 +3,8 @@
 # Safe to run repeatedly; needs root (or sudo) only when something must be installed.
 # Usage: scripts/install-deps.sh [--tests]   (--tests: also what the test suite needs: Chromium for the report
 # page checks, Cyclone DDS for the interop tests, python3 for the security test's packet capture, and Node.js
-# with npm for the independent MCAP reader when no node is on the PATH). openssl: `tandem keys`.
+# with npm for the independent MCAP reader when no node is on the PATH, iproute2 for the multi-host test's network
+# namespaces). openssl: `tandem keys`.
 set -euo pipefail
 
 PACKAGES=(
@@ -17,7 +18,7 @@ PACKAGES=(
 )
 
 if [ "${1:-}" = "--tests" ]; then
-  PACKAGES+=(chromium cyclonedds-dev cyclonedds-tools python3)
+  PACKAGES+=(chromium cyclonedds-dev cyclonedds-tools python3 iproute2)
   if ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1; then PACKAGES+=(nodejs npm); fi
 fi
 

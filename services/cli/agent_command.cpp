@@ -105,6 +105,8 @@ class Agent {
   /// The launcher's status (every 100 ms): its heartbeat, and the end of its run.
   void on_launcher_status(const msg::ProcessStatus& ps) {
     if (ps.process_id() != "launcher" || ps.deployment() != d_.name) return;
+    // A launcher heard before any request (this host may have nothing placed on it): the one served now.
+    if (launcher_pid_ == 0 && ps.state() == 2 && ps.pid() > 0) new_launcher(static_cast<unsigned long long>(ps.pid()));
     if (static_cast<unsigned long long>(ps.pid()) != launcher_pid_) return;
     launcher_heard_ = Clock::now();
     if (ps.state() == 3 && !run_over_) {  // finalized: the run is over

@@ -1240,10 +1240,12 @@ int up_command(const std::vector<std::string>& args) {
       if (waiting.empty()) break;
       std::string list;
       for (const auto& h : waiting) list += (list.empty() ? "" : ", ") + h;
-      if (Clock::now() - asked > std::chrono::seconds(30)) {
-        std::fprintf(stderr, "tandem up: no agent heard within 30 s for host(s) %s; start `tandem agent %s --host NAME` "
+      // As long as a process waits for its peers (timeout:), at least 5 s.
+      const double wait_s = std::max(5.0, d.timeout);
+      if (Clock::now() - asked > std::chrono::duration<double>(wait_s)) {
+        std::fprintf(stderr, "tandem up: no agent heard within %.0f s for host(s) %s; start `tandem agent %s --host NAME` "
                              "on each (same domain %d, discovery %s)\n",
-                     list.c_str(), file.c_str(), d.domain_id,
+                     wait_s, list.c_str(), file.c_str(), d.domain_id,
                      d.discovery == "server" ? (d.discovery_address + ":" + std::to_string(runtime::discovery_port_of(d))).c_str() : "simple");
         return 2;
       }

@@ -28,6 +28,7 @@
 #include "tandem/dds/bus.hpp"
 #include "tandem/launcher/spawn.hpp"
 #include "tandem/runtime/deployment.hpp"
+#include "tandem/runtime/security.hpp"
 #include "tandem/runtime/shm_clean.hpp"
 
 namespace tandem::cli {
@@ -342,6 +343,15 @@ int agent_command(const std::vector<std::string>& args) {
   ::sigaction(SIGINT, &sa, nullptr);
   ::sigaction(SIGTERM, &sa, nullptr);
   runtime::use_discovery(d);  // for itself and the processes it starts
+  // DDS-Security: the agent joins as "agent.<host>"; its children inherit the keys' directory and get their
+  // slot's identity with each start request.
+  if (!d.security_keys.empty()) {
+    const std::string err = runtime::use_security(d, runtime::identity_name("agent", host));
+    if (!err.empty()) {
+      std::fprintf(stderr, "tandem agent: %s\n", err.c_str());
+      return 2;
+    }
+  }
   Agent agent(d, host, spec->address);
   {
     sched_param sp{};

@@ -1209,9 +1209,15 @@ int up_command(const std::vector<std::string>& args) {
                                                                                     bus::TopicKind::Task);
   L.coord_state_out_ = &coord_state_out;
   // Multi-host: the agents (docs/multihost.md). Every host's agent is heard before anything starts.
-  bus::Writer<msg::AgentRequest, msg::AgentRequestPubSubType> agent_out(part, bus::kAgentRequestTopic, bus::TopicKind::Control);
-  bus::Reader<msg::AgentState, msg::AgentStatePubSubType> agent_state(part, bus::kAgentStateTopic, bus::TopicKind::Status);
-  L.agent_out_ = &agent_out;
+  std::unique_ptr<bus::Writer<msg::AgentRequest, msg::AgentRequestPubSubType>> agent_out;
+  std::unique_ptr<bus::Reader<msg::AgentState, msg::AgentStatePubSubType>> agent_state;
+  if (!d.hosts.empty()) {
+    agent_out = std::make_unique<bus::Writer<msg::AgentRequest, msg::AgentRequestPubSubType>>(part, bus::kAgentRequestTopic,
+                                                                                              bus::TopicKind::Control);
+    agent_state = std::make_unique<bus::Reader<msg::AgentState, msg::AgentStatePubSubType>>(part, bus::kAgentStateTopic,
+                                                                                            bus::TopicKind::Status);
+    L.agent_out_ = agent_out.get();
+  }
   runtime::StatusPublisher launcher_status(part, "launcher", "launcher", "");
   launcher_status.msg().deployment(d.name);
   launcher_status.set(runtime::Lifecycle::Active, "");
@@ -1235,7 +1241,7 @@ int up_command(const std::vector<std::string>& args) {
     auto last_note = asked - std::chrono::seconds(10);
     while (!g_stop) {
       msg::AgentState st;
-      while (agent_state.take(st)) L.on_agent_state(st);
+      while (agent_state->take(st)) L.on_agent_state(st);
       const auto waiting = L.hosts_->waiting();
       if (waiting.empty()) break;
       std::string list;
@@ -1255,7 +1261,7 @@ int up_command(const std::vector<std::string>& args) {
         last_note = Clock::now();
       }
       launcher_status.publish();  // the agents learn that a launcher is there
-      agent_state.wait(0.1);
+      agent_state->wait(0.1);
     }
     std::printf("tandem up: %zu host(s), every agent heard\n", d.hosts.size());
   }
@@ -1369,9 +1375,9 @@ int up_command(const std::vector<std::string>& args) {
       }
     }
     collect();
-    {
+    if (agent_state) {
       msg::AgentState st;
-      while (agent_state.take(st)) L.on_agent_state(st);
+      while (agent_state->take(st)) L.on_agent_state(st);
     }
     msg::ProcessStatus ps;
     while (status.take(ps)) {

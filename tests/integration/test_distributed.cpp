@@ -892,7 +892,7 @@ TEST_CASE("four modules: the coordinator is killed, one module killed and one un
 }
 
 TEST_CASE("every shipped deployment file loads, and bad live-replacement keys are refused by name", "[deployment]") {
-  for (const char* f : {"one-module", "one-module-realtime", "four-modules", "live-modules"}) {
+  for (const char* f : {"one-module", "one-module-realtime", "four-modules", "live-modules", "three-hosts"}) {
     INFO(f);
     const auto d = tandem::runtime::load_deployment(kSrc + "/deploy/" + f + ".yaml");
     CHECK_FALSE(d.modules.empty());

@@ -31,8 +31,7 @@ cleanup() {
     for q in $(ip netns pids "$p-$h" 2>/dev/null); do kill -9 "$q" 2>/dev/null; done
   done
   for pid in "${pids[@]}"; do wait "$pid" 2>/dev/null; done
-  for h in "${hosts[@]}"; do ip netns del "$p-$h" 2>/dev/null; done
-  ip link del "${p}br" 2>/dev/null
+  bash "$src/scripts/netns-hosts.sh" down "$p" "${hosts[@]}"
   # /dev/shm is shared by the namespaces: Fast DDS files made during this test that no live process uses (those of
   # processes killed here; the launcher and the agents remove their own children's)
   sleep 2.1
@@ -44,20 +43,9 @@ cleanup() {
 }
 trap cleanup EXIT
 
-# The hosts: a bridge in this namespace, and per host a namespace with a veth pair into the bridge.
-ip link add "${p}br" type bridge
-ip link set "${p}br" up
-i=1
-for h in "${hosts[@]}"; do
-  ip netns add "$p-$h"
-  ip link add "${p}${h}0" type veth peer name "${p}${h}1"
-  ip link set "${p}${h}0" netns "$p-$h"
-  ip link set "${p}${h}1" master "${p}br" up
-  ip netns exec "$p-$h" ip link set lo up
-  ip netns exec "$p-$h" ip addr add "$net.$i/24" dev "${p}${h}0"
-  ip netns exec "$p-$h" ip link set "${p}${h}0" up
-  i=$((i + 1))
-done
+# The hosts: a namespace each, with a veth pair into a bridge in this namespace (the script users try it with).
+bash "$src/scripts/netns-hosts.sh" down "$p" "${hosts[@]}" > /dev/null  # a previous run's, if it was killed
+bash "$src/scripts/netns-hosts.sh" up "$p" "$net" "${hosts[@]}"
 on() { local h=$1; shift; ip netns exec "$p-$h" "$@"; }
 agent() {  # host deploy log [--once]
   # ip netns exec execs the agent: $! is the agent's pid

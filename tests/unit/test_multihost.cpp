@@ -4,12 +4,15 @@
 #include <unistd.h>
 
 #include <catch2/catch.hpp>
+#include <algorithm>
 #include <cstdio>
+#include <stdexcept>
 #include <fstream>
 #include <string>
 
 #include "tandem/launcher/host_watch.hpp"
 #include "tandem/runtime/deployment.hpp"
+#include "tandem/runtime/security.hpp"
 
 namespace {
 
@@ -84,8 +87,6 @@ TEST_CASE("bad placements are refused by name, with what is accepted", "[multiho
   CHECK_THAT(refusal(kHosts + mod + ", host: a}\ncoordinator:\n  tasks:\n"
                                     "    - {name: t, segments: [{to: [0.0, 0.8, 0.0], duration: 1.0}]}\n"),
              Catch::Contains("the coordinator needs a host"));
-  CHECK_THAT(refusal(kHosts + "security:\n  keys: k\n" + mod + ", host: a}\n"),
-             Catch::Contains("hosts with security are not supported yet"));
 }
 
 TEST_CASE("host watch: a host is lost after the timeout of silence, once, and back when heard", "[multihost]") {
@@ -106,4 +107,33 @@ TEST_CASE("host watch: a host is lost after the timeout of silence, once, and ba
   CHECK(w.newly_lost(7.7) == std::vector<std::string>{"a", "b"});  // 1.1 s
   CHECK_FALSE(w.heard("zz", 8.0));                            // unknown hosts are ignored
   CHECK_FALSE(w.known("zz"));
+}
+
+TEST_CASE("security on several hosts: an identity per agent that may only write its own state", "[multihost]") {
+  const std::string path = write(kHosts + "security:\n  keys: k\nmodules:\n  - {name: m1, scenario: " + kScenario +
+                                 ", case: SOSM, host: a, robot_hosts: {left: b, right: c}}\n");
+  const auto d = tandem::runtime::load_deployment(path);
+  std::remove(path.c_str());
+  const auto ids = tandem::runtime::identities(d);
+  auto find = [&](const std::string& name) -> const tandem::runtime::Identity& {
+    for (const auto& id : ids) {
+      if (id.name == name) return id;
+    }
+    FAIL("no identity " << name);
+    throw std::logic_error("unreachable");
+  };
+  for (const char* h : {"a", "b", "c"}) {
+    const auto& agent = find(tandem::runtime::identity_name("agent", h));
+    CHECK(agent.publish == std::vector<std::string>{"tandem/agent_state"});
+    CHECK(agent.subscribe == std::vector<std::string>{"tandem/agent_request", "tandem/process_status"});
+  }
+  const auto& launcher = find("launcher");
+  CHECK(std::count(launcher.publish.begin(), launcher.publish.end(), "tandem/agent_request") == 1);
+  CHECK(std::count(launcher.subscribe.begin(), launcher.subscribe.end(), "tandem/agent_state") == 1);
+  // Nobody else may ask an agent for anything.
+  for (const auto& id : ids) {
+    if (id.name == "launcher") continue;
+    INFO(id.name);
+    CHECK(std::count(id.publish.begin(), id.publish.end(), "tandem/agent_request") == 0);
+  }
 }

@@ -16,7 +16,7 @@ namespace bus = tandem::dds;
 
 std::string identity_name(const std::string& role, const std::string& module, const std::string& robot) {
   if (role == "robot") return "robot." + module + "." + robot;
-  if (role == "world" || role == "supervisor") return role + "." + module;
+  if (role == "world" || role == "supervisor" || role == "agent") return role + "." + module;  // agent: the host
   return role;  // coordinator, launcher, cli, recorder
 }
 
@@ -45,8 +45,10 @@ std::vector<Identity> identities(const Deployment& d) {
   // The launcher and the CLI are the only writers of control requests (the launcher asks supervisors to pause,
   // resume and drain, and republishes the coordinator's state for a successor).
   out.push_back({"launcher",
-                 {status, control, coord},
-                 {bus::kRobotSummaryTopic, bus::kWorldSummaryTopic, status, control, states, coord}});
+                 {status, control, coord, bus::kAgentRequestTopic},
+                 {bus::kRobotSummaryTopic, bus::kWorldSummaryTopic, status, control, states, coord, bus::kAgentStateTopic}});
+  // Multi-host: each host's agent reads the launcher's requests and status, and writes its own state only.
+  for (const auto& h : d.hosts) out.push_back({identity_name("agent", h.name), {bus::kAgentStateTopic}, {bus::kAgentRequestTopic, status}});
   out.push_back({"cli", {control}, {status}});
   // The recorder reads everything and writes only its status.
   out.push_back({"recorder", {status}, {"tandem/*"}});

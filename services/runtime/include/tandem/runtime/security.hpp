@@ -1,7 +1,7 @@
 // DDS-Security of a deployment (docs/security.md): who may do what, derived from the deployment. One identity
 // per slot, not per process: every robot of an arm (primary, standbys, restarts) is "robot.<module>.<robot>",
 // every supervisor of a module "supervisor.<module>", every coordinator "coordinator", plus "world.<module>",
-// "launcher", "cli" and "recorder". A slot is the unit of privilege (a standby must be able to do what the
+// "launcher", "cli", "recorder" and, on several hosts, "agent.<host>" per host. A slot is the unit of privilege (a standby must be able to do what the
 // primary does, and restarts get new process labels), so a slot's processes share its key.
 #pragma once
 
@@ -23,7 +23,8 @@ struct Identity {
 std::vector<Identity> identities(const Deployment& d);
 
 /// The identity of a process of the deployment: role "world" | "supervisor" | "robot" | "coordinator" |
-/// "launcher" | "cli" | "recorder"; module and robot where the role has them.
+/// "launcher" | "cli" | "recorder" | "agent"; module and robot where the role has them (for "agent": the host
+/// in `module`).
 std::string identity_name(const std::string& role, const std::string& module = "", const std::string& robot = "");
 
 /// The governance document (unsigned XML) for the deployment's domain: authenticated participants only, join

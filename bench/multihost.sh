@@ -75,12 +75,11 @@ for i in $(seq "$reps"); do
   run one-host "$work/one.yaml"
   run three-hosts "$work/three.yaml"
 done
+median() { sort -n | awk '{ v[NR] = $1 } END { print v[int((NR + 1) / 2)] }'; }
 for label in one-host three-hosts; do
-  grep "^$label " "$work/runs.txt" | awk -v l="$label" '
-    { for (i = 2; i <= NF; ++i) { split($i, kv, "="); v[kv[1]][NR] = kv[2] } n = NR }
-    END {
-      printf "%s median of %d:", l, n
-      for (k in v) { m = asort(v[k], s); printf " %s=%s", k, s[int((m + 1) / 2)] }
-      printf "\n"
-    }'
+  line="$label median of $reps:"
+  for key in p50_us p99_us late_arm_ticks; do
+    line="$line $key=$(grep "^$label " "$work/runs.txt" | grep -o "$key=[0-9.]*" | cut -d= -f2 | median)"
+  done
+  echo "$line"
 done

@@ -61,7 +61,8 @@ wait_for() {  # pattern file seconds
   for _ in $(seq $((10 * $3))); do grep -q "$1" "$2" 2>/dev/null && return 0; sleep 0.1; done
   return 1
 }
-hosts_yaml() {
+hosts_yaml() {  # [external]: the Discovery Server runs already (discovery_start: external)
+  if [ "${1:-}" = external ]; then printf "discovery_start: external\ndiscovery_port: %s\n" "$ds_port"; fi
   printf "discovery: server\ndiscovery_address: %s.1\nhosts:\n" "$net"
   printf "  a: {address: %s.1}\n  b: {address: %s.2}\n  c: {address: %s.3}\n" "$net" "$net" "$net"
 }
@@ -91,12 +92,19 @@ single() {
   printf "modules:\n  - name: m1\n    scenario: %s\n    case: SOSM\n" "$src/config/scenarios/paper.yaml"
 }
 single $((base + 1)) > one-host.yaml
-{ single $((base + 1)); echo "    host: a"; echo "    robot_hosts: {left: b, right: b}"; hosts_yaml; } > lockstep.yaml
+# Here the Discovery Server is one the user started (discovery_start: external), on host a.
+ds_port=$((20000 + base))
+{ single $((base + 1)); echo "    host: a"; echo "    robot_hosts: {left: b, right: b}"; hosts_yaml external; } > lockstep.yaml
 "$bin/tandem" up one-host.yaml --summary one-host.summary > one-host.log 2>&1 || { cat one-host.log; fail "single-host run"; }
+ip netns exec "$p-a" /usr/bin/fast-discovery-server -i 0 -l "$net.1" -p "$ds_port" > discovery.log 2>&1 &
+pids+=($!)
+wait_for "Server is running" discovery.log 10 || { cat discovery.log; fail "the Discovery Server did not start"; }
 for h in a b c; do agent "$h" lockstep.yaml "agent1-$h.log" --once; done
 rc=0; on a timeout 120 "$bin/tandem" up lockstep.yaml --summary lockstep.summary > lockstep.log 2>&1 || rc=$?
 [ "$rc" -eq 0 ] || { cat lockstep.log agent1-*.log; fail "the multi-host lockstep run failed ($rc)"; }
-for pid in "${pids[@]}"; do wait "$pid" || fail "an agent exited with an error"; done; pids=()
+for pid in "${pids[@]:1}"; do wait "$pid" || fail "an agent exited with an error"; done
+kill "${pids[0]}"; wait "${pids[0]}" 2>/dev/null || true; pids=()
+grep -q "discovery server             $net.1:$ds_port (external)" lockstep.log || fail "the launcher did not use the external server"
 grep -q "started m1/left                pid" agent1-b.log && grep -q "started m1/world               pid" agent1-a.log \
   || { cat agent1-*.log; fail "processes not on their hosts"; }
 grep -q "m1/left (pid [0-9]*) exited with code 0" agent1-b.log || fail "m1/left on b did not finish"

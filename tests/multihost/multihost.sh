@@ -9,7 +9,9 @@
 #     link is cut mid-task: m1's standbys on c take over with the grasp held, m2 counts as failed and its task is
 #     re-planned, every task is done once; b's agent fences its processes;
 #  3. stopping: an agent stopped mid-run takes its processes with it, `tandem down` stops the launcher, and the
-#     agents stopped afterwards leave nothing running in any namespace.
+#     agents stopped afterwards leave nothing running in any namespace;
+#  4. security across hosts (simple discovery: Fast DDS 2.9's Discovery Server has no identity): keys with an
+#     identity per agent, and the lockstep run of 1 gives the same numbers.
 # Usage: multihost.sh BIN_DIR SRC WORK DOMAIN_BASE
 set -euo pipefail
 bin=$1 src=$2 work=$3 base=$4
@@ -200,4 +202,39 @@ pids=()
 n=$(left_in_namespaces)
 [ "$n" -eq 0 ] || { for h in "${hosts[@]}"; do ip netns pids "$p-$h" | xargs -r ps -o pid,cmd -p; done; fail "$n process(es) left"; }
 echo "nothing left running in the namespaces"
+
+echo "== 4. security across hosts: every process and agent with its own identity; the same numbers"
+{
+  echo "name: mh-secure"; echo "domain_id: $((base + 4))"; echo "timing: lockstep"; echo "timeout: 60"
+  printf "security:\n  keys: keys\nhosts:\n  a: {address: %s.1}\n  b: {address: %s.2}\n  c: {address: %s.3}\n" "$net" "$net" "$net"
+  printf "modules:\n  - {name: m1, scenario: %s, case: SOSM, host: a, robot_hosts: {left: b, right: b}}\n" \
+    "$src/config/scenarios/paper.yaml"
+} > secure.yaml
+"$bin/tandem" keys secure.yaml > keys.log 2>&1 || { cat keys.log; fail "tandem keys"; }
+grep -q "agent.a agent.b agent.c" keys.log || { cat keys.log; fail "no identity per agent"; }
+secured_run() {
+  for h in a b c; do agent "$h" secure.yaml "agent4-$h.log" --once; done
+  local rc=0
+  ip netns exec "$p-a" timeout 150 "$bin/tandem" up secure.yaml --summary secure.summary > secure.log 2>&1 || rc=$?
+  for pid in "${pids[@]}"; do wait "$pid" 2>/dev/null || true; done; pids=()
+  return "$rc"
+}
+rc=0; secured_run || rc=$?
+if [ "$rc" -ne 0 ] && grep -q "peers not found\|no valid torque\|no report from the world" secure.log agent4-*.log; then
+  # now and then a pair of secured participants never matches (open finding, docs/security.md)
+  echo "RETRY: the secured run did not come up: $(grep -h -m1 'peers not found\|no valid torque\|no report from the world' secure.log agent4-*.log | head -1)"
+  rc=0; secured_run || rc=$?
+fi
+[ "$rc" -eq 0 ] || { cat secure.log agent4-*.log; fail "the secured multi-host run failed ($rc)"; }
+grep -q "started m1/left                pid" agent4-b.log || fail "the secured robots did not run on b"
+python3 - one-host.summary secure.summary <<'EOF' || fail "the secured multi-host numbers differ from the single-host run"
+import sys
+def read(p): return dict(l.strip().split("=", 1) for l in open(p) if "=" in l)
+a, b = read(sys.argv[1]), read(sys.argv[2])
+keys = [k for k in a if k.startswith("m1/") or k.startswith("m1.object_final") or k.startswith("m1.q_final") or k == "m1.ticks"]
+for k in keys:
+    assert abs(float(a[k]) - float(b[k])) <= 1e-12 * max(1.0, abs(float(a[k]))), (k, a[k], b[k])
+print(f"secured over three hosts: {len(keys)} figures equal to the single-host run")
+EOF
+[ "$(left_in_namespaces)" -eq 0 ] || fail "processes left in the namespaces after run 4"
 echo "PASS"

@@ -30,6 +30,7 @@
 #include "tandem/runtime/deployment.hpp"
 #include "tandem/runtime/security.hpp"
 #include "tandem/runtime/shm_clean.hpp"
+#include "tandem/runtime/status.hpp"
 
 namespace tandem::cli {
 namespace {
@@ -343,6 +344,7 @@ int agent_command(const std::vector<std::string>& args) {
   ::sigaction(SIGINT, &sa, nullptr);
   ::sigaction(SIGTERM, &sa, nullptr);
   runtime::use_discovery(d);  // for itself and the processes it starts
+  ::setenv("TANDEM_HOST", host.c_str(), 1);  // its processes name their host in their status
   // DDS-Security: the agent joins as "agent.<host>"; its children inherit the keys' directory and get their
   // slot's identity with each start request.
   if (!d.security_keys.empty()) {
@@ -375,6 +377,10 @@ int agent_command(const std::vector<std::string>& args) {
   bus::Reader<msg::AgentRequest, msg::AgentRequestPubSubType> requests(*part, bus::kAgentRequestTopic, bus::TopicKind::Control);
   bus::Writer<msg::AgentState, msg::AgentStatePubSubType> state(*part, bus::kAgentStateTopic, bus::TopicKind::Status);
   bus::Reader<msg::ProcessStatus, msg::ProcessStatusPubSubType> status(*part, bus::kStatusTopic, bus::TopicKind::Status);
+  // Its own status, as every process's: `tandem status` lists the agents beside what they run.
+  runtime::StatusPublisher own(*part, "agent/" + host, "agent", "");
+  own.msg().deployment(d.name);
+  own.set(runtime::Lifecycle::Active, "");
   std::printf("tandem agent %s: %s, address %s, domain %d, discovery %s; waiting for the launcher\n", host.c_str(),
               d.name.c_str(), spec->address.c_str(), d.domain_id,
               d.discovery == "server" ? (d.discovery_address + ":" + std::to_string(runtime::discovery_port_of(d))).c_str()
@@ -390,11 +396,14 @@ int agent_command(const std::vector<std::string>& args) {
     if (agent.take_killed()) runtime::clean_stale_shm(started, static_cast<int>(d.domain_id));
     if (Clock::now() - published >= std::chrono::milliseconds(100)) {
       agent.publish(state);
+      own.msg().serving("runs " + std::to_string(agent.running()) + " process(es)");
+      own.publish();
       published = Clock::now();
     }
     if (once && agent.served() && agent.run_over() && agent.running() == 0) {
       std::printf("tandem agent %s: the run is over; exiting (--once)\n", host.c_str());
       agent.publish(state);
+      own.set(runtime::Lifecycle::Finalized, "run over");
       return 0;
     }
     requests.wait(0.02);
@@ -408,6 +417,7 @@ int agent_command(const std::vector<std::string>& args) {
     if (Clock::now() - asked > std::chrono::seconds(7)) agent.stop_all(SIGKILL);
   }
   agent.publish(state);
+  own.set(runtime::Lifecycle::Finalized, "stopped");
   std::printf("tandem agent %s: stopped\n", host.c_str());
   return 0;
 }

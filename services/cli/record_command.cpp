@@ -109,6 +109,7 @@ pb::ProcessStatus convert(const msg::ProcessStatus& s) {
   o.set_wear(s.wear());
   o.set_workload(s.workload());
   o.set_serving(s.serving());
+  o.set_host(s.host());
   return o;
 }
 pb::RobotSummary convert(const msg::RobotSummary& s) {

@@ -187,6 +187,11 @@ ip netns exec "$p-a" "$bin/tandem" up stop.yaml > stop.log 2>&1 &
 up=$!; pids+=($up)
 wait_for "first tick at wall" agent3-a.log 30 || { cat stop.log agent3-*.log; fail "the long run did not start"; }
 sleep 1
+# `tandem status` from host a shows where each process runs, and the agents.
+ip netns exec "$p-a" "$bin/tandem" status stop.yaml > status.log 2>&1 || { cat status.log; fail "tandem status"; }
+grep -q "m1/left .* pid [0-9]* on b " status.log && grep -q "m1/left@50 .* pid [0-9]* on c " status.log \
+  && grep -q "m1/world .* on a " status.log && grep -q "agent/c .* on c  runs 2 process(es)" status.log \
+  || { cat status.log; fail "tandem status does not show the hosts"; }
 kill -TERM "$agent_c"; wait "$agent_c" || fail "agent c did not exit 0 on SIGTERM"
 grep -q "tandem agent c: stopped" agent3-c.log || { cat agent3-c.log; fail "agent c did not stop its processes"; }
 [ "$(ip netns pids "$p-c" | wc -l)" -eq 0 ] || fail "agent c left processes behind"

@@ -109,7 +109,7 @@ TEST_CASE("host watch: a host is lost after the timeout of silence, once, and ba
   CHECK_FALSE(w.known("zz"));
 }
 
-TEST_CASE("security on several hosts: an identity per agent that may only write its own state", "[multihost]") {
+TEST_CASE("security on several hosts: an identity per agent that may only write its own state and status", "[multihost]") {
   const std::string path = write(kHosts + "security:\n  keys: k\nmodules:\n  - {name: m1, scenario: " + kScenario +
                                  ", case: SOSM, host: a, robot_hosts: {left: b, right: c}}\n");
   const auto d = tandem::runtime::load_deployment(path);
@@ -124,7 +124,7 @@ TEST_CASE("security on several hosts: an identity per agent that may only write 
   };
   for (const char* h : {"a", "b", "c"}) {
     const auto& agent = find(tandem::runtime::identity_name("agent", h));
-    CHECK(agent.publish == std::vector<std::string>{"tandem/agent_state"});
+    CHECK(agent.publish == std::vector<std::string>{"tandem/agent_state", "tandem/process_status"});
     CHECK(agent.subscribe == std::vector<std::string>{"tandem/agent_request", "tandem/process_status"});
   }
   const auto& launcher = find("launcher");

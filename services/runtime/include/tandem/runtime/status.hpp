@@ -3,6 +3,8 @@
 // process's current state.
 #pragma once
 
+#include <cstdlib>
+
 #include <tandemPubSubTypes.h>
 #include <unistd.h>
 
@@ -24,6 +26,8 @@ class StatusPublisher {
     msg_.role(role);
     msg_.module_id(module_id);
     msg_.pid(static_cast<int64_t>(::getpid()));
+    // Multi-host: the agent that started this process names its host (docs/multihost.md).
+    if (const char* host = std::getenv("TANDEM_HOST")) msg_.host(host);
   }
   msg::ProcessStatus& msg() { return msg_; }
   void set(Lifecycle s, const std::string& detail = "") {

@@ -51,7 +51,8 @@ void agent_usage(std::FILE* f) {
       "deployment file, scenarios and build at the same paths.\n"
       "\n"
       "  --host NAME   this host's name in 'hosts:'; its address must be one of this machine's\n"
-      "  --once        exit when the launcher's run is over (default: serve the next run of the deployment)\n"
+      "  --once        exit when the launcher's run is over, or when it fell silent and the agent fenced\n"
+      "                (default: keep serving: the same launcher once heard again, or the next run)\n"
       "\n"
       "Fencing: when the launcher is silent for host_timeout seconds (a cut link), the agent SIGKILLs its\n"
       "processes: the launcher counts the host as lost and standbys on other hosts have taken over.\n"
@@ -95,6 +96,7 @@ class Agent {
     const unsigned long long launcher = r.spawn_id() >> 20;
     launcher_heard_ = Clock::now();
     if (launcher != launcher_pid_) new_launcher(launcher);
+    heard_again();
     if (r.kind() == "start") {
       start(r);
     } else if (r.kind() == "signal") {
@@ -111,6 +113,7 @@ class Agent {
     if (launcher_pid_ == 0 && ps.state() == 2 && ps.pid() > 0) new_launcher(static_cast<unsigned long long>(ps.pid()));
     if (static_cast<unsigned long long>(ps.pid()) != launcher_pid_) return;
     launcher_heard_ = Clock::now();
+    if (ps.state() == 2) heard_again();
     if (ps.state() == 3 && !run_over_) {  // finalized: the run is over
       run_over_ = true;
       if (running() > 0) {
@@ -137,12 +140,12 @@ class Agent {
       }
     }
     const double silent = std::chrono::duration<double>(Clock::now() - launcher_heard_).count();
-    if (running() > 0 && !run_over_ && silent > d_.host_timeout) {
+    if (running() > 0 && !run_over_ && !fenced_ && silent > d_.host_timeout) {
       std::printf("tandem agent %s: the launcher has been silent for %.1f s: this host counts as lost, standbys "
                   "elsewhere serve its slots; SIGKILL to its %d process(es) (fencing)\n",
                   host_.c_str(), silent, running());
       stop_all(SIGKILL);
-      run_over_ = true;
+      fenced_ = true;
     }
     std::fflush(stdout);
   }
@@ -182,6 +185,8 @@ class Agent {
     return n;
   }
   bool run_over() const { return run_over_; }
+  /// It killed its processes because the launcher fell silent (it serves it again when heard again).
+  bool fenced() const { return fenced_; }
   bool served() const { return launcher_pid_ != 0; }
   /// A child was killed by a signal: its shared-memory files may be left (removed by the caller).
   bool take_killed() {
@@ -200,6 +205,7 @@ class Agent {
     std::printf("tandem agent %s: serving the launcher with pid %llu\n", host_.c_str(), pid);
     launcher_pid_ = pid;
     run_over_ = false;
+    fenced_ = false;
     // The previous run's children are forgotten once reaped (their spawn ids are the old launcher's).
     std::vector<AgentChildRun> keep;
     for (auto& c : children_) {
@@ -264,6 +270,14 @@ class Agent {
     tombstones_[r.spawn_id()] = sig;
   }
 
+  /// The launcher is heard again after this host fenced itself (a healed partition): it may place processes here
+  /// again (it counted the fenced ones as failed).
+  void heard_again() {
+    if (!fenced_) return;
+    fenced_ = false;
+    std::printf("tandem agent %s: the launcher is heard again; serving it again\n", host_.c_str());
+  }
+
   void note(const std::string& text) {
     detail_ = text;
     std::printf("tandem agent %s: %s\n", host_.c_str(), text.c_str());
@@ -280,7 +294,8 @@ class Agent {
   std::map<unsigned long long, int> tombstones_;
   unsigned long long launcher_pid_ = 0;
   Clock::time_point launcher_heard_ = Clock::now();
-  bool run_over_ = false;
+  bool run_over_ = false;  ///< the launcher's run is over (it said so)
+  bool fenced_ = false;    ///< the launcher fell silent and this agent killed its processes
   bool killed_ = false;
 };
 
@@ -400,7 +415,8 @@ int agent_command(const std::vector<std::string>& args) {
       own.publish();
       published = Clock::now();
     }
-    if (once && agent.served() && agent.run_over() && agent.running() == 0) {
+    // --once: the run is over, or this host was cut off from it (fenced).
+    if (once && agent.served() && (agent.run_over() || agent.fenced()) && agent.running() == 0) {
       std::printf("tandem agent %s: the run is over; exiting (--once)\n", host.c_str());
       agent.publish(state);
       own.set(runtime::Lifecycle::Finalized, "run over");

@@ -8,7 +8,8 @@
 #  2. real time, a coordinator and two modules; m1's robots on b with standbys on c, m2 wholly on b. Host b's
 #     link is cut mid-task: m1's standbys on c take over with the grasp held, m2 counts as failed and its task is
 #     re-planned, every task is done once; b's agent fences its processes;
-#  3. stopping: an agent stopped mid-run takes its processes with it, `tandem down` stops the launcher, and the
+#  3. a healed partition: b's agent fences while cut, serves the launcher again afterwards, and robots plugged
+#     into the arms run on b again; then stopping: an agent stopped mid-run takes its processes with it, `tandem down` stops the launcher, and the
 #     agents stopped afterwards leave nothing running in any namespace;
 #  4. security across hosts (simple discovery: Fast DDS 2.9's Discovery Server has no identity): keys with an
 #     identity per agent, and the lockstep run of 1 gives the same numbers.
@@ -175,7 +176,7 @@ print(f"4/4 tasks done once ({by}), m1 held its object through {s['m1.failovers'
 EOF
 [ "$(left_in_namespaces)" -eq 0 ] || { ip netns pids "$p-b" | xargs -r ps -o pid,cmd -p; fail "processes left in the namespaces after run 2"; }
 
-echo "== 3. stopping: an agent stopped mid-run, tandem down, then the agents: nothing left"
+echo "== 3. a healed partition, then stopping: an agent stopped mid-run, tandem down, then the agents: nothing left"
 sed "s/ duration: 5.0 / duration: 60.0 /" "$src/config/scenarios/paper.yaml" > long.yaml
 {
   echo "name: mh-stop"; echo "domain_id: $((base + 3))"; echo "timing: realtime"; echo "timeout: 10"; hosts_yaml
@@ -192,6 +193,17 @@ ip netns exec "$p-a" "$bin/tandem" status stop.yaml > status.log 2>&1 || { cat s
 grep -q "m1/left .* pid [0-9]* on b " status.log && grep -q "m1/left@50 .* pid [0-9]* on c " status.log \
   && grep -q "m1/world .* on a " status.log && grep -q "agent/c .* on c  runs 2 process(es)" status.log \
   || { cat status.log; fail "tandem status does not show the hosts"; }
+# A healed partition: b is cut for 2.5 s (its agent fences, the launcher counts it lost, c's standbys serve),
+# then back; the agent serves the launcher again and a robot plugged into each arm runs on b again.
+ip link set "${p}b1" down; sleep 2.5; ip link set "${p}b1" up
+wait_for "host b is back" stop.log 10 || { cat stop.log agent3-b.log; fail "host b was not heard again after the cut"; }
+grep -q "(fencing)" agent3-b.log && grep -q "the launcher is heard again; serving it again" agent3-b.log \
+  || { cat agent3-b.log; fail "agent b did not fence, or did not serve again"; }
+for arm in left right; do
+  ip netns exec "$p-a" "$bin/tandem" plug stop.yaml robot "m1/$arm" > "plug-$arm.log" 2>&1 || { cat "plug-$arm.log"; fail "plug m1/$arm"; }
+done
+[ "$(grep -c "started m1/\(left\|right\) " agent3-b.log)" -eq 4 ] || { cat agent3-b.log; fail "the plugged robots did not start on b"; }
+wait_for "m1/left now follows m1/left (was m1/left@50): takeover" agent3-a.log 10 || { cat agent3-a.log; fail "the plugged robot did not take m1/left"; }
 kill -TERM "$agent_c"; wait "$agent_c" || fail "agent c did not exit 0 on SIGTERM"
 grep -q "tandem agent c: stopped" agent3-c.log || { cat agent3-c.log; fail "agent c did not stop its processes"; }
 [ "$(ip netns pids "$p-c" | wc -l)" -eq 0 ] || fail "agent c left processes behind"

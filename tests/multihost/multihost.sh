@@ -18,10 +18,19 @@ set -euo pipefail
 bin=$1 src=$2 work=$3 base=$4
 rm -rf "$work"; mkdir -p "$work"; cd "$work"; touch .started
 fail() { echo "FAIL: $*"; exit 1; }
-if [ "$(id -u)" != 0 ] || ! ip netns add "tmhprobe$$" 2>/dev/null; then
-  echo "SKIP: network namespaces need root (CI runs as root)"; exit 77
-fi
-ip netns del "tmhprobe$$"
+# What the hosts need: root, network namespaces, veth pairs and a bridge (skipped, saying which, without them).
+probe() {
+  [ "$(id -u)" = 0 ] || { echo "root"; return; }
+  command -v ip > /dev/null || { echo "the ip command (iproute2)"; return; }
+  ip netns add "tmhprobe$$" 2> /dev/null || { echo "network namespaces"; return; }
+  ip netns del "tmhprobe$$"
+  ip link add "tmhpr$$" type bridge 2> /dev/null || { echo "a bridge"; return; }
+  ip link del "tmhpr$$"
+  ip link add "tmhpv$$" type veth peer name "tmhpw$$" 2> /dev/null || { echo "veth pairs"; return; }
+  ip link del "tmhpv$$"
+}
+missing=$(probe)
+if [ -n "$missing" ]; then echo "SKIP: the multi-host test needs $missing (CI runs as root)"; exit 77; fi
 
 p="tmh$base"       # namespace/interface prefix: unique per domain base
 net="10.77.$base"  # the hosts' subnet

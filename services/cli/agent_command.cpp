@@ -2,8 +2,9 @@
 // It starts and supervises the role processes the launcher places on its host, on the launcher's requests over
 // DDS (AgentRequest), and reports them with its heartbeat (AgentState, every 100 ms). It runs only this
 // project's role executables (tandem-world, -supervisor, -robot, -coordinator, from its own directory), never a
-// path from the wire. Fencing: when the launcher has been silent for the deployment's host_timeout, the agent
-// kills what it runs, because the launcher counts this host as lost and has standbys elsewhere take over.
+// path from the wire. It serves one launcher run at a time (AgentRequest.run), and only the launcher may write
+// requests. Fencing: when the launcher has been silent for the deployment's host_timeout, or its heartbeat says
+// it counts this host as lost, the agent kills what it runs: standbys elsewhere have taken over.
 #include "agent_command.hpp"
 
 #include <arpa/inet.h>
@@ -51,11 +52,12 @@ void agent_usage(std::FILE* f) {
       "deployment file, scenarios and build at the same paths.\n"
       "\n"
       "  --host NAME   this host's name in 'hosts:'; its address must be one of this machine's\n"
-      "  --once        exit when the launcher's run is over, or when it fell silent and the agent fenced\n"
+      "  --once        exit when the launcher's run is over, or its launcher has been silent for host_timeout\n"
       "                (default: keep serving: the same launcher once heard again, or the next run)\n"
       "\n"
-      "Fencing: when the launcher is silent for host_timeout seconds (a cut link), the agent SIGKILLs its\n"
-      "processes: the launcher counts the host as lost and standbys on other hosts have taken over.\n"
+      "Fencing: when the launcher is silent for host_timeout seconds (a cut link), or says it counts this host\n"
+      "as lost (it does not hear the agent), the agent SIGKILLs its processes: standbys on other hosts have\n"
+      "taken over. One agent per host: a second one for the same host is refused (exit 2).\n"
       "SIGINT/SIGTERM stop the agent: its processes get SIGTERM, SIGKILL after 5 s, and are reaped.\n"
       "\n"
       "Exit: 0 stopped; 2 bad arguments, an unknown host, or an address not on this machine.\n",
@@ -93,35 +95,46 @@ class Agent {
 
   void on_request(const msg::AgentRequest& r) {
     if (r.host() != host_ || r.deployment() != d_.name) return;
-    const unsigned long long launcher = r.spawn_id() >> 20;
+    if (r.run() == 0) return;
+    if (r.run() != run_) {
+      if (r.kind() == "end") return;  // the end of a run this agent does not serve
+      // First come, first served: another launcher of this deployment while the one served lives is refused.
+      if (run_ != 0 && !run_over_ && silent() <= d_.host_timeout) {
+        if (refused_runs_.insert(r.run()).second) {
+          note("refused requests of another launcher run (" + std::to_string(r.run()) + ") while serving run " +
+               std::to_string(run_) + ": is a second `tandem up` of this deployment running?");
+        }
+        return;
+      }
+      new_run(r.run());
+    }
     launcher_heard_ = Clock::now();
-    if (launcher != launcher_pid_) new_launcher(launcher);
-    heard_again();
-    if (r.kind() == "start") {
+    if (r.kind() == "heartbeat") {
+      if (r.host_lost()) {
+        // One-way partition: this agent hears the launcher, but the launcher does not hear it.
+        fence("the launcher counts this host as lost (it does not hear this agent)");
+      } else {
+        heard_again();
+      }
+    } else if (r.kind() == "start") {
       start(r);
     } else if (r.kind() == "signal") {
       signal(r);
+    } else if (r.kind() == "end") {
+      if (!run_over_) {
+        run_over_ = true;
+        if (running() > 0) {
+          std::printf("tandem agent %s: the launcher's run is over; stopping %d leftover process(es)\n", host_.c_str(), running());
+          stop_all(SIGTERM);
+        }
+      }
     } else {
-      note("refused a request of unknown kind '" + r.kind() + "' (accepted: start, signal)");
+      note("refused a request of unknown kind '" + r.kind() + "' (accepted: start, signal, heartbeat, end)");
     }
   }
 
-  /// The launcher's status (every 100 ms): its heartbeat, and the end of its run.
-  void on_launcher_status(const msg::ProcessStatus& ps) {
-    if (ps.process_id() != "launcher" || ps.deployment() != d_.name) return;
-    // A launcher heard before any request (this host may have nothing placed on it): the one served now.
-    if (launcher_pid_ == 0 && ps.state() == 2 && ps.pid() > 0) new_launcher(static_cast<unsigned long long>(ps.pid()));
-    if (static_cast<unsigned long long>(ps.pid()) != launcher_pid_) return;
-    launcher_heard_ = Clock::now();
-    if (ps.state() == 2) heard_again();
-    if (ps.state() == 3 && !run_over_) {  // finalized: the run is over
-      run_over_ = true;
-      if (running() > 0) {
-        std::printf("tandem agent %s: the launcher's run is over; stopping %d leftover process(es)\n", host_.c_str(), running());
-        stop_all(SIGTERM);
-      }
-    }
-  }
+  /// Seconds since the served launcher was last heard.
+  double silent() const { return std::chrono::duration<double>(Clock::now() - launcher_heard_).count(); }
 
   /// Reaps children, enforces SIGKILL 5 s after SIGTERM, and fences when the launcher is silent.
   void poll() {
@@ -139,13 +152,10 @@ class Agent {
         c.term_at = Clock::time_point{};
       }
     }
-    const double silent = std::chrono::duration<double>(Clock::now() - launcher_heard_).count();
-    if (running() > 0 && !run_over_ && !fenced_ && silent > d_.host_timeout) {
-      std::printf("tandem agent %s: the launcher has been silent for %.1f s: this host counts as lost, standbys "
-                  "elsewhere serve its slots; SIGKILL to its %d process(es) (fencing)\n",
-                  host_.c_str(), silent, running());
-      stop_all(SIGKILL);
-      fenced_ = true;
+    if (!run_over_ && silent() > d_.host_timeout) {
+      char why[96];
+      std::snprintf(why, sizeof why, "the launcher has been silent for %.1f s", silent());
+      fence(why);
     }
     std::fflush(stdout);
   }
@@ -156,7 +166,8 @@ class Agent {
     st.deployment(d_.name);
     st.address(address_);
     st.pid(::getpid());
-    st.launcher_pid(launcher_pid_);
+    st.started(started_);
+    st.run(run_);
     for (const auto& c : children_) {
       msg::AgentChild ac;
       ac.spawn_id(c.spawn_id);
@@ -187,7 +198,12 @@ class Agent {
   bool run_over() const { return run_over_; }
   /// It killed its processes because the launcher fell silent (it serves it again when heard again).
   bool fenced() const { return fenced_; }
-  bool served() const { return launcher_pid_ != 0; }
+  bool served() const { return run_ != 0; }
+  /// Another agent's state for the same host: the one that started later leaves (true: this one).
+  bool yields_to(const msg::AgentState& other) const {
+    if (other.host() != host_ || other.deployment() != d_.name || other.pid() == ::getpid()) return false;
+    return other.started() < started_ || (other.started() == started_ && other.pid() < ::getpid());
+  }
   /// A child was killed by a signal: its shared-memory files may be left (removed by the caller).
   bool take_killed() {
     const bool k = killed_;
@@ -196,23 +212,37 @@ class Agent {
   }
 
  private:
-  void new_launcher(unsigned long long pid) {
+  void new_run(unsigned long long run) {
     if (running() > 0) {
-      std::printf("tandem agent %s: a new launcher (pid %llu); stopping the %d process(es) of the previous run\n",
-                  host_.c_str(), pid, running());
+      std::printf("tandem agent %s: a new launcher run (%llu); stopping the %d process(es) of the previous one\n",
+                  host_.c_str(), run, running());
       stop_all(SIGKILL);
     }
-    std::printf("tandem agent %s: serving the launcher with pid %llu\n", host_.c_str(), pid);
-    launcher_pid_ = pid;
+    std::printf("tandem agent %s: serving launcher run %llu\n", host_.c_str(), run);
+    run_ = run;
     run_over_ = false;
     fenced_ = false;
-    // The previous run's children are forgotten once reaped (their spawn ids are the old launcher's).
+    // The previous run's children are forgotten (their spawn ids are the old run's); running ones until reaped.
     std::vector<AgentChildRun> keep;
     for (auto& c : children_) {
-      if (c.running) keep.push_back(c);
+      if (c.running) {
+        c.spawn_id = 0;
+        keep.push_back(c);
+      }
     }
     children_ = keep;
     tombstones_.clear();
+    seen_.clear();
+  }
+
+  /// Fencing: this host counts as lost (standbys elsewhere serve its slots), so what it runs is killed, so that
+  /// no primary comes back beside its replacement.
+  void fence(const std::string& why) {
+    if (fenced_ || running() == 0) return;
+    std::printf("tandem agent %s: %s: this host counts as lost, standbys elsewhere serve its slots; SIGKILL to its "
+                "%d process(es) (fencing)\n", host_.c_str(), why.c_str(), running());
+    stop_all(SIGKILL);
+    fenced_ = true;
   }
 
   void start(const msg::AgentRequest& r) {
@@ -292,7 +322,9 @@ class Agent {
   std::vector<AgentChildRun> children_;
   std::set<unsigned long long> seen_;
   std::map<unsigned long long, int> tombstones_;
-  unsigned long long launcher_pid_ = 0;
+  unsigned long long run_ = 0;  ///< the launcher run served (AgentRequest.run), 0: none yet
+  double started_ = static_cast<double>(std::time(nullptr));
+  std::set<unsigned long long> refused_runs_;
   Clock::time_point launcher_heard_ = Clock::now();
   bool run_over_ = false;  ///< the launcher's run is over (it said so)
   bool fenced_ = false;    ///< the launcher fell silent and this agent killed its processes
@@ -391,7 +423,21 @@ int agent_command(const std::vector<std::string>& args) {
   }
   bus::Reader<msg::AgentRequest, msg::AgentRequestPubSubType> requests(*part, bus::kAgentRequestTopic, bus::TopicKind::Control);
   bus::Writer<msg::AgentState, msg::AgentStatePubSubType> state(*part, bus::kAgentStateTopic, bus::TopicKind::Status);
-  bus::Reader<msg::ProcessStatus, msg::ProcessStatusPubSubType> status(*part, bus::kStatusTopic, bus::TopicKind::Status);
+  // One agent per host: another one for this host would start every process a second time. Of two, the one that
+  // started later leaves (exit 2), at start-up or whenever they find each other.
+  bus::Reader<msg::AgentState, msg::AgentStatePubSubType> others(*part, bus::kAgentStateTopic, bus::TopicKind::Status);
+  auto another_agent = [&]() -> bool {
+    msg::AgentState st;
+    while (others.take(st)) {
+      if (agent.yields_to(st)) {
+        std::fprintf(stderr, "tandem agent: another agent (pid %lld, address %s) serves host %s of %s already; one "
+                             "agent per host: this one leaves\n", static_cast<long long>(st.pid()), st.address().c_str(),
+                     host.c_str(), d.name.c_str());
+        return true;
+      }
+    }
+    return false;
+  };
   // Its own status, as every process's: `tandem status` lists the agents beside what they run.
   runtime::StatusPublisher own(*part, "agent/" + host, "agent", "");
   own.msg().deployment(d.name);
@@ -405,8 +451,11 @@ int agent_command(const std::vector<std::string>& args) {
   while (!g_agent_stop) {
     msg::AgentRequest r;
     while (requests.take(r)) agent.on_request(r);
-    msg::ProcessStatus ps;
-    while (status.take(ps)) agent.on_launcher_status(ps);
+    if (another_agent()) {
+      agent.stop_all(SIGKILL);
+      agent.poll();
+      return 2;
+    }
     agent.poll();
     if (agent.take_killed()) runtime::clean_stale_shm(started, static_cast<int>(d.domain_id));
     if (Clock::now() - published >= std::chrono::milliseconds(100)) {
@@ -415,8 +464,8 @@ int agent_command(const std::vector<std::string>& args) {
       own.publish();
       published = Clock::now();
     }
-    // --once: the run is over, or this host was cut off from it (fenced).
-    if (once && agent.served() && (agent.run_over() || agent.fenced()) && agent.running() == 0) {
+    // --once: the run is over, or its launcher is gone (silent: this host was cut off, or it died).
+    if (once && agent.served() && agent.running() == 0 && (agent.run_over() || agent.silent() > d.host_timeout)) {
       std::printf("tandem agent %s: the run is over; exiting (--once)\n", host.c_str());
       agent.publish(state);
       own.set(runtime::Lifecycle::Finalized, "run over");

@@ -28,6 +28,7 @@
 #include <deque>
 #include <fstream>
 #include <map>
+#include <random>
 #include <memory>
 #include <set>
 #include <sstream>
@@ -89,6 +90,9 @@ struct Child {
   unsigned long long spawn_id = 0;  ///< the launcher's request id (AgentRequest.spawn_id)
   bool acked = false;               ///< the agent reported it (pid known, or failed to start)
   Clock::time_point sent{};         ///< when the start request was last sent (re-sent until acked)
+  long long agent_pid = 0;          ///< the pid of the agent that reported it
+  int signal = 0;                   ///< the strongest signal asked for (re-sent until the agent reports it gone)
+  Clock::time_point signal_sent{};
 };
 
 struct ModuleRun {
@@ -813,6 +817,28 @@ class Launcher {
   bus::Writer<msg::AgentRequest, msg::AgentRequestPubSubType>* agent_out_ = nullptr;
   std::unique_ptr<launcher::HostWatch> hosts_;  ///< multi-host: the agents' liveness (nullptr without hosts:)
   unsigned long long spawns_ = 0;
+  /// This launcher's run, in every request to the agents: random, so that two runs (two `tandem up`, even with
+  /// one pid in two containers) never take each other's processes.
+  unsigned long long run_ = [] {
+    std::random_device rd;
+    unsigned long long r = 0;
+    while (r == 0) r = (static_cast<unsigned long long>(rd()) << 32) ^ rd();
+    return r;
+  }();
+  std::map<std::string, std::map<long long, double>> agent_heard_;  ///< per host: agent pid -> last heard [s]
+  std::set<std::string> two_agents_;  ///< hosts with two agents at once, said once
+  std::map<std::string, unsigned long long> agent_runs_;  ///< the run each host's agent last said it serves
+  /// Hosts whose agent does not serve this run yet (not heard, or it has not received this launcher's heartbeat:
+  /// its reader of the requests has not matched yet).
+  std::vector<std::string> agents_not_serving() const {
+    std::vector<std::string> out;
+    for (const auto& h : d_.hosts) {
+      const auto it = agent_runs_.find(h.name);
+      if (it == agent_runs_.end() || it->second != run_) out.push_back(h.name);
+    }
+    return out;
+  }
+  std::set<std::string> other_runs_;             ///< "<host>/<run>" of other runs seen, said once
   std::set<unsigned long long> fenced_;  ///< processes of a host that came back, SIGKILLed once
   bus::Writer<msg::CoordinatorState, msg::CoordinatorStatePubSubType>* coord_state_out_ = nullptr;
   msg::CoordinatorState last_coord_state_;  ///< the latest queue state heard from a coordinator
@@ -886,12 +912,12 @@ class Launcher {
     } else if (hosts_ != nullptr && hosts_->lost(c.host)) {
       std::printf("  cannot start %-18s on %s: the host is lost%s\n", c.label.c_str(), c.host.c_str(), note);
       c.pid = -1;
-      c.running = false;
-      c.status = 127;
+      mark_exited(c, 127);
     } else {
       c.pid = 0;  // known when the agent reports it
-      c.spawn_id = (static_cast<unsigned long long>(::getpid()) << 20) | ++spawns_;
+      c.spawn_id = ++spawns_;
       c.acked = false;
+      c.signal = 0;
       send_start(c);
       std::printf("  started %-22s on %s%s\n", c.label.c_str(), c.host.c_str(), note);
     }
@@ -903,11 +929,17 @@ class Launcher {
  public:
   // ---- multi-host: the agents ------------------------------------------------------------------------------
 
-  void send_start(Child& c) {
+  msg::AgentRequest request(const std::string& host, const char* kind) const {
     msg::AgentRequest r;
-    r.host(c.host);
+    r.host(host);
     r.deployment(d_.name);
-    r.kind("start");
+    r.kind(kind);
+    r.run(run_);
+    return r;
+  }
+
+  void send_start(Child& c) {
+    msg::AgentRequest r = request(c.host, "start");
     r.spawn_id(c.spawn_id);
     r.label(c.label);
     r.role(c.role);
@@ -926,14 +958,27 @@ class Launcher {
       return;
     }
     if (hosts_ != nullptr && hosts_->lost(c.host)) return;  // counted as gone already
-    msg::AgentRequest r;
-    r.host(c.host);
-    r.deployment(d_.name);
-    r.kind("signal");
-    r.spawn_id(c.spawn_id);
-    r.label(c.label);
+    if (c.signal != SIGKILL) c.signal = sig;  // re-sent by watch_hosts until the agent reports it gone
+    send_signal(c.host, c.spawn_id, c.label, c.signal);
+    c.signal_sent = Clock::now();
+  }
+  void send_signal(const std::string& host, unsigned long long spawn_id, const std::string& label, int sig) {
+    msg::AgentRequest r = request(host, "signal");
+    r.spawn_id(spawn_id);
+    r.label(label);
     r.signal(sig);
     agent_out_->write(r);
+  }
+
+  /// Every 100 ms, to each host's agent: the launcher lives, and whether it counts the host as lost (one-way
+  /// partitions: an agent that hears the launcher but is not heard fences too). Ends the run with end=true.
+  void heartbeat(bool end = false) {
+    if (hosts_ == nullptr) return;
+    for (const auto& h : d_.hosts) {
+      msg::AgentRequest r = request(h.name, end ? "end" : "heartbeat");
+      r.host_lost(hosts_->lost(h.name));
+      agent_out_->write(r);
+    }
   }
 
   /// A child is gone: exited with `status` (128 + signal if killed), or counted as failed (its host was lost).
@@ -947,35 +992,52 @@ class Launcher {
   /// An agent's heartbeat and the state of the processes it started for this launcher.
   void on_agent_state(const msg::AgentState& st) {
     if (st.deployment() != d_.name || hosts_ == nullptr || !hosts_->known(st.host())) return;
+    agent_runs_[st.host()] = st.run();
+    if (st.run() != run_ && st.run() != 0) {
+      if (other_runs_.insert(st.host() + "/" + std::to_string(st.run())).second) {
+        std::printf("tandem up: the agent of %s serves another launcher run (%llu): is another `tandem up` of %s "
+                    "running? It will not start this run's processes while that one lives\n",
+                    st.host().c_str(), static_cast<unsigned long long>(st.run()), d_.name.c_str());
+      }
+      return;
+    }
+    // Which agent pids answer for the host, and when each was last heard: a process belongs to the agent that
+    // reported it, and counts as failed when that agent falls silent (a restarted agent: its processes died with
+    // it) even while the host is heard through another pid. Two pids heard at once: two agents for one host (the
+    // newer leaves by itself).
+    auto& pids = agent_heard_[st.host()];
+    pids[st.pid()] = seconds();
+    for (const auto& [other, at] : pids) {
+      if (other != st.pid() && seconds() - at < 0.5 && two_agents_.insert(st.host()).second) {
+        std::printf("tandem up: two agents answer for host %s (pids %lld and %lld): one agent per host\n",
+                    st.host().c_str(), static_cast<long long>(other), static_cast<long long>(st.pid()));
+      }
+    }
     if (hosts_->heard(st.host(), seconds())) {
       std::printf("tandem up: host %s is back (its agent is heard again); its processes were replaced meanwhile\n",
                   st.host().c_str());
     }
+    if (st.run() != run_) return;  // it has not had a request of this run yet
+    std::set<unsigned long long> listed;
     for (const auto& ac : st.children()) {
+      listed.insert(ac.spawn_id());
       Child* c = nullptr;
       for (auto& x : children_) {
         if (x.spawn_id == ac.spawn_id() && x.host == st.host()) c = &x;
       }
       if (c == nullptr || !c->running) {
-        // A process this launcher counts as gone (its host was lost, or another launcher's): fenced off, so that
-        // two robots never command one arm as primaries.
-        if (ac.running() && (st.launcher_pid() == static_cast<unsigned long long>(::getpid())) &&
-            fenced_.insert(ac.spawn_id()).second) {
+        // A process this launcher counts as gone (its host was lost meanwhile): fenced off, so that two robots
+        // never command one arm as primaries.
+        if (ac.running() && fenced_.insert(ac.spawn_id()).second) {
           std::printf("tandem up: %s on %s still runs but was counted as failed; SIGKILL\n", ac.label().c_str(),
                       st.host().c_str());
-          msg::AgentRequest r;
-          r.host(st.host());
-          r.deployment(d_.name);
-          r.kind("signal");
-          r.spawn_id(ac.spawn_id());
-          r.label(ac.label());
-          r.signal(SIGKILL);
-          agent_out_->write(r);
+          send_signal(st.host(), ac.spawn_id(), ac.label(), SIGKILL);
         }
         continue;
       }
       if (!c->acked) {
         c->acked = true;
+        c->agent_pid = st.pid();
         c->pid = static_cast<pid_t>(ac.pid());
         if (ac.pid() > 0) std::printf("  %-30s runs on %s as pid %lld\n", c->label.c_str(), c->host.c_str(), static_cast<long long>(ac.pid()));
       }
@@ -986,6 +1048,13 @@ class Launcher {
           shm_dirty_ = true;
           killed_at_ = Clock::now();
         }
+      }
+    }
+    // A process the agent acknowledged and no longer lists (it forgot this run: restarted with the same pid?).
+    for (auto& c : children_) {
+      if (c.running && c.acked && c.host == st.host() && c.agent_pid == st.pid() && listed.count(c.spawn_id) == 0) {
+        std::printf("tandem up: the agent of %s no longer reports %s; counted as failed\n", st.host().c_str(), c.label.c_str());
+        mark_exited(c, 128 + SIGKILL);
       }
     }
   }
@@ -1006,6 +1075,17 @@ class Launcher {
       std::printf("tandem up: host %s lost: no word from its agent for %.1f s; its %d process(es) count as failed%s%s\n",
                   h.c_str(), d_.host_timeout, n, n > 0 ? ": " : "", labels.c_str());
     }
+    // Processes whose agent fell silent while its host is still heard (through a new agent: a restart).
+    for (auto& c : children_) {
+      if (!c.running || c.host.empty() || !c.acked || hosts_->lost(c.host)) continue;
+      const auto& pids = agent_heard_[c.host];
+      const auto it = pids.find(c.agent_pid);
+      if (it != pids.end() && seconds() - it->second > d_.host_timeout) {
+        std::printf("tandem up: the agent of %s that ran %s (pid %lld) is gone (another agent answers for the host); "
+                    "counted as failed\n", c.host.c_str(), c.label.c_str(), c.agent_pid);
+        mark_exited(c, 128 + SIGKILL);
+      }
+    }
     const auto now = Clock::now();
     for (auto& c : children_) {
       if (!c.running || c.host.empty() || c.acked) continue;
@@ -1015,6 +1095,14 @@ class Launcher {
         mark_exited(c, 127);
       } else if (now - c.sent > std::chrono::milliseconds(200)) {
         send_start(c);
+      }
+    }
+    // Signals are re-sent until the agent reports the process gone (the request topic keeps the newest 32 per
+    // host: a burst to many processes of one host could lose some).
+    for (auto& c : children_) {
+      if (c.running && !c.host.empty() && c.signal != 0 && now - c.signal_sent > std::chrono::milliseconds(200)) {
+        send_signal(c.host, c.spawn_id, c.label, c.signal);
+        c.signal_sent = now;
       }
     }
   }
@@ -1114,6 +1202,18 @@ int up_command(const std::vector<std::string>& args) {
     return 2;
   }
   if (!record_file.empty()) d.record = record_file;  // --record overrides the file's record:
+  if (!d.hosts.empty()) {
+    // The agents start processes from their own working directories: send them absolute paths (the same
+    // paths must exist on every host, docs/multihost.md).
+    auto absolute = [](std::string& path) {
+      if (char* abs = ::realpath(path.c_str(), nullptr)) {
+        path = abs;
+        std::free(abs);
+      }
+    };
+    absolute(file);
+    for (auto& m : d.modules) absolute(m.scenario);
+  }
   Launcher L(d, file);
   try {
     for (const auto& m : d.modules) L.prepare_module(m);
@@ -1242,15 +1342,17 @@ int up_command(const std::vector<std::string>& args) {
     while (!g_stop) {
       msg::AgentState st;
       while (agent_state->take(st)) L.on_agent_state(st);
-      const auto waiting = L.hosts_->waiting();
+      // Every agent heard, and serving this run: its state says so once it has this launcher's heartbeat, so the
+      // requests reach it both ways (a state heard alone once came with requests that never arrived).
+      const auto waiting = L.agents_not_serving();
       if (waiting.empty()) break;
       std::string list;
       for (const auto& h : waiting) list += (list.empty() ? "" : ", ") + h;
       // As long as a process waits for its peers (timeout:), at least 5 s.
       const double wait_s = std::max(5.0, d.timeout);
       if (Clock::now() - asked > std::chrono::duration<double>(wait_s)) {
-        std::fprintf(stderr, "tandem up: no agent heard within %.0f s for host(s) %s; start `tandem agent %s --host NAME` "
-                             "on each (same domain %d, discovery %s)\n",
+        std::fprintf(stderr, "tandem up: no agent serving this run within %.0f s for host(s) %s; start `tandem agent %s "
+                             "--host NAME` on each (same domain %d, discovery %s)\n",
                      wait_s, list.c_str(), file.c_str(), d.domain_id,
                      d.discovery == "server" ? (d.discovery_address + ":" + std::to_string(runtime::discovery_port_of(d))).c_str() : "simple");
         return 2;
@@ -1260,10 +1362,11 @@ int up_command(const std::vector<std::string>& args) {
         std::fflush(stdout);
         last_note = Clock::now();
       }
-      launcher_status.publish();  // the agents learn that a launcher is there
+      launcher_status.publish();
+      L.heartbeat();  // the agents learn which run they serve
       agent_state->wait(0.1);
     }
-    std::printf("tandem up: %zu host(s), every agent heard\n", d.hosts.size());
+    std::printf("tandem up: %zu host(s), every agent heard and serving this run\n", d.hosts.size());
   }
   std::printf("tandem up %s: %zu module(s), domain %d, %s, %s timing%s\n", d.name.c_str(), d.modules.size(),
               d.domain_id, d.transport.c_str(), d.timing.c_str(),
@@ -1287,6 +1390,7 @@ int up_command(const std::vector<std::string>& args) {
         view.update(ps);
         heard = heard || (ps.process_id() == "recorder" && ps.pid() == recorder && ps.state() == 2);
       }
+      L.heartbeat();  // the agents' launcher lives meanwhile
       if (::waitpid(recorder, nullptr, WNOHANG) == recorder) {
         std::fprintf(stderr, "tandem up: the recorder exited at start (see its message above)\n");
         return 2;
@@ -1323,6 +1427,7 @@ int up_command(const std::vector<std::string>& args) {
     }
   } recorder_stop{recorder};
   bool recording_failed = false;
+  if (L.hosts_) L.hosts_->restart_clock(L.seconds());  // the recorder was awaited without reading agent states
   for (const auto& m : d.modules) {
     if (m.autostart) L.start_module(m.name);
   }
@@ -1356,7 +1461,16 @@ int up_command(const std::vector<std::string>& args) {
   };
   std::string running_labels;
   auto launcher_published = Clock::now();
+  auto heartbeat_sent = Clock::now();
   while (L.busy()) {
+    if (agent_state) {  // before poll(): a host is judged on the newest word from its agent
+      msg::AgentState st;
+      while (agent_state->take(st)) L.on_agent_state(st);
+      if (Clock::now() - heartbeat_sent >= std::chrono::milliseconds(100)) {
+        L.heartbeat();
+        heartbeat_sent = Clock::now();
+      }
+    }
     L.poll();
     L.escalate();
     {
@@ -1375,10 +1489,6 @@ int up_command(const std::vector<std::string>& args) {
       }
     }
     collect();
-    if (agent_state) {
-      msg::AgentState st;
-      while (agent_state->take(st)) L.on_agent_state(st);
-    }
     msg::ProcessStatus ps;
     while (status.take(ps)) {
       view.update(ps);
@@ -1425,6 +1535,10 @@ int up_command(const std::vector<std::string>& args) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
   L.reap(true);
+  if (agent_out) {  // the agents stop whatever is left of this run (--once agents exit)
+    L.heartbeat(true);
+    (void)agent_out->wait_for_acks(1.0);
+  }
   size_t started_modules = 0;
   for (const auto& [name, mr] : L.modules_) started_modules += mr.started ? 1 : 0;
   const auto settle = Clock::now();

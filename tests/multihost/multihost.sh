@@ -64,6 +64,16 @@ agent() {  # host deploy log [--once]
   ip netns exec "$p-$1" "$bin/tandem" agent "$2" --host "$1" ${4:-} > "$3" 2>&1 &
   pids+=($!)
 }
+# Waits for a background process at most `seconds` (a bare `wait` could hang the test until ctest's timeout);
+# returns its exit code, or fails naming it.
+await() {  # pid seconds what
+  local i
+  for ((i = 0; i < 10 * $2; ++i)); do kill -0 "$1" 2>/dev/null || break; sleep 0.1; done
+  kill -0 "$1" 2>/dev/null && { ps -o pid,etime,cmd -p "$1" || true; fail "$3 did not exit within $2 s"; }
+  local rc=0
+  wait "$1" || rc=$?
+  return "$rc"
+}
 left_in_namespaces() {
   local n=0
   for h in "${hosts[@]}"; do n=$((n + $(ip netns pids "$p-$h" | wc -l))); done
@@ -93,9 +103,10 @@ rc=0; on a "$bin/tandem" agent bad.yaml --host b > bad1.log 2>&1 || rc=$?
 agent a bad.yaml bad-agent-a.log --once
 agent b bad.yaml bad-agent-b.log --once
 rc=0; on a "$bin/tandem" up bad.yaml > bad2.log 2>&1 || rc=$?
-[ "$rc" -eq 2 ] && grep -q "no agent heard within 5 s for host(s) c" bad2.log || { cat bad2.log; fail "missing agent: expected exit 2"; }
+[ "$rc" -eq 2 ] && grep -q "no agent serving this run within 5 s for host(s) c" bad2.log || { cat bad2.log; fail "missing agent: expected exit 2"; }
 grep -q "started m1" bad2.log && fail "a process was started without every agent"
-kill "${pids[@]}"; wait "${pids[@]}" 2>/dev/null || true; pids=()
+kill "${pids[@]}" 2>/dev/null || true  # --once agents whose launcher never came may have left already
+for pid in "${pids[@]}"; do await "$pid" 10 "a bad-input agent" || true; done; pids=()
 echo "bad input refused by name"
 
 echo "== 1. lockstep: world and supervisor on a, robots on b; the same numbers as on one host"
@@ -114,8 +125,8 @@ wait_for "Server is running" discovery.log 10 || { cat discovery.log; fail "the 
 for h in a b c; do agent "$h" lockstep.yaml "agent1-$h.log" --once; done
 rc=0; on a timeout 120 "$bin/tandem" up lockstep.yaml --summary lockstep.summary > lockstep.log 2>&1 || rc=$?
 [ "$rc" -eq 0 ] || { cat lockstep.log agent1-*.log; fail "the multi-host lockstep run failed ($rc)"; }
-for pid in "${pids[@]:1}"; do wait "$pid" || fail "an agent exited with an error"; done
-kill "${pids[0]}"; wait "${pids[0]}" 2>/dev/null || true; pids=()
+for pid in "${pids[@]:1}"; do await "$pid" 20 "an agent (--once)" || fail "an agent exited with an error"; done
+kill "${pids[0]}"; await "${pids[0]}" 10 "the Discovery Server" || true; pids=()
 grep -q "discovery server             $net.1:$ds_port (external)" lockstep.log || fail "the launcher did not use the external server"
 grep -q "started m1/left                pid" agent1-b.log && grep -q "started m1/world               pid" agent1-a.log \
   || { cat agent1-*.log; fail "processes not on their hosts"; }
@@ -162,8 +173,8 @@ wait_for "first tick at wall" agent2-a.log 30 || { cat cut.log agent2-*.log; fai
 sleep 1.5
 ip link set "${p}b1" down
 echo "cut host b's link at $(date +%T.%N)"
-rc=0; wait "$up" || rc=$?
-for pid in "${pids[@]}"; do wait "$pid" 2>/dev/null || true; done; pids=()
+rc=0; await "$up" 130 "the launcher" || rc=$?
+for pid in "${pids[@]}"; do await "$pid" 20 "an agent (--once)" || true; done; pids=()
 ip link set "${p}b1" up
 [ "$rc" -eq 0 ] || { cat cut.log agent2-*.log; fail "the run with host b cut failed ($rc)"; }
 grep -q "host b lost: no word from its agent" cut.log || fail "the launcher did not count host b as lost"
@@ -193,7 +204,7 @@ sed "s/ duration: 5.0 / duration: 60.0 /" "$src/config/scenarios/paper.yaml" > l
 } > stop.yaml
 for h in a b c; do agent "$h" stop.yaml "agent3-$h.log"; done
 agent_c=${pids[2]}
-ip netns exec "$p-a" "$bin/tandem" up stop.yaml > stop.log 2>&1 &
+ip netns exec "$p-a" timeout 120 "$bin/tandem" up stop.yaml > stop.log 2>&1 &
 up=$!; pids+=($up)
 wait_for "first tick at wall" agent3-a.log 30 || { cat stop.log agent3-*.log; fail "the long run did not start"; }
 sleep 1
@@ -213,17 +224,17 @@ for arm in left right; do
 done
 [ "$(grep -c "started m1/\(left\|right\) " agent3-b.log)" -eq 4 ] || { cat agent3-b.log; fail "the plugged robots did not start on b"; }
 wait_for "m1/left now follows m1/left (was m1/left@50): takeover" agent3-a.log 10 || { cat agent3-a.log; fail "the plugged robot did not take m1/left"; }
-kill -TERM "$agent_c"; wait "$agent_c" || fail "agent c did not exit 0 on SIGTERM"
+kill -TERM "$agent_c"; await "$agent_c" 15 "agent c" || fail "agent c did not exit 0 on SIGTERM"
 grep -q "tandem agent c: stopped" agent3-c.log || { cat agent3-c.log; fail "agent c did not stop its processes"; }
 [ "$(ip netns pids "$p-c" | wc -l)" -eq 0 ] || fail "agent c left processes behind"
 wait_for "host c lost: no word from its agent" stop.log 10 || { cat stop.log; fail "the launcher did not notice that c's agent left"; }
 grep -q "m1/left@50 (pid [0-9]*) exited" agent3-c.log || fail "agent c did not reap its processes"
 on a "$bin/tandem" down stop.yaml > down.log 2>&1 || { cat down.log; fail "tandem down"; }
-rc=0; wait "$up" || rc=$?
+rc=0; await "$up" 30 "the launcher after tandem down" || rc=$?
 [ "$rc" -le 1 ] || { cat stop.log; fail "the launcher exited with $rc after tandem down"; }
 for h in a b; do grep -q "exited with code" "agent3-$h.log" || fail "agent $h saw no process stop"; done
 kill -TERM "${pids[0]}" "${pids[1]}"
-wait "${pids[0]}" || fail "agent a did not exit 0"; wait "${pids[1]}" || fail "agent b did not exit 0"
+await "${pids[0]}" 15 "agent a" || fail "agent a did not exit 0"; await "${pids[1]}" 15 "agent b" || fail "agent b did not exit 0"
 pids=()
 n=$(left_in_namespaces)
 [ "$n" -eq 0 ] || { for h in "${hosts[@]}"; do ip netns pids "$p-$h" | xargs -r ps -o pid,cmd -p; done; fail "$n process(es) left"; }
@@ -242,7 +253,7 @@ secured_run() {
   for h in a b c; do agent "$h" secure.yaml "agent4-$h.log" --once; done
   local rc=0
   ip netns exec "$p-a" timeout 150 "$bin/tandem" up secure.yaml --summary secure.summary > secure.log 2>&1 || rc=$?
-  for pid in "${pids[@]}"; do wait "$pid" 2>/dev/null || true; done; pids=()
+  for pid in "${pids[@]}"; do await "$pid" 20 "an agent (--once)" || true; done; pids=()
   return "$rc"
 }
 rc=0; secured_run || rc=$?

@@ -84,6 +84,8 @@ TEST_CASE("bad placements are refused by name, with what is accepted", "[multiho
   CHECK_THAT(refusal("hosts:\n  a: {address: 10.1.0.1, port: 3}\n" + mod + ", host: a}\n"),
              Catch::Contains("unknown key; accepted keys here: address"));
   CHECK_THAT(refusal("discovery_address: somewhere\n" + mod + "}\n"), Catch::Contains("expected an IPv4 address"));
+  CHECK_THAT(refusal("discovery: server\n" + kHosts + mod + ", host: a}\n"),
+             Catch::Contains("'discovery_address': the Discovery Server at 127.0.0.1 (loopback) cannot be reached"));
   CHECK_THAT(refusal(kHosts + mod + ", host: a}\ncoordinator:\n  tasks:\n"
                                     "    - {name: t, segments: [{to: [0.0, 0.8, 0.0], duration: 1.0}]}\n"),
              Catch::Contains("the coordinator needs a host"));
@@ -105,6 +107,12 @@ TEST_CASE("host watch: a host is lost after the timeout of silence, once, and ba
   w.heard("b", 6.6);
   CHECK(w.newly_lost(7.5).empty());                           // 0.9 s and 0.9 s of silence
   CHECK(w.newly_lost(7.7) == std::vector<std::string>{"a", "b"});  // 1.1 s
+  // A time in which nobody read the heartbeats does not count as silence.
+  w.heard("a", 8.0);
+  w.heard("b", 8.0);
+  w.restart_clock(20.0);
+  CHECK(w.newly_lost(20.9).empty());
+  CHECK(w.newly_lost(21.1) == std::vector<std::string>{"a", "b"});
   CHECK_FALSE(w.heard("zz", 8.0));                            // unknown hosts are ignored
   CHECK_FALSE(w.known("zz"));
 }
@@ -125,7 +133,7 @@ TEST_CASE("security on several hosts: an identity per agent that may only write 
   for (const char* h : {"a", "b", "c"}) {
     const auto& agent = find(tandem::runtime::identity_name("agent", h));
     CHECK(agent.publish == std::vector<std::string>{"tandem/agent_state", "tandem/process_status"});
-    CHECK(agent.subscribe == std::vector<std::string>{"tandem/agent_request", "tandem/process_status"});
+    CHECK(agent.subscribe == std::vector<std::string>{"tandem/agent_request", "tandem/agent_state"});
   }
   const auto& launcher = find("launcher");
   CHECK(std::count(launcher.publish.begin(), launcher.publish.end(), "tandem/agent_request") == 1);

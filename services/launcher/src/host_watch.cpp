@@ -17,6 +17,12 @@ bool HostWatch::heard(const std::string& host, double now) {
   return back;
 }
 
+void HostWatch::restart_clock(double now) {
+  for (auto& [name, s] : state_) {
+    if (s.heard && !s.lost && now > s.last) s.last = now;
+  }
+}
+
 std::vector<std::string> HostWatch::newly_lost(double now) {
   std::vector<std::string> out;
   for (auto& [name, s] : state_) {

@@ -133,6 +133,13 @@ Deployment load_deployment(const std::string& path) {
     }
     hr.finish();
     if (d.hosts.empty()) top.fail(root["hosts"], "hosts", "list at least one host (name: {address: IPv4})");
+    // A Discovery Server on a loopback address is out of reach of every other host.
+    const bool spread = std::any_of(d.hosts.begin(), d.hosts.end(), [](const HostSpec& h) { return h.address.rfind("127.", 0) != 0; });
+    if (d.discovery == "server" && d.discovery_address.rfind("127.", 0) == 0 && spread) {
+      top.fail(root["discovery_address"] ? root["discovery_address"] : root["discovery"], "discovery_address",
+               "the Discovery Server at " + d.discovery_address + " (loopback) cannot be reached from the other hosts; "
+               "give an address every host reaches, e.g. one of hosts:");
+    }
   }
   top.text("record", d.record);
   top.text("record_topics", d.record_topics);

@@ -47,9 +47,10 @@ std::vector<Identity> identities(const Deployment& d) {
   out.push_back({"launcher",
                  {status, control, coord, bus::kAgentRequestTopic},
                  {bus::kRobotSummaryTopic, bus::kWorldSummaryTopic, status, control, states, coord, bus::kAgentStateTopic}});
-  // Multi-host: each host's agent reads the launcher's requests and status, and writes its own state and status.
+  // Multi-host: each host's agent reads the launcher's requests (and the agents' states: one agent per host), and
+  // writes its own state and status.
   for (const auto& h : d.hosts) {
-    out.push_back({identity_name("agent", h.name), {bus::kAgentStateTopic, status}, {bus::kAgentRequestTopic, status}});
+    out.push_back({identity_name("agent", h.name), {bus::kAgentStateTopic, status}, {bus::kAgentRequestTopic, bus::kAgentStateTopic}});
   }
   out.push_back({"cli", {control}, {status}});
   // The recorder reads everything and writes only its status.

@@ -16,6 +16,8 @@ class HostWatch {
   /// The agent of `host` was heard at `now`. Returns true if the host was lost and is back. Unknown hosts are
   /// ignored (false).
   bool heard(const std::string& host, double now);
+  /// Counts every heard host's silence from `now` (after a time in which the caller read no heartbeat).
+  void restart_clock(double now);
   /// Hosts that have just been lost at `now` (each is reported once per loss).
   std::vector<std::string> newly_lost(double now);
 

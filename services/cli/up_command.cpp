@@ -501,6 +501,20 @@ class Launcher {
       }
       it = world_done_.erase(it);
     }
+    // Said once: every process started so far has been heard (the deployment is up, as far as discovery goes).
+    if (!all_heard_said_ && !stopping_) {
+      int n = 0;
+      bool all = true;
+      for (const auto& c : children_) {
+        if (!c.running || c.expected) continue;
+        ++n;
+        all = all && c.heard;
+      }
+      if (all && n > 0) {
+        std::printf("tandem up: all %d process(es) heard on the domain\n", n);
+        all_heard_said_ = true;
+      }
+    }
     // A process whose status was never heard within kSilentStartS of its start runs cut off from the domain
     // (seen in soaks: now and then a participant started beside many others never matched anyone): it is
     // killed, and its restart policy applies as for any failure.
@@ -844,6 +858,7 @@ class Launcher {
   msg::CoordinatorState last_coord_state_;  ///< the latest queue state heard from a coordinator
   bool have_coord_state_ = false;
   bool stopping_ = false, escalated_ = false, failed_ = false, coordinator_done_ = false;
+  bool all_heard_said_ = false;
   Clock::time_point stop_started_{};
   bool shm_dirty_ = false;           ///< a child was killed: its shared-memory files wait to be removed
   Clock::time_point killed_at_{};

@@ -209,10 +209,16 @@ up=$!; pids+=($up)
 wait_for "first tick at wall" agent3-a.log 30 || { cat stop.log agent3-*.log; fail "the long run did not start"; }
 sleep 1
 # `tandem status` from host a shows where each process runs, and the agents.
-ip netns exec "$p-a" "$bin/tandem" status stop.yaml > status.log 2>&1 || { cat status.log; fail "tandem status"; }
-grep -q "m1/left .* pid [0-9]* on b " status.log && grep -q "m1/left@50 .* pid [0-9]* on c " status.log \
-  && grep -q "m1/world .* on a " status.log && grep -q "agent/c .* on c  runs 2 process(es)" status.log \
-  || { cat status.log; fail "tandem status does not show the hosts"; }
+# (It waits for the processes the launcher runs; the agents' own statuses may come a moment later: asked again.)
+shown=no
+for _ in 1 2 3 4 5; do
+  ip netns exec "$p-a" "$bin/tandem" status stop.yaml > status.log 2>&1 || { cat status.log; fail "tandem status"; }
+  grep -q "m1/left .* pid [0-9]* on b " status.log && grep -q "m1/left@50 .* pid [0-9]* on c " status.log \
+    && grep -q "m1/world .* on a " status.log && grep -q "agent/c .* on c  runs 2 process(es)" status.log \
+    && { shown=yes; break; }
+  sleep 1
+done
+[ "$shown" = yes ] || { cat status.log; fail "tandem status does not show the hosts"; }
 # A healed partition: b is cut for 2.5 s (its agent fences, the launcher counts it lost, c's standbys serve),
 # then back; the agent serves the launcher again and a robot plugged into each arm runs on b again.
 ip link set "${p}b1" down; sleep 2.5; ip link set "${p}b1" up

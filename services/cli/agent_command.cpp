@@ -403,14 +403,11 @@ int agent_command(const std::vector<std::string>& args) {
   }
   Agent agent(d, host, spec->address);
   {
-    sched_param sp{};
-    sp.sched_priority = std::max(1, d.realtime_priority);
-    agent.rt_permitted_ = ::sched_setscheduler(0, SCHED_FIFO, &sp) == 0;
-    sp.sched_priority = 0;
-    (void)::sched_setscheduler(0, SCHED_OTHER, &sp);
+    std::string why;
+    agent.rt_permitted_ = launcher::fifo_permitted(std::max(1, d.realtime_priority), why);
     if (!agent.rt_permitted_ && d.timing == "realtime" && d.realtime_priority > 0) {
-      std::printf("tandem agent %s: note: SCHED_FIFO is not permitted here; processes run with normal scheduling\n",
-                  host.c_str());
+      std::printf("tandem agent %s: note: SCHED_FIFO is not permitted here (%s); processes run with normal "
+                  "scheduling\n", host.c_str(), why.c_str());
     }
   }
   const std::time_t started = std::time(nullptr) - 1;
@@ -444,8 +441,7 @@ int agent_command(const std::vector<std::string>& args) {
   own.set(runtime::Lifecycle::Active, "");
   std::printf("tandem agent %s: %s, address %s, domain %d, discovery %s; waiting for the launcher\n", host.c_str(),
               d.name.c_str(), spec->address.c_str(), d.domain_id,
-              d.discovery == "server" ? (d.discovery_address + ":" + std::to_string(runtime::discovery_port_of(d))).c_str()
-                                      : "simple");
+              runtime::discovery_text(d).c_str());
   std::fflush(stdout);
   auto published = Clock::now() - std::chrono::seconds(1);
   while (!g_agent_stop) {

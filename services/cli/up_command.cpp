@@ -106,19 +106,6 @@ struct ModuleRun {
 };
 
 
-/// Whether this process may use SCHED_FIFO at `priority` (tried on the launcher's own thread, then undone).
-bool fifo_permitted(int priority, std::string& why) {
-  sched_param sp{};
-  sp.sched_priority = priority;
-  if (::sched_setscheduler(0, SCHED_FIFO, &sp) != 0) {
-    why = std::strerror(errno);
-    return false;
-  }
-  sp.sched_priority = 0;
-  (void)::sched_setscheduler(0, SCHED_OTHER, &sp);
-  return true;
-}
-
 /// Starts a process on this machine (launcher::spawn); with rt_priority > 0 the child runs SCHED_FIFO at that
 /// priority, and so do the threads it creates (Fast DDS's receive and event threads inherit it).
 pid_t spawn(const std::string& exe, const std::vector<std::string>& args, int rt_priority = 0,
@@ -1263,7 +1250,7 @@ int up_command(const std::vector<std::string>& args) {
   const std::time_t launcher_started = std::time(nullptr) - 1;  // shared-memory files of this run: newer
   pid_t discovery_server = -1;
   if (d.discovery == "server" && d.discovery_start == "external") {
-    std::printf("  discovery server             %s:%d (external)\n", d.discovery_address.c_str(), runtime::discovery_port_of(d));
+    std::printf("  discovery server             %s (external)\n", runtime::discovery_text(d).c_str());
     runtime::use_discovery(d);
   } else if (d.discovery == "server") {
     const std::string exe = "/usr/bin/fast-discovery-server";
@@ -1339,7 +1326,7 @@ int up_command(const std::vector<std::string>& args) {
   LiveView view(d.name);
   if (d.timing == "realtime" && d.realtime_priority > 0) {
     std::string why;
-    if (fifo_permitted(d.realtime_priority, why)) {
+    if (launcher::fifo_permitted(d.realtime_priority, why)) {
       L.rt_priority_ = d.realtime_priority;
     } else {
       std::printf("tandem up: note: real-time priority %d not permitted here (%s); the per-tick processes run "
@@ -1369,7 +1356,7 @@ int up_command(const std::vector<std::string>& args) {
         std::fprintf(stderr, "tandem up: no agent serving this run within %.0f s for host(s) %s; start `tandem agent %s "
                              "--host NAME` on each (same domain %d, discovery %s)\n",
                      wait_s, list.c_str(), file.c_str(), d.domain_id,
-                     d.discovery == "server" ? (d.discovery_address + ":" + std::to_string(runtime::discovery_port_of(d))).c_str() : "simple");
+                     runtime::discovery_text(d).c_str());
         return 2;
       }
       if (Clock::now() - last_note > std::chrono::seconds(3)) {

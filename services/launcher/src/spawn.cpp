@@ -54,6 +54,18 @@ pid_t spawn(const std::string& who, const std::string& exe, const std::vector<st
   ::_exit(127);
 }
 
+bool fifo_permitted(int priority, std::string& why) {
+  sched_param sp{};
+  sp.sched_priority = priority;
+  if (::sched_setscheduler(0, SCHED_FIFO, &sp) != 0) {
+    why = std::strerror(errno);
+    return false;
+  }
+  sp.sched_priority = 0;
+  (void)::sched_setscheduler(0, SCHED_OTHER, &sp);
+  return true;
+}
+
 std::string self_dir() {
   char buf[4096];
   const ssize_t n = ::readlink("/proc/self/exe", buf, sizeof buf - 1);

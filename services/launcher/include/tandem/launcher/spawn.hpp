@@ -20,6 +20,10 @@ struct SpawnOptions {
 pid_t spawn(const std::string& who, const std::string& exe, const std::vector<std::string>& args,
             const SpawnOptions& opt = {});
 
+/// Whether this process may use SCHED_FIFO at `priority` (tried on the calling thread, then undone); `why`
+/// gets the system's reason when not.
+bool fifo_permitted(int priority, std::string& why);
+
 /// The directory of this process's executable (its siblings, tandem-world etc., live there).
 std::string self_dir();
 

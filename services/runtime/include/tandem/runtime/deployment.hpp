@@ -116,13 +116,18 @@ inline int discovery_port_of(const Deployment& d) {
   return d.discovery_port > 0 ? d.discovery_port : 11811 + static_cast<int>(d.domain_id);
 }
 
+/// How the deployment's processes discover each other, as said to users: "ADDRESS:PORT" of its Discovery Server,
+/// or "simple".
+inline std::string discovery_text(const Deployment& d) {
+  return d.discovery == "server" ? d.discovery_address + ":" + std::to_string(discovery_port_of(d)) : "simple";
+}
+
 /// For `discovery: server`: makes the participants this process creates from now on (and the processes it
 /// starts) clients of the deployment's Discovery Server (Fast DDS reads ROS_DISCOVERY_SERVER at participant
 /// creation). Nothing for `discovery: simple`.
 inline void use_discovery(const Deployment& d) {
   if (d.discovery != "server") return;
-  const std::string addr = d.discovery_address + ":" + std::to_string(discovery_port_of(d));
-  ::setenv("ROS_DISCOVERY_SERVER", addr.c_str(), 1);
+  ::setenv("ROS_DISCOVERY_SERVER", discovery_text(d).c_str(), 1);
 }
 
 /// Multi-host: the host a process of module `m` runs on ("" without hosts:). role: world | supervisor | robot;

@@ -89,9 +89,10 @@ int main(int argc, char** argv) {
       in.qd(i) = smp.qd()[static_cast<size_t>(i)];
     }
     in.h = model::Vec2(smp.h()[0], smp.h()[1]);
-    // Another robot's torque drove the arm over the last period: track it (bumpless transfer).
+    // Another robot's torque, the world's drive (from -1) or the brake's holding torque (braked) drove the arm
+    // over the last period: track it (bumpless transfer and release).
     const model::Vec3 applied(smp.tau()[0], smp.tau()[1], smp.tau()[2]);
-    const bool other = smp.from() != 0 && smp.from() != opt.strength;
+    const bool other = smp.from() != opt.strength && (smp.from() != 0 || smp.braked());
     const std::optional<model::Vec3> tau =
         core.on_sample(static_cast<long>(smp.tick()), in, smp.braked(), other ? &applied : nullptr);
     if (!tau) return;

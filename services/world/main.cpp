@@ -135,7 +135,11 @@ int main(int argc, char** argv) {
   long k = 0;
   for (; k < m.steps && !runtime::g_stop; ++k) {
     while (plans.take(plan_in)) {
-      if (plan_in.module_id() == opt.module) core.offer_plan(runtime::from_wire(plan_in));
+      std::string why;
+      if (plan_in.module_id() == opt.module &&
+          core.offer_plan(runtime::from_wire(plan_in), &why) == plan::PlanFollower::Offer::Rejected) {
+        std::fprintf(stderr, "tandem-world %s: a plan was refused: %s\n", opt.module.c_str(), why.c_str());
+      }
     }
     const long long sent = now_ns();
     core.begin_tick(k, sent, samples);

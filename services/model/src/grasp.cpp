@@ -1,5 +1,7 @@
 #include "tandem/model/grasp.hpp"
 
+#include <algorithm>
+
 #include <Eigen/Dense>
 
 namespace tandem::model {
@@ -46,6 +48,12 @@ Eigen::Matrix<double, 4, 2> planar_grasp_pseudo_inverse() noexcept {
   Eigen::Matrix<double, 4, 2> Wp;
   Wp << 0.5 * Mat2::Identity(), 0.5 * Mat2::Identity();  // eq. (18)
   return Wp;
+}
+
+double stop_deceleration_bound(double h_ref, double h_sg, double mass, double mu_s, double g0) noexcept {
+  const double normal = (h_ref - h_sg) / mass;
+  const double faces = 2.0 * mu_s * h_ref / mass - g0;
+  return std::max(0.0, std::min(normal, faces));
 }
 
 double safe_grasp_force(double mass, double mu_s, double g0) noexcept {

@@ -1,6 +1,7 @@
 #include "tandem/plan/plan.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 namespace tandem::plan {
 
@@ -47,7 +48,7 @@ void ModulePlan::set_rate(long from, double rate, double ramp) {
   ++version_;
 }
 
-double ModulePlan::rebase_to(long from, const model::Vec2& object_xy, double window_s) {
+double ModulePlan::rebase_to(long from, const model::Vec2& object_xy, double window_s, double min_gain) {
   from = std::max(from, last_retarget_);
   const double now_tau = scale_.at(time(from)).tau;
   const double offset = continuous_ ? tau_start_ : 0.0;
@@ -62,7 +63,8 @@ double ModulePlan::rebase_to(long from, const model::Vec2& object_xy, double win
       best_tau = tau;
     }
   }
-  if (best_tau == now_tau) return 0.0;
+  const double now_d = (path.sample(now_tau - offset).pose.head<2>() - object_xy).norm();
+  if (best_tau == now_tau || now_d - best < min_gain) return 0.0;
   scale_.rebase(time(from), best_tau);
   last_retarget_ = from;
   ++version_;
@@ -134,7 +136,7 @@ void ModulePlan::build_path(const model::Vec3& from, const std::vector<double>& 
   end_pose_ = segs.empty() ? from : segs.back().to;
 }
 
-PlanFollower::Offer PlanFollower::offer(const PlanData& p, std::string* why) {
+PlanFollower::Offer PlanFollower::offer(const PlanData& p, std::string* why, long now_tick) {
   const std::string problem = ModulePlan::check(p);
   if (!problem.empty()) {
     if (why != nullptr) *why = problem;
@@ -142,6 +144,18 @@ PlanFollower::Offer PlanFollower::offer(const PlanData& p, std::string* why) {
   }
   const SupervisorRank r = p.rank();
   if (have_ && (rank_.outranks(r) || (!r.outranks(rank_) && p.version <= version_))) return Offer::Ignored;
+  if (have_ && now_tick >= 0) {
+    ModulePlan next = plan_;
+    next.import_from(p);
+    const model::Vec3 d = next.sample(now_tick).pose - plan_.sample(now_tick).pose;
+    if (d.head<2>().norm() > kMaxJump || std::abs(d(2)) > kMaxJump) {
+      if (why != nullptr) {
+        *why = "its reference jumps by " + std::to_string(d.head<2>().norm() * 1e3).substr(0, 6) + " mm at tick " +
+               std::to_string(now_tick) + " (from " + p.supervisor_id + ", epoch " + std::to_string(p.epoch) + ")";
+      }
+      return Offer::Rejected;
+    }
+  }
   plan_.import_from(p);
   have_ = true;
   rank_ = r;

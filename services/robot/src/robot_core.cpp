@@ -7,7 +7,7 @@ RobotCore::RobotCore(const sim::ModuleSetup& m, int j, bool continuous, double t
       meter_(m.control[j].selection_p, transient, m.path.motion_end()) {}
 
 plan::PlanFollower::Offer RobotCore::offer_plan(const plan::PlanData& p, std::string* why) {
-  const plan::PlanFollower::Offer o = follower_.offer(p, why);
+  const plan::PlanFollower::Offer o = follower_.offer(p, why, done_);
   if (o == plan::PlanFollower::Offer::Rejected) ++rejected_;
   return o;
 }
@@ -22,12 +22,17 @@ std::optional<model::Vec3> RobotCore::on_sample(long k, const model::ArmSensors&
   if (k == done_) return tau_;                         // the world asks again: the same answer
   if (!follower_.has_plan()) return std::nullopt;      // nothing to follow yet
   const model::ArmReference ref = follower_.reference(j_, k);
-  // While the brakes hold the arm, the law's memory (super-twisting integral, force history) must not wind
-  // up on an error the arm cannot act on: it starts afresh every braked tick.
-  if (braked) ctl_.reset();
-  // In shadow: continue from what the arm actually got over the last period (its owner's torque), not from
-  // this controller's own last output (bumpless transfer). Only right after this robot's own previous tick.
-  if (!braked && applied != nullptr && done_ == k - 1 && plan::all_finite(*applied)) ctl_.track(*applied - tau_);
+  // Continue from what the arm actually got over the last period, not from this controller's own last output
+  // (bumpless transfer): its owner's torque when this robot is in shadow, the world's drive, or, while the
+  // brakes hold the arm, the torque the brake takes to hold it (g + J^T h). A robot that takes a braked arm
+  // over then starts from the holding torque, and its law's memory never winds up on an error the arm cannot
+  // act on. Only right after this robot's own previous tick; a braked tick without that torque starts afresh.
+  const bool tracks = applied != nullptr && done_ == k - 1 && plan::all_finite(*applied);
+  if (tracks) {
+    ctl_.track(*applied - tau_);
+  } else if (braked) {
+    ctl_.reset();
+  }
   model::ControlOutput out = ctl_.step(in, ref);
   // Actuator limits: the command is saturated here as the drive would (the plant clips the same way).
   const model::Vec3& lim = m_.plant.arms[j_].tau_max;

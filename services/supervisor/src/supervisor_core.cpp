@@ -1,5 +1,7 @@
 #include "tandem/supervisor/supervisor_core.hpp"
 
+#include "tandem/model/grasp.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -113,6 +115,7 @@ void SupervisorCore::on_request(const std::string& command) {
 
 void SupervisorCore::on_assignment(uint64_t id, const std::string& name, const std::vector<double>& waypoints) {
   assignments_.push_back({id, name, waypoints});
+  if (assignments_.size() > 8) assignments_.erase(assignments_.begin());  // a replica keeps the latest few
 }
 
 void SupervisorCore::on_report(const ReportIn& r, int64_t now_ns) {
@@ -152,8 +155,17 @@ void SupervisorCore::update(int64_t now_ns) {
     suspect_from_ = -1;
   }
   const bool flowing = now_ns - last_report_ < kTakeOverAfterNs;
+  // Never heard a leader: take over after kTakeOverAloneNs of the world's reports, and only if the object is
+  // where this supervisor's own (initial) plan has it now: otherwise the module follows a plan this one never
+  // heard, and leading with its own would jump the references (robots and world would refuse it anyway).
+  const bool alone_ok = heard_tick_ > kTakeOverTicks &&
+                        (plan_.sample(heard_tick_).pose.head<2>() - object_xy_).norm() < kAloneMatch;
+  if (!heard_stronger_ && !active_ && now_ns - t_start_ > kTakeOverAloneNs && !alone_ok && !alone_refused_) {
+    alone_refused_ = true;
+    log("never heard a leader, and the object is not where the initial plan has it: not taking over");
+  }
   const bool quiet = heard_stronger_ ? (now_ns - last_stronger_ > kTakeOverAfterNs && heard_tick_ - stronger_tick_ > kTakeOverTicks)
-                                     : (now_ns - t_start_ > kTakeOverAloneNs && heard_tick_ > kTakeOverTicks);
+                                     : (now_ns - t_start_ > kTakeOverAloneNs && alone_ok);
   if (!active_ && flowing && quiet) {
     active_ = true;
     rank_.epoch = max_epoch_ + 1;
@@ -186,20 +198,27 @@ void SupervisorCore::update(int64_t now_ns) {
     }
   }
   if (heard_tick_ < 0 || suspect_from_ >= 0) return;
+  if (!active_) {
+    // A replica: it follows the leader's plan (on_plan) and plans nothing itself, so its plan never drifts from
+    // the leader's. Assignments wait for a takeover (the leader may die before it starts one).
+    if (!o_.continuous && heard_tick_ + 1 >= m_.steps) world_done_ = true;
+    return;
+  }
   // Pause while an arm is braked, the world holds for load, or a pause is asked for.
   const long next = heard_tick_ + kLeadTicks;
-  if (braked_[0] && braked_[1] && hold_ && braked_since_ != rebased_for_ && plan_.target_rate() == 0.0 &&
+  if ((braked_[0] || braked_[1]) && braked_since_ != rebased_for_ && plan_.target_rate() == 0.0 &&
       plan_.paused_at(heard_tick_)) {
-    // Paused for load, both arms braked: the brakes may have stopped the object before the path did.
-    // Rebase the path to where the object is, so that the robots resume from it (not from a jump).
+    // An arm braked with the path paused: the brakes may have stopped the object off the path. Rebase the path
+    // to where the object is, so that the robots resume from it (not from a jump). On every brake.
     rebased_for_ = braked_since_;
-    const double back = plan_.rebase_to(heard_tick_ + kLeadTicks, object_xy_);
+    const double back = plan_.rebase_to(heard_tick_ + kLeadTicks, object_xy_, 3.0, kRebaseMin);
     if (back > 0.0) log("path rebased " + std::to_string(std::lround(back * 1e3)) + " ms back, to where the braked object stands");
   }
-  if (braked_[0] || braked_[1]) {
-    plan_.set_rate(std::max(braked_since_, 0L), 0.0, hold_ ? kHoldRamp : kBrakeRamp);
-  } else if (hold_) {
-    plan_.set_rate(heard_tick_ + kHoldLeadTicks, 0.0, kHoldRamp);
+  if (braked_[0] || braked_[1] || hold_) {
+    // Stop the path: overload, an arm driven to rest by the world, or braked. Never faster than the friction
+    // bound allows (the world's drive and the other robot follow this same plan).
+    const long from = heard_tick_ + kHoldLeadTicks;
+    plan_.set_rate(from, 0.0, stop_ramp(from));
   } else if (released_at_ >= 0 && heard_tick_ - released_at_ < kReleaseSettleTicks) {
     // Just released: the new controller settles on the still reference first.
   } else {
@@ -220,6 +239,16 @@ void SupervisorCore::update(int64_t now_ns) {
     log("drained; the module leaves");
     leaving_ = true;
   }
+}
+
+double SupervisorCore::stop_ramp(long from) const {
+  const model::PoseSample p = plan_.sample(from);
+  // Speed of the faster stick tip: the centre's speed plus the rotation's share at the stick's length.
+  const double v = p.vel.head<2>().norm() + std::max(m_.geometry.stick_length[0], m_.geometry.stick_length[1]) * std::abs(p.vel(2));
+  const model::ObjectParams& o = m_.plant.object;
+  const double a_max = model::stop_deceleration_bound(m_.reference_force, m_.safe_grasp_force, o.mass, o.mu_s, m_.plant.g0);
+  if (!(a_max > 0.0)) return 1.0;
+  return std::max(kHoldRamp, 1.5 * v / (kStopMargin * a_max));
 }
 
 std::optional<plan::PlanData> SupervisorCore::take_plan() {

@@ -46,7 +46,7 @@ std::string WorldCore::serving_text() const {
   std::string out;
   for (size_t j = 0; j < 2; ++j) {
     out += (j ? "," : "") + o_.arm_names[j] + "=" +
-           (link_[j].braked ? (load_paused_ ? "braked(load)" : "braked") : link_[j].owner);
+           (link_[j].braked ? (load_paused_ ? "braked(load)" : "braked") : link_[j].stopping ? "stopping" : link_[j].owner);
   }
   return out;
 }
@@ -85,10 +85,49 @@ void WorldCore::set_brake(int j, bool on, const std::string& why) {
       why + ")");
 }
 
+model::Vec3 WorldCore::drive_torque(int j) const {
+  const size_t a = static_cast<size_t>(j);
+  const model::ArmParams& arm = m_.plant.arms[a];
+  const model::Vec3& q = plant_.state().q[a];
+  const model::Vec3& qd = plant_.state().qd[a];
+  const model::ArmReference ref = follower_.reference(j, k_);
+  const model::Mat3 J = model::jacobian(arm, q);
+  const model::Vec3 x = model::forward_kinematics(arm, q);
+  // Task-space computed torque: x'' = x_d'' + Kd (x_d' - x') + Kp (x_d - x), q'' = J^-1 (x'' - J' q').
+  const model::Vec3 acc = ref.xdd + kDriveKd * (ref.xd - J * qd) + kDriveKp * (ref.x - x) -
+                          model::jacobian_dot(arm, q, qd) * qd;
+  const model::Vec3 qdd = J.partialPivLu().solve(acc);
+  const model::Vec3 h(contact_.h[a](0), contact_.h[a](1), 0.0);
+  const model::Vec3 tau = model::inertia(arm, q) * qdd + model::nonlinear_terms(arm, q, qd) + J.transpose() * h;
+  return tau.cwiseMax(-arm.tau_max).cwiseMin(arm.tau_max);
+}
+
+model::Vec3 WorldCore::holding_torque(int j) const {
+  const size_t a = static_cast<size_t>(j);
+  const model::ArmParams& arm = m_.plant.arms[a];
+  const model::Vec3& q = plant_.state().q[a];
+  const model::Vec3 h(contact_.h[a](0), contact_.h[a](1), 0.0);
+  return model::gravity(arm, q) + model::jacobian(arm, q).transpose() * h;
+}
+
+void WorldCore::begin_stop(int j, const std::string& why, int64_t /*now_ns*/) {
+  ArmLink& L = link_[static_cast<size_t>(j)];
+  if (L.stopping || L.braked) return;
+  L.stopping = true;
+  L.stop_tick = k_;
+  L.release_run = 0;
+  if (braked_since_ < 0) braked_since_ = k_;
+  report_now_ = true;
+  serving_changed_ = true;
+  log(o_.arm_ids[static_cast<size_t>(j)] + " has no live controller (" + why + ") at tick " + std::to_string(k_) +
+      ": the world drives it to rest along the plan, then brakes it");
+}
+
 void WorldCore::begin_tick(long k, int64_t /*now_ns*/, std::array<SampleOut, 2>& out) {
   k_ = k;
   t_ = static_cast<double>(k) * m_.period;
-  const model::ContactReading contact = plant_.contacts();
+  contact_ = plant_.contacts();
+  const model::ContactReading& contact = contact_;
   const double hn = std::min(contact.normal[0], contact.normal[1]);
   status_normal_min_ = std::min(status_normal_min_, hn);
   report_normal_min_ = std::min(report_normal_min_, hn);
@@ -132,7 +171,7 @@ void WorldCore::begin_tick(long k, int64_t /*now_ns*/, std::array<SampleOut, 2>&
     s.qd = plant_.state().qd[j];
     s.h = contact.h[j];
     s.braked = link_[j].braked;
-    s.tau_applied = tau_[j];
+    s.tau_applied = link_[j].braked ? holding_torque(static_cast<int>(j)) : tau_[j];
     s.applied_from = link_[j].braked ? 0 : applied_from_[j];
     expect_[j] = probe;
   }
@@ -142,7 +181,7 @@ ReportOut WorldCore::take_report() {
   ReportOut r;
   r.tick = k_;
   r.braked = {link_[0].braked && !link_[0].start_brake, link_[1].braked && !link_[1].start_brake};
-  r.hold = load_pending_ || load_paused_;
+  r.hold = load_pending_ || load_paused_ || link_[0].stopping || link_[1].stopping;
   r.braked_since = braked_since_;
   r.released_at = released_at_;
   r.normal_min = report_normal_min_;
@@ -204,13 +243,14 @@ WorldCore::Verdict WorldCore::on_command(int j, long tick, const model::Vec3& ta
     mark_late(L, tick);
     return Verdict::Stale;
   }
-  if (!L.owner.empty() && !(L.braked && !load_paused_) && !L.owner_gone && strength < L.strength) {
+  const bool orphan = (L.braked && !load_paused_) || L.stopping;  // no live controller: any robot may take it
+  if (!L.owner.empty() && !orphan && !L.owner_gone && strength < L.strength) {
     // A weaker robot (a standby in shadow): kept for this tick, in case the owner falls silent.
     Fallback& f = fallback_[static_cast<size_t>(j)];
     if (!f.has || strength > f.strength) f = {true, tau, strength, at_ns};
     return Verdict::Shadow;
   }
-  if (!L.owner.empty() && !L.braked && !L.owner_gone && strength > L.strength && k_ >= 50) {
+  if (!L.owner.empty() && !orphan && !L.braked && !L.owner_gone && strength > L.strength && k_ >= 50) {
     // A stronger robot: it warms up in shadow for kTakeoverTicks ticks in a row before it takes over.
     if (strength != L.challenger || tick != L.challenger_tick + 1) {
       L.challenger = strength;
@@ -246,14 +286,27 @@ void WorldCore::apply(int j, const model::Vec3& tau, int32_t strength, int64_t a
       log(o_.arm_ids[static_cast<size_t>(j)] + " brakes off at tick " + std::to_string(k_) + ": " + name +
           " answered in time");
     }
-  } else if (L.braked && !load_paused_) {
-    if (o_.realtime && ++L.release_run < kReleaseTrialTicks) return;  // the trial: still braked
+  } else if ((L.braked && !load_paused_) || L.stopping) {
+    // The trial: still braked (or still driven by the world; end_tick puts the drive's torque back).
+    if (o_.realtime && ++L.release_run < kReleaseTrialTicks) return;
     L.release_run = 0;
     log(o_.arm_ids[static_cast<size_t>(j)] + " follows " + name +
-        (L.last_at > 0 ? " after " + ms_text(static_cast<double>(at_ns - L.last_at) * 1e-6) + " braked" : ""));
+        (L.last_at > 0 ? " after " + ms_text(static_cast<double>(at_ns - L.last_at) * 1e-6) +
+                             (L.stopping ? " driven by the world" : " braked")
+                       : ""));
     L.owner = name;
     L.strength = strength;
-    set_brake(j, false, "a robot answers again");
+    if (L.stopping) {
+      L.stopping = false;
+      report_now_ = true;
+      serving_changed_ = true;
+      if (!link_[0].braked && !link_[1].braked && !holding() && !load_paused_) {
+        braked_since_ = -1;
+        released_at_ = k_;
+      }
+    } else {
+      set_brake(j, false, "a robot answers again");
+    }
   } else if (!L.owner.empty() && name != L.owner && k_ >= 50) {
     // A change of owner: to a weaker robot it is a failover (the owner fell silent or left), to a stronger one
     // a takeover (a robot plugged or restarted as primary). In the first 50 ticks discovery order decides which
@@ -302,21 +355,21 @@ void WorldCore::apply(int j, const model::Vec3& tau, int32_t strength, int64_t a
 
 
 bool WorldCore::lockstep_done() const {
-  return (have_[0] || link_[0].braked) && (have_[1] || link_[1].braked);
+  return (have_[0] || link_[0].braked || link_[0].stopping) && (have_[1] || link_[1].braked || link_[1].stopping);
 }
 
 bool WorldCore::lockstep_waited(double waited_s, double timeout_s, int64_t now_ns) {
   bool give_up = false;
   for (int j = 0; j < 2; ++j) {
     const ArmLink& L = link_[static_cast<size_t>(j)];
-    if (have_[static_cast<size_t>(j)] || L.braked) continue;
+    if (have_[static_cast<size_t>(j)] || L.braked || L.stopping) continue;
     const Fallback& f = fallback_[static_cast<size_t>(j)];
     if (f.has && (L.owner_gone || waited_s > kFailoverLockstepS)) {
       apply(j, f.tau, f.strength, f.at_ns, now_ns);  // the owner fell silent: its standby's answer of this tick
       continue;
     }
     if (L.last_tick >= 0 && waited_s > brake_after_s_) {
-      set_brake(j, true, "no command for " + ms_text(waited_s * 1e3));
+      begin_stop(j, "no command for " + ms_text(waited_s * 1e3), now_ns);
       ++timeouts;
     } else if (L.last_tick < 0 && waited_s > timeout_s) {
       give_up = true;
@@ -358,26 +411,55 @@ bool WorldCore::end_tick(int64_t now_ns) {
       ++covered;
     }
   }
+  // The object's speed: a stop brakes only once it is still (braking a moving object makes it slip).
+  const model::ModuleState& st = plant_.state();
+  still_count_ = st.cd.norm() < rule.still_speed && std::abs(st.psid) < 10.0 * rule.still_speed ? still_count_ + 1 : 0;
   for (int j = 0; j < 2; ++j) {
     ArmLink& L = link_[static_cast<size_t>(j)];
-    const bool had = have_[static_cast<size_t>(j)];
+    const size_t a = static_cast<size_t>(j);
+    const bool had = have_[a];
     if (L.braked && !L.start_brake) ++braked_ticks;
-    if (L.braked && !had) L.release_run = 0;  // the release trial wants answers in a row
-    if (o_.realtime && expect_[static_cast<size_t>(j)] && !L.braked && had) L.late_run = 0;
+    if ((L.braked || L.stopping) && !had) L.release_run = 0;  // the release trial wants answers in a row
+    if (L.stopping) {
+      // No live controller: the world's drive, along the plan, whatever a robot on trial sent.
+      tau_[a] = drive_torque(j);
+      applied_from_[a] = -1;
+      ++driven;
+      continue;
+    }
+    if (o_.realtime && expect_[a] && !L.braked && had) L.late_run = 0;
+    if (had) L.miss_run = 0;
     if (had || L.braked) continue;
     if (o_.realtime) {
-      // A late or missing command: the arm keeps its previous torque for this tick (counted). An arm from
-      // which no command at all (late ones included) came for brake_after_s has no live controller: braked.
+      // A late or missing command (counted). For a tick or two the arm keeps its previous torque; from the
+      // kDriveAfterMisses-th missed tick in a row (at once while the world holds the path) the world's drive
+      // serves it, never a stale torque on a moving object. An arm from which no command at all (late ones
+      // included) came for brake_after_s has no live controller: the world drives it to rest, then brakes it.
       ++late;
-      // While holding for load, a tick without a command counts as losing the arm too (a starved robot sends
-      // nothing in time, not even late): 3 such ticks brake at once instead of leaving stale torques on a
-      // moving object for up to hold_max_s (a start-up overload made the object slip; found by the soak).
-      if (load_pending_) ++L.late_run;
+      ++L.miss_run;
       const double quiet = static_cast<double>(now_ns - L.heard) * 1e-9;
-      if (L.last_tick >= 0 && quiet > brake_after_s_ && o_.brakes) set_brake(j, true, "no live controller");
+      if (L.last_tick >= 0 && quiet > brake_after_s_ && o_.brakes) begin_stop(j, "no command for " + ms_text(quiet * 1e3), now_ns);
+      if (o_.brakes && (L.stopping || load_pending_ || L.miss_run > kDriveAfterMisses)) {
+        tau_[a] = drive_torque(j);
+        applied_from_[a] = -1;
+        ++driven;
+      }
     } else if (L.last_tick < 0) {
       ++timeouts;
       go_on = false;
+    }
+  }
+  for (int j = 0; j < 2; ++j) {
+    ArmLink& L = link_[static_cast<size_t>(j)];
+    if (!L.stopping) continue;
+    const double stopped_s = static_cast<double>(k_ - L.stop_tick) * m_.period;
+    if (still_count_ >= rule.still_ticks || stopped_s > kStopMaxS) {
+      L.stopping = false;
+      ++stops;
+      char why[160];
+      std::snprintf(why, sizeof why, "no live controller; %s after %.0f ms driven along the plan",
+                    still_count_ >= rule.still_ticks ? "object at rest" : "object still moving", stopped_s * 1e3);
+      set_brake(j, true, why);
     }
   }
   if (!o_.realtime || !rule.enabled) return go_on;
@@ -389,23 +471,23 @@ bool WorldCore::end_tick(int64_t now_ns) {
     }
   };
   if (load_pending_) {
-    // Holding: the supervisor stops the path; brake once the object is still (braking a moving object makes
-    // it slip: the arms stop at once, the object does not), or after hold_max_s at the latest.
-    const model::ModuleState& st = plant_.state();
-    still_count_ = st.cd.norm() < rule.still_speed && std::abs(st.psid) < 10.0 * rule.still_speed ? still_count_ + 1 : 0;
+    // Holding: the supervisor stops the path while the drive serves every tick an arm misses; brake once the
+    // object is still (braking a moving object makes it slip: the arms stop at once, the object does not),
+    // or after hold_max_s at the latest.
     const double held_s = static_cast<double>(now_ns - load_pending_ns_) * 1e-9;
-    const bool losing = std::max(link_[0].late_run, link_[1].late_run) >= rule.hold_late_run;
-    if (still_count_ >= rule.still_ticks || held_s > rule.hold_max_s || losing) {
+    if (still_count_ >= rule.still_ticks || held_s > rule.hold_max_s) {
       load_pending_ = false;
       load_paused_ = true;
       good_probes_ = 0;
       trial_ticks_ = -1;
       load_until_ns_ = now_ns + static_cast<int64_t>(backoff_s_ * (1.0 + 0.5 * jitter_) * 1e9);
       char why[192];
-      std::snprintf(why, sizeof why, "%s; paused for load, object %s after %.0f ms%s", load_why_.c_str(),
-                    still_count_ >= rule.still_ticks ? "still" : "still moving", held_s * 1e3,
-                    losing && still_count_ < rule.still_ticks ? " (commands missed while holding)" : "");
-      for (int j = 0; j < 2; ++j) set_brake(j, true, why);
+      std::snprintf(why, sizeof why, "%s; paused for load, object %s after %.0f ms", load_why_.c_str(),
+                    still_count_ >= rule.still_ticks ? "still" : "still moving", held_s * 1e3);
+      for (int j = 0; j < 2; ++j) {
+        link_[static_cast<size_t>(j)].stopping = false;
+        set_brake(j, true, why);
+      }
       serving_changed_ = true;
       clear_rings();
     }

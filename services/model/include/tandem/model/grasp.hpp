@@ -37,6 +37,14 @@ Eigen::Matrix<double, 4, 2> planar_grasp_pseudo_inverse() noexcept;
 /// that static friction at the two contacts carries the object's weight.
 double safe_grasp_force(double mass, double mu_s, double g0) noexcept;
 
+/// Largest deceleration of the held object that keeps eq. (14) at both contacts, from a grasp squeezed with
+/// h_ref >= h_sg on each side (docs/failure-model.md, "Stops"). Along the approach axis the inertial force M a
+/// is taken by the two normal forces; in the worst case one contact keeps h_ref (a force-controlled arm) and
+/// the other alone gives way, so h_ref - M a >= h_sg. Along the faces friction must carry the weight and the
+/// inertial force, M (g + a) <= 2 mu_s h_ref. With h_sg = M g / (2 mu_s) both give the same bound when
+/// mu_s = 1/2 and the tighter one in general: a_max = min((h_ref - h_sg) / M, 2 mu_s h_ref / M - g).
+double stop_deceleration_bound(double h_ref, double h_sg, double mass, double mu_s, double g0) noexcept;
+
 /// Safe-grasp condition of eq. (14) for one contact: normal force at or above h_sg.
 inline bool safe_grasp_holds(double normal_force, double h_sg) noexcept { return normal_force >= h_sg; }
 

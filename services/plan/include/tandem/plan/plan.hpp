@@ -87,7 +87,9 @@ class ModulePlan {
   /// stands at the path time, within `window_s` behind its present one, whose pose is nearest to where the
   /// object actually is (x, y), so that the robots resume from the object instead of chasing the plan.
   /// Returns the jump in path time [s] (0: nothing changed).
-  double rebase_to(long from, const model::Vec2& object_xy, double window_s = 3.0);
+  /// Only if that brings the pose at least `min_gain` [m] closer to the object (a smaller jump of the live arm's
+  /// reference is worse than the offset it removes).
+  double rebase_to(long from, const model::Vec2& object_xy, double window_s = 3.0, double min_gain = 0.0);
   double target_rate() const { return scale_.target(); }
   bool paused_at(long k) const { return scale_.target() == 0.0 && scale_.settled(time(k)); }
   bool running() const { return running_; }
@@ -126,8 +128,14 @@ class PlanFollower {
  public:
   PlanFollower(const sim::ModuleSetup& m, bool continuous) : plan_(m, continuous) {}
   enum class Offer { Adopted, Ignored, Rejected };
-  /// Ignored: lower rank, or an old version of the current rank. Rejected: malformed (`why` says how).
-  Offer offer(const PlanData& p, std::string* why = nullptr);
+  /// A plan whose object pose at the follower's current tick is this far from the pose of the plan it follows
+  /// is refused: supervisors that are replicas of one plan agree about now (their changes are planned ahead,
+  /// kLeadTicks), so such a plan comes from a supervisor that drifted or never heard the module's plan, and
+  /// following it would jump the references under a held object. The follower holds its plan.
+  static constexpr double kMaxJump = 1e-3;  ///< [m] on the object's (x, y); [rad] on its angle
+  /// Ignored: lower rank, or an old version of the current rank. Rejected: malformed, or (with `now_tick` >= 0
+  /// and a plan already followed) a jump of the reference at that tick (`why` says how).
+  Offer offer(const PlanData& p, std::string* why = nullptr, long now_tick = -1);
   bool has_plan() const { return have_; }
   model::ArmReference reference(int j, long k) const { return plan_.reference(j, k); }
   const ModulePlan& plan() const { return plan_; }

@@ -46,8 +46,13 @@ struct StateOut {
 class SupervisorCore {
  public:
   static constexpr double kPauseRamp = 0.3;   ///< requested pause / resume [s]
-  static constexpr double kBrakeRamp = 0.02;  ///< an arm braked: stop the path now [s]
-  static constexpr double kHoldRamp = 0.15;   ///< overload: stop the path smoothly [s]
+  /// Every stop of the path (overload hold, an arm without a controller, an arm braked) ramps the rate to 0
+  /// over at least this long, longer when the path is fast: the ramp's peak deceleration 1.5 v / T stays
+  /// within kStopMargin of the friction bound (model::stop_deceleration_bound, docs/failure-model.md).
+  static constexpr double kHoldRamp = 0.15;
+  static constexpr double kStopMargin = 0.5;
+  /// A rebase moves the path back to the braked object only if that brings the reference this much closer.
+  static constexpr double kRebaseMin = 5e-4;
   static constexpr long kHoldLeadTicks = 5;
   static constexpr long kLeadTicks = 20;      ///< a change applies this many ticks after the newest heard
   static constexpr long kReleaseSettleTicks = 200;
@@ -55,6 +60,7 @@ class SupervisorCore {
   static constexpr int64_t kTakeOverAfterNs = 50'000'000;
   static constexpr long kTakeOverTicks = 20;
   static constexpr int64_t kTakeOverAloneNs = 6'000'000'000;
+  static constexpr double kAloneMatch = 2e-3;  ///< [m] object vs the initial plan for a takeover with no leader heard
   static constexpr long kOthersRecentTicks = 100;
   static constexpr int64_t kSuspectMaxNs = 200'000'000;
 
@@ -83,6 +89,8 @@ class SupervisorCore {
   plan::SupervisorRank rank() const { return rank_; }
   const plan::ModulePlan& plan() const { return plan_; }
   plan::TaskStateCode state() const;
+  /// The ramp of a stop that begins at tick `from` (kHoldRamp or longer, see there).
+  double stop_ramp(long from) const;
 
  private:
   void log(const std::string& s) const { if (log_) log_(s); }
@@ -111,7 +119,7 @@ class SupervisorCore {
   int64_t t_start_, last_report_, last_stronger_;
   long stronger_tick_ = -1, others_newest_ = -1, suspect_from_ = -1;
   int64_t suspect_since_ = 0;
-  bool heard_stronger_ = false, stronger_now_ = false;
+  bool heard_stronger_ = false, stronger_now_ = false, alone_refused_ = false;
   uint64_t max_epoch_ = 0;
   plan::SupervisorRank followed_{0, plan::kPrimaryStrength};
   std::optional<plan::PlanData> latest_plan_;

@@ -20,9 +20,10 @@ namespace tandem::world {
 
 /// Overload (real time): when an arm's commands keep arriving late (more than `max_late` of the last `window`
 /// ticks, or `max_consecutive` in a row, counting commands that came after their deadline: silence is not
-/// overload, the no-live-controller brake handles a robot that sends nothing), the world asks its supervisor to stop the path at once (the report's
-/// `hold`), and once the object is still (speed below `still_speed` for `still_ticks`, or after `hold_max_s`)
-/// it brakes both arms, so that the
+/// overload, the no-live-controller stop handles a robot that sends nothing), the world asks its supervisor to
+/// stop the path (the report's `hold`, a ramp inside the friction bound), every tick an arm misses meanwhile is
+/// served by the world's drive along the plan (never a stale torque on a moving object), and once the object is
+/// still (speed below `still_speed` for `still_ticks`, or after `hold_max_s`) it brakes both arms, so that the
 /// object is held still between two locked arms, and the module pauses (docs/failure-model.md, "Overload").
 /// While paused for load the world sends each arm a sample only every `probe_every` ticks (so the paused
 /// module sheds most of its load). Once `resume_probes` probes in a row were answered in time and the backoff
@@ -32,8 +33,7 @@ namespace tandem::world {
 /// again within 10 s of its last release, so modules that come back into an overloaded machine retry less often,
 /// and each module's backoff is stretched by up to 50% (from its name), so that paused modules do not all
 /// come back at the same tick. Braking a moving object makes it slip, losing control of it drops it: the hold
-/// ends in braking when the object is still, after `hold_max_s`, or when an arm misses `hold_late_run` ticks
-/// in a row, whichever comes first.
+/// ends in braking when the object is still, or after `hold_max_s` (a path that never stops).
 struct OverloadRule {
   int window = 100;         ///< ticks in the sliding window
   int max_late = 10;        ///< more late arm-ticks of one arm in the window than this brake the module (10%)
@@ -46,8 +46,7 @@ struct OverloadRule {
   double backoff_max_s = 8.0;
   double still_speed = 0.003;  ///< object speed under which it counts as still [m/s]
   int still_ticks = 5;
-  double hold_max_s = 0.2;     ///< brake after this long even if the object still moves
-  int hold_late_run = 3;       ///< or as soon as an arm misses this many ticks in a row while holding
+  double hold_max_s = 1.0;     ///< brake after this long even if the object still moves
   bool enabled = true;
 };
 
@@ -69,15 +68,19 @@ struct SampleOut {
   model::Vec3 q = model::Vec3::Zero(), qd = model::Vec3::Zero();
   model::Vec2 h = model::Vec2::Zero();
   bool braked = false;
-  model::Vec3 tau_applied = model::Vec3::Zero();  ///< torque the arm got over the last period
-  int32_t applied_from = 0;                       ///< strength of the robot it came from (0: none, braked)
+  /// Torque the arm got over the last period; braked: the torque the brake takes to hold it (g + J^T h), so
+  /// that a robot that takes the arm over starts from it (bumpless release).
+  model::Vec3 tau_applied = model::Vec3::Zero();
+  /// Strength of the robot it came from (1-100); 0: none, or braked (the brake's holding torque); -1: the
+  /// world's drive (a controlled stop along the plan, or a tick no robot answered in time).
+  int32_t applied_from = 0;
 };
 
 /// What the supervisor plans from (WorldReport on the wire).
 struct ReportOut {
   long tick = 0;
   std::array<bool, 2> braked{false, false};
-  bool hold = false;  ///< overload: stop the path now (the brakes follow once the object is still)
+  bool hold = false;  ///< overload, or an arm without a controller: stop the path (the brakes follow once still)
   long braked_since = -1, released_at = -1;
   double normal_min = 0.0;
   model::Vec3 object = model::Vec3::Zero();  ///< x, y, psi now
@@ -128,7 +131,10 @@ class WorldCore {
   /// Log lines ("m1/left braked (...)"), for the process to print.
   void set_log(std::function<void(const std::string&)> log) { log_ = std::move(log); }
 
-  void offer_plan(const plan::PlanData& p) { follower_.offer(p); }
+  /// A plan heard on the wire: followed as the robots follow it (plan::PlanFollower, checked at this tick).
+  plan::PlanFollower::Offer offer_plan(const plan::PlanData& p, std::string* why = nullptr) {
+    return follower_.offer(p, why, k_);
+  }
 
   /// Starts tick k at `now_ns`: applies pending releases, measures the tracking error (the plan's eq. 15 as
   /// the robots evaluate it) and the contact forces, and fills both arms' samples.
@@ -155,6 +161,16 @@ class WorldCore {
   /// its law's memory is then warm again. Taking over on its first answer after a 1 s stall applied a command
   /// from a stale integrator, and the object slipped (found by tandem soak).
   static constexpr int kTakeoverTicks = 50;
+  /// Real time: an arm that got no command in time for more than this many ticks in a row is driven by the
+  /// world (the drive's torque, not the stale one) until a command comes in time again. While the world holds
+  /// for load or stops an arm without a controller, every missed tick is driven.
+  static constexpr int kDriveAfterMisses = 3;
+  /// The world's drive: computed torque (eq. 21-22 with the plant's own model, exact here) and a PD on the
+  /// whole pose (x, y, phi) towards the plan's eq. (15) reference, which carries the grasp preload: w = 50
+  /// rad/s, critically damped. Memoryless, so it can serve a single tick as well as a whole stop.
+  static constexpr double kDriveKp = 2500.0, kDriveKd = 100.0;
+  /// A stop of an arm without a controller brakes it once the object is still, or after this long.
+  static constexpr double kStopMaxS = 10.0;
 
   enum class Verdict { Applied, Shadow, Rejected, Stale };
   /// A torque command for arm j from the robot of strength `strength` (100: the primary, "<arm>"; a standby
@@ -189,6 +205,12 @@ class WorldCore {
   const model::ModulePlant& plant() const { return plant_; }
   std::string serving_text() const;  ///< "left=m1/left@50,right=braked"
   bool braked(int j) const { return link_[static_cast<size_t>(j)].braked; }
+  /// The arm has no live controller and the world drives it to rest along the plan (then brakes it).
+  bool stopping(int j) const { return link_[static_cast<size_t>(j)].stopping; }
+  /// Torque of the world's drive for arm j now (computed torque towards the plan's reference).
+  model::Vec3 drive_torque(int j) const;
+  /// Torque a brake takes to hold arm j still now: g(q) + J^T h.
+  model::Vec3 holding_torque(int j) const;
   bool paused_for_load() const { return load_paused_ || load_pending_; }
   bool answered_once() const { return link_[0].last_tick >= 0 && link_[1].last_tick >= 0; }
   bool serving_changed() { const bool c = serving_changed_; serving_changed_ = false; return c; }
@@ -196,7 +218,9 @@ class WorldCore {
   double normal_min_since_status();  ///< lowest normal force since the last call
 
   unsigned long long late = 0, timeouts = 0, rejected = 0, stale = 0, braked_ticks = 0, failovers = 0,
-                     load_pauses = 0, load_paused_ticks = 0, covered = 0;
+                     load_pauses = 0, load_paused_ticks = 0, covered = 0,
+                     driven = 0,  ///< arm-ticks the world's drive served (no command in time)
+                     stops = 0;   ///< arms brought to rest by the drive (no live controller)
   double failover_max_ms = 0.0, failover_last_ms = 0.0;
   /// Strength of the robot whose torque each arm got last (the owner, or a standby covering a missed tick).
   std::array<int32_t, 2> applied_from_{0, 0};
@@ -220,7 +244,12 @@ class WorldCore {
     std::array<bool, 256> late_ring{};  // real time: the last OverloadRule::window ticks, late or not
     int late_count = 0;
     int late_run = 0;         // late ticks in a row
+    int miss_run = 0;         // ticks in a row without a command applied in time
+    bool stopping = false;    // no live controller: the world drives it to rest along the plan, then brakes
+    long stop_tick = -1;      // the tick the stop began
   };
+  void begin_stop(int j, const std::string& why, int64_t now_ns);
+  bool holding() const { return load_pending_ || link_[0].stopping || link_[1].stopping; }
   void set_brake(int j, bool on, const std::string& why);
   void mark_late(ArmLink& L, long tick);
   void apply(int j, const model::Vec3& tau, int32_t strength, int64_t at_ns, int64_t decided_ns);
@@ -243,6 +272,7 @@ class WorldCore {
   std::array<bool, 2> have_{false, false};
   std::array<bool, 2> expect_{true, true};  // a sample went out this tick: a command is due
   std::array<model::Vec3, 2> tau_{model::Vec3::Zero(), model::Vec3::Zero()};
+  model::ContactReading contact_{};  // the contacts at the start of the tick (the plant does not move until step)
   std::array<double, 2> ep_{0.0, 0.0};
   long k_ = 0;
   double t_ = 0.0;

@@ -1,0 +1,313 @@
+// Stops that keep the grasp (docs/failure-model.md, "Stops"), driven tick by tick with the real components and
+// no DDS: a world, a robot per arm and a supervisor (and a standby supervisor), in real time, as their
+// processes run them.
+// - the last controller of an arm dies at the task's peak speed, on each arm: the world drives the arm along the
+//   plan, the supervisor stops the plan inside the friction bound, the brake follows once the object is still:
+//   no slip, no contact lost, eq. (14) held throughout, the object's deceleration under the bound;
+// - a fresh robot takes the braked arm over 1-5 s later: it starts from the brake's holding torque, the task
+//   resumes and ends where it should, with no slip;
+// - the leading supervisor dies at random ticks: its replica takes over and the references stay continuous.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <memory>
+#include <random>
+#include <string>
+
+#include "tandem/model/grasp.hpp"
+#include "tandem/plan/plan.hpp"
+#include "tandem/robot/robot_core.hpp"
+#include "tandem/sim/embedded.hpp"
+#include "tandem/sim/module_setup.hpp"
+#include "tandem/sim/scenario_yaml.hpp"
+#include "tandem/supervisor/supervisor_core.hpp"
+#include "tandem/world/world_core.hpp"
+
+namespace ts = tandem::sim;
+namespace tp = tandem::plan;
+namespace tmo = tandem::model;
+using tandem::robot::RobotCore;
+using tandem::supervisor::SupervisorCore;
+using tandem::supervisor::SupervisorOptions;
+using tandem::world::WorldCore;
+
+namespace {
+
+const ts::ModuleSetup& sosm_module() {
+  static const ts::Scenario sc = ts::load_scenario(std::string(TANDEM_SOURCE_DIR) + "/config/scenarios/paper.yaml");
+  static const ts::ModuleSetup m = [] {
+    for (const auto& c : sc.cases) {
+      if (c.name == "SOSM") return ts::make_module(sc, c);
+    }
+    throw std::runtime_error("paper.yaml has no SOSM case");
+  }();
+  return m;
+}
+
+constexpr int64_t kMs = 1000000;
+constexpr long kPeakTick = 2500;  // the paper task: 0.5 s hold, then 0.4 m in 4 s (quintic): peak speed at 2.5 s
+
+// One module in real time, every part a component, in the order the processes run: the world starts tick k,
+// reports every 10 ticks; supervisors hear the report and publish their plan, which the world and the robots
+// follow; each live robot answers the sample in time; the world ends the tick and steps the plant.
+struct Rig {
+  const ts::ModuleSetup& m = sosm_module();
+  WorldCore w{m, opts()};
+  std::array<std::unique_ptr<SupervisorCore>, 2> sup;  // [0] the leader, [1] a standby (optional)
+  std::array<bool, 2> sup_alive{true, true};
+  std::array<std::unique_ptr<RobotCore>, 2> robot;
+  std::optional<tp::PlanData> last_plan;  // what a robot that joins hears first (transient-local)
+  std::string log;
+  std::array<tandem::world::SampleOut, 2> out{};
+  double min_normal = 1e300;      // after the start-up transient
+  double max_decel = 0.0;         // the object's largest |acceleration| while stopping [m/s^2]
+  unsigned long long plan_refusals = 0;
+  tmo::Vec2 prev_cd = tmo::Vec2::Zero();
+  long k = 0;
+
+  static tandem::world::WorldOptions opts() {
+    tandem::world::WorldOptions o;
+    o.arm_ids = {"m1/left", "m1/right"};
+    o.arm_names = {"left", "right"};
+    o.realtime = true;
+    return o;
+  }
+  explicit Rig(bool standby = false) {
+    w.set_log([this](const std::string& l) { log += "world: " + l + "\n"; });
+    sup[0] = std::make_unique<SupervisorCore>(m, SupervisorOptions{"m1/supervisor", 100, false, 0.1}, 0);
+    sup[0]->set_log([this](const std::string& l) { log += "supervisor: " + l + "\n"; });
+    if (standby) {
+      sup[1] = std::make_unique<SupervisorCore>(m, SupervisorOptions{"m1/supervisor@50", 50, false, 0.1}, 0);
+      sup[1]->set_log([this](const std::string& l) { log += "standby: " + l + "\n"; });
+    }
+    for (int j = 0; j < 2; ++j) robot[static_cast<size_t>(j)] = std::make_unique<RobotCore>(m, j, false, 0.1);
+  }
+  void publish(const tp::PlanData& p) {
+    std::string why;
+    if (w.offer_plan(p, &why) == tp::PlanFollower::Offer::Rejected) {
+      ++plan_refusals;
+      log += "world refused a plan: " + why + "\n";
+    }
+    for (auto& r : robot) {
+      if (r && r->offer_plan(p, &why) == tp::PlanFollower::Offer::Rejected) {
+        ++plan_refusals;
+        log += "robot refused a plan: " + why + "\n";
+      }
+    }
+    for (size_t i = 0; i < 2; ++i) {
+      if (sup[i] && sup_alive[i] && p.supervisor_id != (i == 0 ? "m1/supervisor" : "m1/supervisor@50")) sup[i]->on_plan(p, k * kMs);
+    }
+    last_plan = p;
+  }
+  void tick() {
+    const int64_t now = k * kMs;
+    w.begin_tick(k, now, out);
+    const bool report = w.report_due(1L << 40);
+    tandem::supervisor::ReportIn in;
+    if (report) {
+      const tandem::world::ReportOut r = w.take_report();
+      in.tick = r.tick;
+      in.braked = r.braked;
+      in.hold = r.hold;
+      in.braked_since = r.braked_since;
+      in.released_at = r.released_at;
+      in.normal_min = r.normal_min;
+      in.object_xy = r.object.head<2>();
+    }
+    for (size_t i = 0; i < 2; ++i) {
+      if (!sup[i] || !sup_alive[i]) continue;
+      if (report) sup[i]->on_report(in, now);
+      sup[i]->update(now);
+      if (auto p = sup[i]->take_plan()) publish(*p);
+    }
+    for (int j = 0; j < 2; ++j) {
+      const size_t a = static_cast<size_t>(j);
+      if (!robot[a] || !out[a].publish) continue;
+      tmo::ArmSensors s;
+      s.q = out[a].q;
+      s.qd = out[a].qd;
+      s.h = out[a].h;
+      // As the robot process: track the torque of another robot, the world's drive, or the brake.
+      const bool other = out[a].applied_from != 100 && (out[a].applied_from != 0 || out[a].braked);
+      const auto tau = robot[a]->on_sample(k, s, out[a].braked, other ? &out[a].tau_applied : nullptr);
+      if (tau) w.on_command(j, k, *tau, 100, now + 100000, false);
+    }
+    w.end_tick(now + 500000);
+    if (k > 100) {
+      const tmo::ContactReading c = w.plant().contacts();
+      min_normal = std::min({min_normal, c.normal[0], c.normal[1]});
+    }
+    w.step();
+    const tmo::Vec2 cd = w.plant().state().cd;
+    if (w.stopping(0) || w.stopping(1)) max_decel = std::max(max_decel, (cd - prev_cd).norm() / m.period);
+    prev_cd = cd;
+    ++k;
+  }
+  void run_to(long end) {
+    while (k < end) tick();
+  }
+  long slips() const { return w.plant().counters().slip_events; }
+  long contact_lost() const { return w.plant().counters().contact_lost; }
+};
+
+double a_max(const ts::ModuleSetup& m) {
+  const tmo::ObjectParams& o = m.plant.object;
+  return tmo::stop_deceleration_bound(m.reference_force, m.safe_grasp_force, o.mass, o.mu_s, m.plant.g0);
+}
+
+}  // namespace
+
+TEST_CASE("the stop's deceleration bound follows from eq. (14) and the grasp's squeeze", "[stops]") {
+  const ts::ModuleSetup& m = sosm_module();
+  // paper.yaml: M = 2 kg, mu_s = 0.5, h_ref = 1.5 h_sg: h_sg = M g / (2 mu_s) = 19.62 N, and the bound
+  // (h_ref - h_sg) / M = 0.5 h_sg / M = g / 4 ... with mu_s = 0.5: (1.5 - 1) * 19.62 / 2 = 4.905 m/s^2.
+  CHECK(m.safe_grasp_force == Approx(2.0 * 9.81 / (2.0 * 0.5)));
+  CHECK(a_max(m) == Approx(0.5 * m.safe_grasp_force / 2.0));
+  CHECK(a_max(m) == Approx(4.905).epsilon(1e-3));
+  // Along the faces: 2 mu_s h_ref / M - g = 0.5 * 2 * 29.43 / 2 - 9.81 = 4.905 as well (mu_s = 1/2).
+  CHECK(tmo::stop_deceleration_bound(29.43, 19.62, 2.0, 0.5, 9.81) == Approx(4.905).epsilon(1e-3));
+  // A slipperier grasp is bounded along the faces: mu_s = 0.3 and h_ref = 1.2 h_sg.
+  const double hsg = 2.0 * 9.81 / (2.0 * 0.3);
+  CHECK(tmo::stop_deceleration_bound(1.2 * hsg, hsg, 2.0, 0.3, 9.81) == Approx(std::min(0.2 * hsg / 2.0, 0.6 * 1.2 * hsg / 2.0 - 9.81)));
+  // The supervisor's stop ramp at the task's peak speed keeps the ramp's deceleration within half the bound.
+  SupervisorCore s(m, SupervisorOptions{"m1/supervisor", 100, false, 0.1}, 0);
+  const double v_peak = m.path.sample(2.5).vel.head<2>().norm();
+  CHECK(v_peak == Approx(1.875 * 0.4 / 4.0).epsilon(1e-6));  // quintic: peak speed 15/8 of the mean
+  CHECK(1.5 * v_peak / s.stop_ramp(kPeakTick) <= 0.5 * a_max(m) + 1e-9);
+}
+
+TEST_CASE("the last controller of an arm dies at peak speed: the object is brought to rest without a slip, on each arm", "[stops]") {
+  for (int j = 0; j < 2; ++j) {
+    Rig rig;
+    const double hsg = rig.m.safe_grasp_force;
+    rig.run_to(kPeakTick);
+    const double speed = rig.w.plant().state().cd.norm();
+    rig.robot[static_cast<size_t>(j)].reset();  // killed: it answers nothing more
+    rig.run_to(kPeakTick + 1500);
+    INFO("arm " << j << "\n" << rig.log);
+    CHECK(speed == Approx(0.1875).epsilon(0.05));  // it was moving at the task's peak speed
+    CHECK(rig.log.find(std::string(j == 0 ? "m1/left" : "m1/right") + " has no live controller") != std::string::npos);
+    CHECK(rig.log.find("object at rest after") != std::string::npos);
+    CHECK(rig.w.braked(j));
+    CHECK_FALSE(rig.w.braked(1 - j));
+    CHECK(rig.w.stops == 1);
+    CHECK(rig.slips() == 0);
+    CHECK(rig.contact_lost() == 0);
+    CHECK(rig.min_normal >= hsg);                 // eq. (14) throughout
+    CHECK(rig.max_decel <= a_max(rig.m));         // the stop stayed inside the bound
+    CHECK(rig.w.plant().state().cd.norm() < 1e-3);
+    CHECK(rig.sup[0]->state() == tp::TaskStateCode::Paused);
+  }
+}
+
+TEST_CASE("a fresh robot takes over a braked arm 1-5 s later: it starts from the holding torque, and the task ends without a slip", "[stops]") {
+  for (const int j : {0, 1}) {
+    for (const long delay_ms : {1000L, 3000L, 5000L}) {
+      Rig rig;
+      rig.run_to(kPeakTick);
+      rig.robot[static_cast<size_t>(j)].reset();
+      rig.run_to(kPeakTick + delay_ms);
+      REQUIRE(rig.w.braked(j));
+      // A restarted robot: a fresh law, the latest plan (transient-local), then samples.
+      rig.robot[static_cast<size_t>(j)] = std::make_unique<RobotCore>(rig.m, j, false, 0.1);
+      rig.robot[static_cast<size_t>(j)]->offer_plan(*rig.last_plan);
+      const long joined = rig.k;
+      // Its torque at release is the brake's holding torque, to within the law's reaction to the small error.
+      tmo::Vec3 at_release = tmo::Vec3::Zero(), holding = tmo::Vec3::Zero();
+      while (rig.w.braked(j) && rig.k < joined + 1000) {
+        holding = rig.w.holding_torque(j);
+        rig.tick();
+        at_release = rig.robot[static_cast<size_t>(j)]->last_tau();
+      }
+      INFO("arm " << j << ", restarted after " << delay_ms << " ms\n" << rig.log);
+      REQUIRE_FALSE(rig.w.braked(j));
+      CHECK(rig.k - joined >= WorldCore::kReleaseTrialTicks);
+      CHECK((at_release - holding).norm() < 0.05 * holding.norm() + 1.0);
+      // The rest of the task: 4.5 s of motion in all, 2 s of it done before the stop.
+      rig.run_to(rig.k + 4000);
+      CHECK(rig.slips() == 0);
+      CHECK(rig.contact_lost() == 0);
+      CHECK(rig.min_normal >= rig.m.safe_grasp_force);
+      CHECK(rig.w.plant().state().c(0) == Approx(0.2).margin(2e-3));  // where the task ends
+      CHECK(rig.w.plant().state().c(1) == Approx(0.8).margin(2e-3));
+    }
+  }
+}
+
+TEST_CASE("the leading supervisor dies at random ticks: its replica takes over and the references stay continuous", "[stops]") {
+  std::mt19937 rng(20261124);
+  std::uniform_int_distribution<long> when(200, 4500);
+  for (int trial = 0; trial < 4; ++trial) {
+    const long death = when(rng);
+    Rig rig(true);
+    tp::PlanFollower follower(rig.m, false);  // what the robots evaluate, checked tick by tick
+    double max_step = 0.0;
+    tmo::Vec3 prev = tmo::Vec3::Zero();
+    for (long k = 0; k < 5500; ++k) {
+      if (k == death) rig.sup_alive[0] = false;
+      rig.tick();
+      if (rig.last_plan) follower.offer(*rig.last_plan);
+      const tmo::Vec3 x = follower.reference(1, k).x;
+      if (k > 0) max_step = std::max(max_step, (x - prev).head<2>().norm());
+      prev = x;
+    }
+    INFO("leader killed at tick " << death << "\n" << rig.log);
+    CHECK(rig.sup[1]->active());
+    CHECK(rig.log.find("standby: taking over in epoch 1") != std::string::npos);
+    CHECK(rig.plan_refusals == 0);
+    // Continuous: never more than the path's peak speed (0.1875 m/s) over one tick, with margin.
+    CHECK(max_step <= 0.1875 * rig.m.period * 1.1);
+    CHECK(rig.slips() == 0);
+    CHECK(rig.w.plant().state().c(0) == Approx(0.2).margin(2e-3));
+  }
+}
+
+TEST_CASE("a follower refuses a plan whose reference jumps now, and a standby that never heard a leader does not lead a moved object", "[stops]") {
+  const ts::ModuleSetup& m = sosm_module();
+  tp::ModulePlan leader(m, false);
+  tp::PlanData p;
+  leader.export_to(p);
+  p.supervisor_id = "m1/supervisor";
+  tp::PlanFollower f(m, false);
+  REQUIRE(f.offer(p, nullptr, 2500) == tp::PlanFollower::Offer::Adopted);
+  // A supervisor that paused the path at tick 1000 long ago (a plan that drifted): 0.2 m behind at tick 2500.
+  tp::ModulePlan drifted(m, false);
+  drifted.set_rate(1000, 0.0, 0.0);
+  tp::PlanData q;
+  drifted.export_to(q);
+  q.supervisor_id = "m1/supervisor@50";
+  q.epoch = 1;
+  std::string why;
+  CHECK(f.offer(q, &why, 2500) == tp::PlanFollower::Offer::Rejected);
+  CHECK(why.find("jumps by") != std::string::npos);
+  // The same change planned ahead of now is followed (a pause from tick 2520 on).
+  tp::ModulePlan ahead(m, false);
+  ahead.set_rate(2520, 0.0, 0.15);
+  ahead.export_to(q);
+  CHECK(f.offer(q, &why, 2500) == tp::PlanFollower::Offer::Adopted);
+  // A standby that never heard a leader, with the object 5 cm from where its initial plan has it.
+  SupervisorCore s(m, SupervisorOptions{"m1/supervisor@50", 50, false, 0.1}, 0);
+  std::string log;
+  s.set_log([&](const std::string& l) { log += l + "\n"; });
+  for (long k = 0; k <= 7000; k += 10) {
+    tandem::supervisor::ReportIn r;
+    r.tick = k;
+    r.normal_min = 29.0;
+    r.object_xy = m.path.sample(0.0).pose.head<2>() + tmo::Vec2(0.05, 0.0);
+    s.on_report(r, k * kMs);
+    s.update(k * kMs);
+  }
+  CHECK_FALSE(s.active());
+  CHECK(log.find("never heard a leader, and the object is not where the initial plan has it") != std::string::npos);
+  // With the object where the initial plan has it (a module whose leader never started), it leads after 6 s.
+  SupervisorCore t(m, SupervisorOptions{"m1/supervisor@50", 50, false, 0.1}, 0);
+  for (long k = 0; k <= 7000; k += 10) {
+    tandem::supervisor::ReportIn r;
+    r.tick = k;
+    r.normal_min = 29.0;
+    r.object_xy = m.path.sample(static_cast<double>(k) * m.period).pose.head<2>();
+    t.on_report(r, k * kMs);
+    t.update(k * kMs);
+  }
+  CHECK(t.active());
+}

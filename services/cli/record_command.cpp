@@ -89,6 +89,8 @@ pb::WorldReport convert(const msg::WorldReport& r) {
   o.set_failovers(r.failovers());
   o.set_load_paused(r.load_paused());
   o.set_serving(r.serving());
+  o.set_failed(r.failed());
+  o.set_failure(r.failure());
   return o;
 }
 pb::ProcessStatus convert(const msg::ProcessStatus& s) {

@@ -51,7 +51,7 @@ void TaskQueue::requeue(Module& m) {
 
 std::vector<Event> TaskQueue::report(const ModuleReport& r, double now) {
   std::vector<Event> events;
-  if (r.module.empty() || r.state > static_cast<uint8_t>(ModuleState::Left)) {
+  if (r.module.empty() || r.state > static_cast<uint8_t>(ModuleState::Failed)) {
     ++rejected_;
     return events;
   }
@@ -87,8 +87,22 @@ std::vector<Event> TaskQueue::report(const ModuleReport& r, double now) {
   }
   m.heard = true;
   m.last_heard = now;
+  const bool newly_failed = r.state == static_cast<uint8_t>(ModuleState::Failed) && m.state != r.state;
   m.state = r.state;
   m.reported = r.task_id;
+  if (newly_failed) {
+    // A drop: the task in flight was not done (its object was not held throughout). It goes back to the front of
+    // the queue, a late "done" from this module for it is ignored, and the module is not free while failed.
+    Event e{EventKind::Failed, r.module, "", 0, 0};
+    if (m.running_id != 0) {
+      e.task = names_[m.running_task];
+      e.id = m.running_id;
+      abandoned_[m.running_id] = {m.running_task, r.module};
+      requeue(m);
+    }
+    events.push_back(e);
+    return events;
+  }
   if (!finished_state(r.state)) return events;
   if (m.running_id != 0 && r.task_id == m.running_id) {
     finish(r.module, m, events);
@@ -199,7 +213,8 @@ TaskQueue::Reconciled TaskQueue::reconcile(double now) {
     if (m.running_id != 0) {
       if (m.heard && m.reported == m.running_id && finished_state(m.state)) {
         finish(name, m, out.events);
-      } else if (left || (m.heard && m.reported > m.running_id)) {
+      } else if (left || (m.heard && m.reported > m.running_id) ||
+                 (m.heard && m.state == static_cast<uint8_t>(ModuleState::Failed))) {
         out.events.push_back({EventKind::Requeued, name, names_[m.running_task], m.running_id, 0});
         requeue(m);
       } else if (!m.heard || m.reported < m.running_id) {
@@ -253,6 +268,8 @@ std::string TaskQueue::describe(const Event& e) const {
       return e.module + " left" + back;
     case EventKind::Requeued:
       return e.module + " no longer runs " + task + "; it goes back to the front of the queue";
+    case EventKind::Failed:
+      return e.module + " failed (its object was dropped): it takes no task until it is cleared" + back;
   }
   return "";
 }

@@ -24,7 +24,7 @@ namespace tandem::coordinator {
 inline constexpr double kModuleLostS = 1.5;
 
 /// TaskState.state on the wire (idl/tandem.idl).
-enum class ModuleState : uint8_t { Idle = 0, Running = 1, Done = 2, Paused = 3, Draining = 4, Left = 5 };
+enum class ModuleState : uint8_t { Idle = 0, Running = 1, Done = 2, Paused = 3, Draining = 4, Left = 5, Failed = 6 };
 
 /// One TaskState of this deployment.
 struct ModuleReport {
@@ -60,6 +60,7 @@ enum class EventKind {
   Lost,             ///< not heard for kModuleLostS (task: the one put back at the front of the queue)
   Left,             ///< reported "left": removed (task: the one put back at the front of the queue)
   Requeued,         ///< takeover: the module no longer runs the task recorded for it
+  Failed,           ///< the module dropped its object (task: back to the front of the queue, never done there)
 };
 struct Event {
   EventKind kind = EventKind::Joined;

@@ -197,6 +197,8 @@ int main(int argc, char** argv) {
       rep.released_at(r.released_at);
       rep.normal_min(r.normal_min);
       for (int i = 0; i < 3; ++i) rep.object()[static_cast<size_t>(i)] = r.object(i);
+      rep.failed(r.failed);
+      if (r.failed && rep.failure() != r.failure) rep.failure(r.failure);
       world_wire::fill_report_counters(core, opt.realtime, rep);
       report.write(rep);
     }

@@ -311,3 +311,52 @@ TEST_CASE("a follower refuses a plan whose reference jumps now, and a standby th
   }
   CHECK(t.active());
 }
+
+TEST_CASE("a drop is a failure: the world brakes both arms for good, the supervisor reports the module failed, the task is not done", "[stops]") {
+  Rig rig;
+  rig.run_to(1500);
+  // The right robot goes mad: zero torque, in time, every tick (a valid command: the world applies it). Its arm
+  // falls away from the object and the left arm alone cannot hold it.
+  std::string sup_state;
+  long failed_at = -1;
+  for (; rig.k < 3000;) {
+    const long k = rig.k;
+    const int64_t now = k * kMs;
+    rig.w.begin_tick(k, now, rig.out);
+    if (rig.w.report_due(1L << 40)) {
+      const auto r = rig.w.take_report();
+      tandem::supervisor::ReportIn in;
+      in.tick = r.tick;
+      in.braked = r.braked;
+      in.hold = r.hold;
+      in.braked_since = r.braked_since;
+      in.released_at = r.released_at;
+      in.normal_min = r.normal_min;
+      in.object_xy = r.object.head<2>();
+      in.failed = r.failed;
+      rig.sup[0]->on_report(in, now);
+      if (r.failed && failed_at < 0) failed_at = k;
+    }
+    rig.sup[0]->update(now);
+    if (auto p = rig.sup[0]->take_plan()) rig.publish(*p);
+    tmo::ArmSensors s;
+    s.q = rig.out[0].q;
+    s.qd = rig.out[0].qd;
+    s.h = rig.out[0].h;
+    if (const auto tau = rig.robot[0]->on_sample(k, s, rig.out[0].braked)) rig.w.on_command(0, k, *tau, 100, now + 100000, false);
+    rig.w.on_command(1, k, tmo::Vec3::Zero(), 100, now + 100000, false);
+    rig.w.end_tick(now + 500000);
+    rig.w.step();
+    ++rig.k;
+  }
+  INFO(rig.log);
+  REQUIRE(rig.w.failed());
+  CHECK((rig.w.failure().find("a contact carried no force") != std::string::npos || rig.w.failure().find("slid") != std::string::npos));
+  CHECK(failed_at > 1500);
+  CHECK(rig.w.braked(0));
+  CHECK(rig.w.braked(1));  // and no robot releases them: both answered every tick since
+  CHECK(rig.sup[0]->state() == tp::TaskStateCode::Failed);
+  CHECK(rig.log.find("module failed") != std::string::npos);
+  // The path stopped: the plan never reaches the task's end, so the task is never finished.
+  CHECK_FALSE(rig.sup[0]->plan().motion_over(rig.k + 10000));
+}

@@ -22,7 +22,7 @@ using tandem::coordinator::Snapshot;
 using tandem::coordinator::TaskQueue;
 using tandem::test::Lcg;
 
-constexpr uint8_t kIdle = 0, kRunning = 1, kDone = 2, kPaused = 3, kDraining = 4, kLeft = 5;
+constexpr uint8_t kIdle = 0, kRunning = 1, kDone = 2, kPaused = 3, kDraining = 4, kLeft = 5, kFailed = 6;
 
 std::vector<std::string> task_names(int n) {
   std::vector<std::string> out;
@@ -206,7 +206,7 @@ TEST_CASE("a module that leaves is removed, its unfinished task back at the fron
 
 TEST_CASE("task states with an unknown state or no module are rejected and counted", "[coordinator]") {
   TaskQueue q(task_names(1), Balance::Wear);
-  CHECK(q.report({"m1", 0, 6}, 0.0).empty());
+  CHECK(q.report({"m1", 0, 7}, 0.0).empty());
   CHECK(q.report({"", 0, kIdle}, 0.0).empty());
   CHECK(q.rejected() == 2);
   CHECK(q.module_count() == 0);
@@ -368,4 +368,38 @@ TEST_CASE("no task is counted twice with lost modules, late reports and a takeov
   }
   CHECK(lost > 0);  // the runs did exercise lost modules and their late reports
   CHECK(late_done_ignored > 0);
+}
+
+TEST_CASE("a module that drops its object fails: its task goes back to the front and is never counted done there", "[coordinator]") {
+  TaskQueue q(task_names(3), Balance::Wear);
+  q.report({"m1", 0, kIdle}, 0.0);
+  q.report({"m2", 0, kIdle}, 0.0);
+  const auto a1 = q.assign_next(no_wear);  // t0 -> m1
+  const auto a2 = q.assign_next(no_wear);  // t1 -> m2
+  REQUIRE(a1);
+  REQUIRE(a2);
+  q.report({"m1", a1->id, kRunning}, 0.5);
+  const auto events = q.report({"m1", a1->id, kFailed}, 1.0);
+  REQUIRE(events.size() == 1);
+  CHECK(events[0].kind == EventKind::Failed);
+  CHECK(events[0].task == "t0");
+  CHECK(q.describe(events[0]).find("failed (its object was dropped)") != std::string::npos);
+  CHECK(q.pending() == std::vector<std::string>{"t0", "t2"});
+  CHECK(q.report({"m1", a1->id, kFailed}, 1.1).empty());  // said once
+  // A failed module takes nothing; the others do.
+  q.report({"m2", a2->id, kDone}, 2.0);
+  const auto next = q.assign_next(no_wear);
+  REQUIRE(next);
+  CHECK(next->module == "m2");
+  CHECK(q.task_name(next->task) == "t0");
+  CHECK_FALSE(q.assign_next(no_wear));  // t2 waits: m1 is failed, m2 busy
+  // A "done" of the dropped task from the failed module is not counted.
+  q.report({"m1", a1->id, kDone}, 3.0);
+  CHECK(q.done_count() == 1);  // t1 only
+  // Cleared (reports idle again): it takes tasks again.
+  q.report({"m1", a1->id, kIdle}, 4.0);
+  const auto back = q.assign_next(no_wear);
+  REQUIRE(back);
+  CHECK(back->module == "m1");
+  CHECK(q.task_name(back->task) == "t2");
 }

@@ -98,7 +98,7 @@ std::string ModulePlan::check(const PlanData& p) {
   }
   if (!(p.tau_start >= 0.0 && p.tau_start < 1e9)) return "path time at the start not in [0, 1e9)";
   if (p.start_tick < 0 || p.start_tick >= (1LL << 40)) return "start tick not in [0, 2^40)";
-  if (p.state > static_cast<uint8_t>(TaskStateCode::Left)) return "state not in [0, 5]";
+  if (p.state > static_cast<uint8_t>(TaskStateCode::Failed)) return "state not in [0, 6]";
   if (p.heard_tick < -1 || p.heard_tick >= (1LL << 40)) return "heard tick not in [-1, 2^40)";
   model::TimeScale scale;
   if (!scale.restore(p.breaks)) return "time-scale retargets malformed";

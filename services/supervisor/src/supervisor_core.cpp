@@ -17,6 +17,7 @@ SupervisorCore::SupervisorCore(const sim::ModuleSetup& m, const SupervisorOption
 }
 
 TaskStateCode SupervisorCore::state() const {
+  if (failed_) return TaskStateCode::Failed;
   const long k = std::max(heard_tick_, 0L);
   const bool busy = o_.continuous ? plan_.running() : !plan_.motion_over(k);
   if (draining_ && !busy) return TaskStateCode::Left;
@@ -55,7 +56,7 @@ void SupervisorCore::publish_state(bool force, int64_t now_ns) {
   out_state_ = StateOut{plan_.task_id(), static_cast<uint8_t>(st), plan_.done(),
                         static_cast<uint64_t>(std::max(heard_tick_, 0L))};
   if (st != reported_) {
-    static const char* names[] = {"idle", "running", "done", "paused", "draining", "left"};
+    static const char* names[] = {"idle", "running", "done", "paused", "draining", "left", "failed (object dropped)"};
     std::string detail = names[static_cast<int>(st)];
     if (st == TaskStateCode::Paused) {
       detail += hold_ ? " (for load)" : braked_[0] || braked_[1] ? " (arm braked)" : " (requested)";
@@ -135,6 +136,10 @@ void SupervisorCore::on_report(const ReportIn& r, int64_t now_ns) {
   braked_since_ = r.braked_since;
   released_at_ = r.released_at;
   object_xy_ = r.object_xy;
+  if (r.failed && !failed_) {
+    failed_ = true;  // latched: the module takes no task, and its task is not done, until it is cleared
+    log("the world reports the object dropped: the module is failed; its task is not done");
+  }
   if (r.normal_min < m_.safe_grasp_force && r.tick > static_cast<long>(o_.transient_s / m_.period) &&
       r.tick - low_force_reported_ > 1000) {
     low_force_reported_ = r.tick;  // eq. (14) violated: at most one line a second
@@ -225,14 +230,13 @@ void SupervisorCore::update(int64_t now_ns) {
     plan_.set_rate(next, pause_requested_ ? 0.0 : 1.0, kPauseRamp);
   }
   for (const Assignment& a : assignments_) {
-    // A standby starts the task too, at the tick the active one will most likely choose.
-    if (!o_.continuous || a.id <= plan_.task_id() || plan_.running() || draining_) continue;
+    if (!o_.continuous || a.id <= plan_.task_id() || plan_.running() || draining_ || failed_) continue;
     plan_.assign(a.id, a.waypoints, next);
     out_detail_ = "task " + a.name;
     publish_state(true, now_ns);
   }
   assignments_.clear();
-  if (o_.continuous && plan_.finish_if_done(heard_tick_)) publish_state(true, now_ns);
+  if (o_.continuous && !failed_ && plan_.finish_if_done(heard_tick_)) publish_state(true, now_ns);
   publish_state(false, now_ns);
   if (!o_.continuous && heard_tick_ + 1 >= m_.steps) world_done_ = true;
   if (active_ && reported_ == TaskStateCode::Left) {

@@ -134,7 +134,7 @@ void WorldCore::begin_tick(long k, int64_t /*now_ns*/, std::array<SampleOut, 2>&
   for (int j = 0; j < 2; ++j) {
     if (link_[static_cast<size_t>(j)].release) {
       link_[static_cast<size_t>(j)].release = false;
-      set_brake(j, false, "a robot answers again");
+      if (!failed_) set_brake(j, false, "a robot answers again");
     }
   }
   // Tracking error as the world sees it (from the plan the robots follow), and the windows after switches.
@@ -186,6 +186,8 @@ ReportOut WorldCore::take_report() {
   r.released_at = released_at_;
   r.normal_min = report_normal_min_;
   r.object = model::Vec3(plant_.state().c(0), plant_.state().c(1), plant_.state().psi);
+  r.failed = failed_;
+  r.failure = failure_;
   report_normal_min_ = 1e300;
   report_now_ = false;
   return r;
@@ -286,6 +288,11 @@ void WorldCore::apply(int j, const model::Vec3& tau, int32_t strength, int64_t a
       log(o_.arm_ids[static_cast<size_t>(j)] + " brakes off at tick " + std::to_string(k_) + ": " + name +
           " answered in time");
     }
+  } else if (failed_) {
+    // Dropped: the arms stay braked whatever the robots send, until the module is cleared (a new world).
+    L.release_run = 0;
+    L.owner = name;
+    L.strength = strength;
   } else if ((L.braked && !load_paused_) || L.stopping) {
     // The trial: still braked (or still driven by the world; end_tick puts the drive's torque back).
     if (o_.realtime && ++L.release_run < kReleaseTrialTicks) return;
@@ -550,8 +557,38 @@ bool WorldCore::end_tick(int64_t now_ns) {
   return go_on;
 }
 
+void WorldCore::fail(const std::string& why) {
+  if (failed_) return;
+  failed_ = true;
+  failure_ = why + " at tick " + std::to_string(k_);
+  load_pending_ = false;
+  load_paused_ = false;
+  trial_ticks_ = -1;
+  for (int j = 0; j < 2; ++j) {
+    link_[static_cast<size_t>(j)].stopping = false;
+    set_brake(j, true, "object dropped: " + why);
+  }
+  report_now_ = true;
+  serving_changed_ = true;
+  log("module failed: " + failure_ + "; both arms braked, the module takes no task until it is cleared");
+}
+
 void WorldCore::step() {
   plant_.step(tau_, t_, m_.period, m_.substeps);
+  const model::PlantCounters& pc = plant_.counters();
+  no_contact_run_ = pc.contact_lost > contact_lost_seen_ ? no_contact_run_ + 1 : 0;
+  contact_lost_seen_ = pc.contact_lost;
+  if (!failed_ && o_.drop_is_failure) {
+    char why[128];
+    if (no_contact_run_ >= kDropContactTicks) {
+      std::snprintf(why, sizeof why, "a contact carried no force for %ld ms", no_contact_run_);
+      fail(why);
+    } else if (pc.slip_distance > kDropSlideM) {
+      std::snprintf(why, sizeof why, "the contacts slid %.1f mm along the faces (bound %.1f mm)", pc.slip_distance * 1e3,
+                    kDropSlideM * 1e3);
+      fail(why);
+    }
+  }
   const long slips = plant_.counters().slip_events;
   if (slips > slips_seen_ && k_ - slip_logged_ >= 100) {  // at most one line per 100 ticks
     char line[160];

@@ -40,7 +40,8 @@ bool all_finite(const Array& a) {
 }
 
 /// Task state of a module as the coordinator sees it (TaskState.state on the wire).
-enum class TaskStateCode : uint8_t { Idle = 0, Running = 1, Done = 2, Paused = 3, Draining = 4, Left = 5 };
+/// Failed: the world reports the module's object dropped (or slid out of the grasp): its task is not done.
+enum class TaskStateCode : uint8_t { Idle = 0, Running = 1, Done = 2, Paused = 3, Draining = 4, Left = 5, Failed = 6 };
 
 /// The plan as it travels (SupervisorPlan on the wire; services/runtime converts).
 struct PlanData {

@@ -33,6 +33,7 @@ struct ReportIn {
   long braked_since = -1, released_at = -1;
   double normal_min = 0.0;
   model::Vec2 object_xy = model::Vec2::Zero();
+  bool failed = false;  ///< the world reports the object dropped: the module is failed (TaskStateCode::Failed)
 };
 
 /// The module's task state for the coordinator (TaskState on the wire).
@@ -104,7 +105,7 @@ class SupervisorCore {
   plan::ModulePlan plan_;
   bool active_;
   plan::SupervisorRank rank_;
-  bool pause_requested_ = false, draining_ = false, leaving_ = false, world_done_ = false;
+  bool pause_requested_ = false, draining_ = false, leaving_ = false, world_done_ = false, failed_ = false;
   std::array<bool, 2> braked_{false, false};
   bool hold_ = false;
   long braked_since_ = -1, released_at_ = -1, heard_tick_ = -1, rebased_for_ = -1, low_force_reported_ = -1;

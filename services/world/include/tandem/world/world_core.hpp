@@ -59,6 +59,9 @@ struct WorldOptions {
   /// Test only (deployment key `test_no_brakes`): an arm whose controller is gone is not braked, so it keeps its
   /// last torque, as it would with no brakes at all. Used to show that the soak's checker catches a drop.
   bool brakes = true;
+  /// A drop fails the module (kDropContactTicks, kDropSlideM). Off only in unit tests that drive the world with
+  /// stand-in torques that hold nothing, to look at other bookkeeping.
+  bool drop_is_failure = true;
 };
 
 /// One arm's sample for the tick (what the world publishes).
@@ -84,6 +87,8 @@ struct ReportOut {
   long braked_since = -1, released_at = -1;
   double normal_min = 0.0;
   model::Vec3 object = model::Vec3::Zero();  ///< x, y, psi now
+  bool failed = false;   ///< the object was dropped (or slid out of the grasp): both arms braked, the module out
+  std::string failure;   ///< why, with the tick
 };
 
 /// A change of the robot an arm follows, and the worst tracking error and lowest normal force over the
@@ -171,6 +176,11 @@ class WorldCore {
   static constexpr double kDriveKp = 2500.0, kDriveKd = 100.0;
   /// A stop of an arm without a controller brakes it once the object is still, or after this long.
   static constexpr double kStopMaxS = 10.0;
+  /// A drop (docs/failure-model.md, "A drop is a failure"): a contact that carries no force for this many ticks
+  /// in a row, or the contacts sliding more than kDropSlideM along the faces since the start. Then the world
+  /// brakes both arms for good, reports the module failed, and no robot releases them.
+  static constexpr long kDropContactTicks = 10;
+  static constexpr double kDropSlideM = 2e-3;
 
   enum class Verdict { Applied, Shadow, Rejected, Stale };
   /// A torque command for arm j from the robot of strength `strength` (100: the primary, "<arm>"; a standby
@@ -212,6 +222,8 @@ class WorldCore {
   /// Torque a brake takes to hold arm j still now: g(q) + J^T h.
   model::Vec3 holding_torque(int j) const;
   bool paused_for_load() const { return load_paused_ || load_pending_; }
+  bool failed() const { return failed_; }
+  const std::string& failure() const { return failure_; }
   bool answered_once() const { return link_[0].last_tick >= 0 && link_[1].last_tick >= 0; }
   bool serving_changed() { const bool c = serving_changed_; serving_changed_ = false; return c; }
   double tracking_error() const { return std::max(ep_[0], ep_[1]); }
@@ -307,6 +319,11 @@ class WorldCore {
   int64_t load_until_ns_ = 0, load_released_ns_ = 0;
   double backoff_s_;
   long slips_seen_ = 0, slip_logged_ = -1000;
+  // Drop detection.
+  bool failed_ = false;
+  std::string failure_;
+  long contact_lost_seen_ = 0, no_contact_run_ = 0;
+  void fail(const std::string& why);
   double jitter_ = 0.0;  // in [0, 1): stretches this module's backoff
 };
 

@@ -28,6 +28,7 @@
 #include <ctime>
 #include <fcntl.h>
 #include <fstream>
+#include <filesystem>
 #include <functional>
 #include <map>
 #include <set>
@@ -114,7 +115,10 @@ std::string derived_deployment(const std::string& file, const runtime::Deploymen
   YAML::Node root = YAML::LoadFile(file);
   root["timing"] = timing;
   for (size_t i = 0; i < d.modules.size() && i < root["modules"].size(); ++i) {
-    root["modules"][i]["scenario"] = d.modules[i].scenario;
+    // Absolute: the derived file lives in the report directory, which may be anywhere.
+    std::error_code ec;
+    const std::filesystem::path abs = std::filesystem::absolute(d.modules[i].scenario, ec);
+    root["modules"][i]["scenario"] = ec ? d.modules[i].scenario : abs.lexically_normal().string();
   }
   if (!root["coordinator"]) {
     root["coordinator"]["balance"] = "wear";
@@ -192,6 +196,10 @@ class Soak {
     record_status(t);
     record_coordinator(t);
     while (next_fault_ < sched_.faults.size() && sched_.faults[next_fault_].at_s <= t && !stopping_) {
+      // A fault with no target yet (every candidate is down, restarting or not yet heard) waits for one, up to
+      // kTargetWaitS, instead of being skipped: a short run must not depend on luck to carry out each kind.
+      const Fault& f = sched_.faults[next_fault_];
+      if (f.kind != FaultKind::Hog && f.label.empty() && t - f.at_s < kTargetWaitS && candidates(f.target, t).empty()) break;
       fire(sched_.faults[next_fault_++], t);
     }
     for (size_t i = 0; i < pending_.size();) {
@@ -301,6 +309,7 @@ class Soak {
         b.s.braked = b.s.braked || r.braked()[0] || r.braked()[1];
         b.s.hold = b.s.hold || r.hold();
         b.s.load_paused = b.s.load_paused || r.load_paused();
+        b.s.failed = b.s.failed || r.failed();
         if (r.serving() != b.serving) {
           b.serving = r.serving();
           serving_[module] = r.serving();
@@ -454,10 +463,13 @@ class Soak {
     return n;
   }
 
+  static constexpr double kTargetWaitS = 15.0;
+
   void fire(const Fault& f, double t) {
     FaultRecord r;
     r.fault = f;
     r.t = t;
+    if (t - f.at_s > 0.5) r.note = "waited " + std::to_string(std::lround(t - f.at_s)) + " s for a target";
     const size_t index = h_.faults.size();
     if (f.kind == FaultKind::Hog) {
       hog(f, r, index);
@@ -469,7 +481,7 @@ class Soak {
       const auto c = candidates(f.target, t);
       if (c.empty()) {
         r.skipped = true;
-        r.note = "no live " + std::string(name(f.target));
+        r.note = "no live " + std::string(name(f.target)) + " within " + std::to_string(std::lround(kTargetWaitS)) + " s";
         h_.faults.push_back(r);
         return;
       }

@@ -169,6 +169,33 @@ TEST_CASE("soak checker: a slip is a violation at its time, after the fault befo
   CHECK(find(v, "recovery") == nullptr);
 }
 
+TEST_CASE("soak checker: every object incident counts, a failed module is one, and a task counts only if held throughout") {
+  // Two slips 10 s apart on one world: two incidents (no longer one per world instance).
+  History h = quiet_history(60.0);
+  for (auto& s : h.modules["m1"]) {
+    if (s.t >= 24.25) s.slips = 3;   // between task t6 (done at 24.0) and t7 (assigned at 24.5)
+    if (s.t >= 34.95) s.slips = 5;   // during task t9 (assigned at 32.5, done at 36.0)
+  }
+  Verdict v = check(h, Bounds{});
+  CHECK(std::count_if(v.violations.begin(), v.violations.end(), [](const Violation& y) { return y.invariant == "object held"; }) == 2);
+  CHECK(v.slip_events == 5);
+  CHECK(v.incidents["m1"] == 2);
+  const Violation* x = find(v, "tasks held throughout");
+  REQUIRE(x != nullptr);
+  CHECK_THAT(x->text, Catch::Contains("task t9 was counted done by m1"));
+  CHECK(std::count_if(v.violations.begin(), v.violations.end(), [](const Violation& y) { return y.invariant == "tasks held throughout"; }) == 1);
+  // A world that reports its module failed: an incident, and the task running then is not done.
+  History f = quiet_history(60.0);
+  for (auto& s : f.modules["m1"]) {
+    if (s.t >= 40.0) s.failed = true;
+  }
+  v = check(f, Bounds{});
+  x = find(v, "object held");
+  REQUIRE(x != nullptr);
+  CHECK_THAT(x->text, Catch::Contains("failed (object dropped)"));
+  REQUIRE(find(v, "tasks held throughout") != nullptr);
+}
+
 TEST_CASE("soak checker: grasp force below h_sg counts only outside the stated windows") {
   History h = quiet_history(30.0);
   auto& s = h.modules["m1"];

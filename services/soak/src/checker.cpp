@@ -38,15 +38,17 @@ long long pid_of(const Event& e) {
 
 /// How long the soak keeps trying to plug a module or robot in again after its fault's duration.
 constexpr double kReplugS = 60.0;
+constexpr double kIncidentGapS = 1.0;  ///< a counter rise this long after the last one is a new object incident
 
 class Judge {
  public:
   Judge(const History& h, const Bounds& b, Verdict& v) : h_(h), b_(b), v_(v) {}
 
   void run() {
-    const auto held = add("object held", "no slip and no loss of contact, ever (world counters)");
+    const auto held = add("object held", "no slip, no loss of contact and no drop, ever (every incident counted)");
     const auto grasp = add("grasp force", "normal force >= h_sg except in a world's first second and while braked or held");
     const auto tasks = add("tasks exactly once", "no task done twice, none lost, none unknown");
+    const auto whole = add("tasks held throughout", "a task counts as done only if its object was never slipped nor dropped during it");
     const auto rec = add("recovery", "every fault followed by its recovery within its bound");
     const auto prog = add("progress", "tasks keep being done (no 45 s without one)");
     const auto left = add("nothing left behind", "no process running and no new shared-memory file after the run");
@@ -55,6 +57,7 @@ class Judge {
     objects(held);
     grasp_force(grasp);
     exactly_once(tasks);
+    held_throughout(whole);
     for (const FaultRecord& f : h_.faults) recovery(f, rec);
     progress(prog);
     leftovers(left);
@@ -68,6 +71,8 @@ class Judge {
       }
     }
     std::sort(v_.violations.begin(), v_.violations.end(), [](const Violation& a, const Violation& b) { return a.t < b.t; });
+    v_.incidents = incidents_;
+    v_.slip_events = slip_events_;
   }
 
  private:
@@ -100,26 +105,65 @@ class Judge {
   }
 
   void objects(size_t inv) {
-    // One violation per world instance: where its counters first rose, with how far they went by its end.
+    // Every incident, not one per world instance: a rise of the world's slip or contact-lost counters that
+    // follows kIncidentGapS without one starts a new incident; a world that reports its module failed is one.
     for (const auto& [module, series] : h_.modules) {
+      double last_rise = -1e300;
+      bool failed_said = false;
       for (size_t i = 0; i < series.size(); ++i) {
         ++v_.invariants[inv].checked;
         const ModuleSample& s = series[i];
         const ModuleSample* p = (i > 0 && series[i - 1].world == s.world) ? &series[i - 1] : nullptr;
+        if (!p) failed_said = false;
         const uint64_t slips0 = p ? p->slips : 0, lost0 = p ? p->contact_lost : 0;
+        if (s.failed && !failed_said) {
+          failed_said = true;
+          violate(inv, s.t, fault_before(s.t, module), fmt("%s: the world reports the module failed (object dropped) at tick %ld",
+                                                          module.c_str(), s.tick));
+        }
         if (s.slips <= slips0 && s.contact_lost <= lost0) continue;
-        size_t last = i;
-        while (last + 1 < series.size() && series[last + 1].world == s.world) ++last;
-        const ModuleSample& e = series[last];
+        const bool new_incident = s.t - last_rise > kIncidentGapS;
+        last_rise = s.t;
+        ++incidents_[module];
+        slip_events_ += (s.slips - slips0);
+        if (!new_incident) continue;
         violate(inv, s.t, fault_before(s.t, module),
-                fmt("%s: the object %s at tick %ld (slip events %llu -> %llu, contact lost %llu -> %llu; by %.1f s: %llu "
-                    "and %llu)",
-                    module.c_str(), s.contact_lost > lost0 ? "lost contact" : "slipped", s.tick,
-                    static_cast<unsigned long long>(slips0), static_cast<unsigned long long>(s.slips),
-                    static_cast<unsigned long long>(lost0), static_cast<unsigned long long>(s.contact_lost), e.t,
-                    static_cast<unsigned long long>(e.slips), static_cast<unsigned long long>(e.contact_lost)));
-        v_.invariants[inv].checked += static_cast<int>(last - i);
-        i = last;
+                fmt("%s: the object %s at tick %ld (slip events %llu -> %llu, contact lost %llu -> %llu)", module.c_str(),
+                    s.contact_lost > lost0 ? "lost contact" : "slipped", s.tick, static_cast<unsigned long long>(slips0),
+                    static_cast<unsigned long long>(s.slips), static_cast<unsigned long long>(lost0),
+                    static_cast<unsigned long long>(s.contact_lost)));
+      }
+    }
+  }
+
+  /// A task counts as done only if its object was held throughout: no slip, no contact lost and no failure on
+  /// the module that did it, from its assignment there to its done.
+  void held_throughout(size_t inv) {
+    std::map<std::pair<std::string, std::string>, double> assigned;  // (task, module) -> when
+    for (const Event& e : h_.events) {
+      if (e.type == Event::Type::TaskAssigned) assigned[{e.subject, e.text}] = e.t;
+      if (e.type != Event::Type::TaskDone) continue;
+      ++v_.invariants[inv].checked;
+      const auto a = assigned.find({e.subject, e.text});
+      const auto series = h_.modules.find(e.text);
+      if (a == assigned.end() || series == h_.modules.end()) continue;
+      const ModuleSample* before = nullptr;
+      for (const ModuleSample& s : series->second) {
+        if (s.t < a->second) {
+          before = &s;
+          continue;
+        }
+        if (s.t > e.t + 0.2) break;
+        const bool same_world = before != nullptr && before->world == s.world;
+        const bool rose = same_world ? (s.slips > before->slips || s.contact_lost > before->contact_lost)
+                                     : (s.slips > 0 || s.contact_lost > 0);
+        if (rose || s.failed) {
+          violate(inv, e.t, fault_before(s.t, e.text),
+                  fmt("task %s was counted done by %s at %.1f s, but its object %s at %.1f s during it", e.subject.c_str(),
+                      e.text.c_str(), e.t, s.failed ? "was dropped" : "slipped", s.t));
+          break;
+        }
+        before = &s;
       }
     }
   }
@@ -447,6 +491,8 @@ class Judge {
     }
   }
 
+  std::map<std::string, int> incidents_;
+  uint64_t slip_events_ = 0;
   const History& h_;
   const Bounds& b_;
   Verdict& v_;

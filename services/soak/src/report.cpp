@@ -17,6 +17,65 @@
 namespace tandem::soak {
 namespace {
 
+/// The summary's Markdown as HTML: headings, tables (a header row, the |---| row, body rows), list items and
+/// paragraphs; inline `code` and **bold** are kept as text. Only the subset the summary writes.
+std::string markdown_to_html(const std::string& md) {
+  std::ostringstream out;
+  std::istringstream in(md);
+  std::string line;
+  bool table = false, list = false, header = false;
+  auto cells = [](const std::string& row) {
+    std::vector<std::string> c;
+    size_t a = row.find('|') + 1;
+    for (size_t b = row.find('|', a); b != std::string::npos; a = b + 1, b = row.find('|', a)) {
+      std::string x = row.substr(a, b - a);
+      const size_t s0 = x.find_first_not_of(' '), s1 = x.find_last_not_of(' ');
+      c.push_back(s0 == std::string::npos ? "" : x.substr(s0, s1 - s0 + 1));
+    }
+    return c;
+  };
+  auto close = [&] {
+    if (table) out << "</table>\n";
+    if (list) out << "</ul>\n";
+    table = list = false;
+  };
+  while (std::getline(in, line)) {
+    if (!line.empty() && line[0] == '|') {
+      if (line.find("---") != std::string::npos) continue;  // the separator row
+      if (!table) {
+        close();
+        out << "<table>\n";
+        table = true;
+        header = true;
+      }
+      out << "<tr>";
+      for (const std::string& c : cells(line)) out << (header ? "<th>" : "<td>") << xml_escape(c) << (header ? "</th>" : "</td>");
+      out << "</tr>\n";
+      header = false;
+      continue;
+    }
+    if (line.rfind("- ", 0) == 0) {
+      if (!list) {
+        close();
+        out << "<ul>\n";
+        list = true;
+      }
+      out << "<li>" << xml_escape(line.substr(2)) << "</li>\n";
+      continue;
+    }
+    close();
+    if (line.rfind("### ", 0) == 0) {
+      out << "<h3>" << xml_escape(line.substr(4)) << "</h3>\n";
+    } else if (line.rfind("## ", 0) == 0) {
+      out << "<h2>" << xml_escape(line.substr(3)) << "</h2>\n";
+    } else if (!line.empty()) {
+      out << "<p>" << xml_escape(line) << "</p>\n";
+    }
+  }
+  close();
+  return out.str();
+}
+
 std::string f2(double v, const char* f = "%.2f") {
   char b[64];
   std::snprintf(b, sizeof b, f, v);
@@ -216,6 +275,10 @@ std::string summary_text(const RunInfo& info, const History& h, const Bounds& b,
   for (const InvariantResult& r : v.invariants) {
     o << "| " << r.name << " | " << (r.ok ? "held" : "**VIOLATED**") << " | " << r.checked << " | " << r.description << " |\n";
   }
+  int incidents = 0;
+  for (const auto& [m, n] : v.incidents) incidents += n;
+  o << "\nObject incidents (buckets in which an object slipped or lost contact): " << incidents << ", slip events "
+    << v.slip_events << ".\n";
   int carried = 0;
   for (const auto& [k, n] : v.faults_by_kind) carried += n;
   o << "\n## Faults\n\n" << carried << " carried out, " << v.skipped << " skipped (no live target when due).\n\n";
@@ -333,7 +396,7 @@ std::string write_report(const std::string& dir, const RunInfo& info, const Hist
           "td,th{border:1px solid #ccc;padding:2px 8px}pre{white-space:pre-wrap}</style></head><body>\n";
   html << "<h1>tandem soak of " << xml_escape(info.deployment) << ": "
        << (v.ok() ? "<span style=\"color:green\">PASS</span>" : "<span style=\"color:#c00\">FAIL</span>") << "</h1>\n";
-  html << "<pre>" << xml_escape(md.substr(md.find('\n') + 1, md.find("## Plots") - md.find('\n') - 1)) << "</pre>\n";
+  html << markdown_to_html(md.substr(md.find('\n') + 1, md.find("## Plots") - md.find('\n') - 1));
   for (const char* f : {"faults", "normal_force", "late_ticks", "tasks", "recovery", "rss"}) {
     html << "<p><img src=\"" << f << ".svg\" alt=\"" << f << "\"></p>\n";
   }

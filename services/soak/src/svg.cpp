@@ -61,7 +61,11 @@ std::vector<double> nice_ticks(double lo, double hi, int n) {
 
 std::string render_svg(const Plot& p, int width, int height) {
   // Margins (legend on the right; room below for slanted category names).
-  const double L = p.xcategories.empty() ? 70 : 120, R = 170, T = 34, B = p.xcategories.empty() ? 46 : 150;
+  // Room on the left for the longest y label (about 6 px a character at font-size 10).
+  size_t ylabel_chars = 0;
+  for (const std::string& c : p.ycategories) ylabel_chars = std::max(ylabel_chars, c.size());
+  const double L = std::max(p.xcategories.empty() ? 70.0 : 120.0, 16.0 + 6.0 * static_cast<double>(ylabel_chars)), R = 170,
+               T = 34, B = p.xcategories.empty() ? 46 : 150;
   const double W = width - L - R, H = height - T - B;
   double x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300;
   auto ty = [&](double y) { return p.log_y ? std::log10(std::max(y, 1e-12)) : y; };

@@ -58,6 +58,8 @@ struct Verdict {
   std::map<std::string, int> faults_by_kind;  ///< carried out (skipped ones not counted)
   int skipped = 0;
   std::map<std::string, double> rss_slope;    ///< per process label judged [MiB/min]
+  std::map<std::string, int> incidents;       ///< per module: buckets in which its object slipped or lost contact
+  uint64_t slip_events = 0;                   ///< slip events counted over every world instance
   bool ok() const { return violations.empty(); }
 };
 

@@ -223,13 +223,13 @@ class Launcher {
     return launch(c, note);
   }
 
-  /// Strength for a new standby of `arm`: below every live robot of the arm (50 if none), 0 if none is left.
+  /// Strength for a new standby of `arm` (launcher::next_standby_strength over the live robots of the arm).
   int standby_strength(const std::string& arm) const {
-    int lowest = 51;
+    std::vector<int> live;
     for (const auto& c : children_) {
-      if (c.running && c.arm == arm) lowest = std::min(lowest, c.strength);
+      if (c.running && c.arm == arm) live.push_back(c.strength);
     }
-    return std::max(0, lowest - 1);
+    return launcher::next_standby_strength(live);
   }
   const Child* primary_of(const std::string& arm) const {
     for (const auto& c : children_) {

@@ -8,6 +8,7 @@
 //   resume after the backoff, with no slip.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -738,4 +739,28 @@ TEST_CASE("supervisor component: a malformed plan of a higher rank does not depo
   s.on_plan(bad, 200 * 1000000);
   s.update(200 * 1000000);
   CHECK(s.active());
+}
+
+TEST_CASE("launcher component: standby strengths never run out over a thousand kills of the serving robot", "[components]") {
+  using tandem::launcher::next_standby_strength;
+  CHECK(next_standby_strength({}) == 50);
+  CHECK(next_standby_strength({100}) == 50);
+  CHECK(next_standby_strength({100, 50}) == 49);
+  CHECK(next_standby_strength({100, 1}) == 50);   // nothing below 1: the strongest free one
+  CHECK(next_standby_strength({1, 50}) == 49);
+  // The soak's pattern: the arm's serving robot is killed and restarted as a standby, a thousand times.
+  std::vector<int> live{100, 50};
+  for (int i = 0; i < 1000; ++i) {
+    const int owner = *std::max_element(live.begin(), live.end());
+    live.erase(std::find(live.begin(), live.end(), owner));
+    const int s = next_standby_strength(live);
+    INFO("restart " << i << ": live " << live.size());
+    REQUIRE(s >= 1);
+    REQUIRE(s <= 50);
+    REQUIRE(std::find(live.begin(), live.end(), s) == live.end());  // never two robots of one strength
+    live.push_back(s);
+  }
+  std::vector<int> all;
+  for (int s = 1; s <= 50; ++s) all.push_back(s);
+  CHECK(next_standby_strength(all) == 0);
 }

@@ -29,4 +29,14 @@ int RestartPolicy::recent(const std::string& key, const RestartRule& rule, doubl
   return static_cast<int>(std::count_if(it->second.begin(), it->second.end(), [&](double t) { return now - t <= rule.window; }));
 }
 
+int next_standby_strength(const std::vector<int>& live) {
+  int lowest = 51;
+  for (const int s : live) lowest = std::min(lowest, s);
+  if (lowest - 1 >= 1) return lowest - 1;
+  for (int s = 50; s >= 1; --s) {
+    if (std::find(live.begin(), live.end(), s) == live.end()) return s;
+  }
+  return 0;
+}
+
 }  // namespace tandem::launcher

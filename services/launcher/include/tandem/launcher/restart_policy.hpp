@@ -23,6 +23,13 @@ struct RestartDecision {
   int count = 0;        ///< Restart: this restart's number within the window; GiveUp: restarts within it
 };
 
+/// Ownership strength for a new standby of a slot whose live processes have `live` strengths (the primary is
+/// 100, standbys 1-50): one below the weakest live one, so that it never takes over from a warm standby. When
+/// that would fall below 1 (about a thousand restarts an hour in a soak walked the strengths down by one each),
+/// the strongest of 1-50 that no live process has: above the owner it takes the slot over after its warm-up
+/// (a takeover, as a primary's return). 0 only with all of 1-50 in use.
+int next_standby_strength(const std::vector<int>& live);
+
 class RestartPolicy {
  public:
   /// A child of slot `key` (an arm, a module's supervisor slot, "coordinator") exited with `exit_status` at

@@ -88,7 +88,9 @@ double rss_mib(long long pid) {
   std::ifstream in("/proc/" + std::to_string(pid) + "/status");
   std::string line;
   while (std::getline(in, line)) {
-    if (line.rfind("VmRSS:", 0) == 0) return std::atof(line.c_str() + 6) / 1024.0;
+    // Anonymous resident memory (heap, stacks): what a leak grows. File-backed and shared pages (the mapped
+    // binary, Fast DDS's shared-memory segments, which other processes touch too) are not the process's growth.
+    if (line.rfind("RssAnon:", 0) == 0) return std::atof(line.c_str() + 8) / 1024.0;
   }
   return -1.0;
 }
@@ -364,23 +366,36 @@ class Soak {
     msg::CoordinatorState cs;
     while (coord_->take(cs)) {
       if (cs.deployment() != d_.name) continue;
-      // The most advanced state is kept. A state with fewer tasks done than already heard, whose done list is
-      // not the start of ours, comes from a coordinator that started without the queue's state: recorded.
-      if (cs.done().size() < h_.tasks_done.size()) {
-        bool prefix = true;
-        for (size_t i = 0; i < cs.done().size() && prefix; ++i) prefix = cs.done()[i] == h_.tasks_done[i];
-        if (!prefix || cs.done().size() + 8 < h_.tasks_done.size()) {
-          if (t - last_queue_back_ > 5.0) {
-            h_.events.push_back({t, Event::Type::QueueBack, std::to_string(h_.tasks_done.size()),
-                                 std::to_string(cs.done().size())});
-            last_queue_back_ = t;
-          }
+      // The most advanced state is kept (the done-set: a byte per task of the deployment's list). A state that
+      // lacks tasks already heard done is an older copy (skipped), unless it also lists tasks not heard done
+      // or lacks more than 8: then it comes from a coordinator that started without the queue's state.
+      size_t missing = 0, extra = 0;
+      const size_t n = std::min(cs.done_by().size(), d_.tasks.size());
+      for (size_t i = 0; i < n; ++i) {
+        const bool now_done = cs.done_by()[i] != 0, was = i < done_seen_.size() && done_seen_[i];
+        missing += was && !now_done;
+        extra += now_done && !was;
+      }
+      for (size_t i = n; i < done_seen_.size(); ++i) missing += done_seen_[i];
+      if (missing > 0) {
+        if ((extra > 0 || missing > 8) && t - last_queue_back_ > 5.0) {
+          h_.events.push_back({t, Event::Type::QueueBack, std::to_string(h_.tasks_done.size()),
+                               std::to_string(h_.tasks_done.size() - missing + extra)});
+          last_queue_back_ = t;
         }
         continue;
       }
-      for (size_t i = h_.tasks_done.size(); i < cs.done().size(); ++i) {
-        h_.events.push_back({t, Event::Type::TaskDone, cs.done()[i], i < cs.done_by().size() ? cs.done_by()[i] : ""});
+      done_seen_.resize(d_.tasks.size(), false);
+      for (size_t i = 0; i < n; ++i) {
+        const uint8_t by = cs.done_by()[i];
+        if (by == 0 || done_seen_[i]) continue;
+        done_seen_[i] = true;
+        const std::string module = by <= cs.modules().size() ? cs.modules()[by - 1u] : "";
+        h_.events.push_back({t, Event::Type::TaskDone, d_.tasks[i].name, module});
+        h_.tasks_done.push_back(d_.tasks[i].name);
+        h_.tasks_done_by.push_back(module);
       }
+      h_.tasks_done_total = std::max<uint64_t>(h_.tasks_done_total, cs.done_total());
       std::set<std::pair<std::string, std::string>> now_running;
       for (size_t i = 0; i < cs.running().size(); ++i) {
         now_running.insert({cs.running()[i], i < cs.running_on().size() ? cs.running_on()[i] : ""});
@@ -389,8 +404,6 @@ class Soak {
         if (running_.count(r) == 0) h_.events.push_back({t, Event::Type::TaskAssigned, r.first, r.second});
       }
       running_ = now_running;
-      h_.tasks_done.assign(cs.done().begin(), cs.done().end());
-      h_.tasks_done_by.assign(cs.done_by().begin(), cs.done_by().end());
       h_.tasks_running.assign(cs.running().begin(), cs.running().end());
     }
   }
@@ -686,6 +699,7 @@ class Soak {
   std::map<std::string, std::unique_ptr<bus::Reader<msg::WorldReport, msg::WorldReportPubSubType>>> reports_;
   std::map<std::string, Bucket> buckets_;
   std::map<std::string, std::string> serving_;  ///< module -> its world's serving text now
+  std::vector<bool> done_seen_;                 ///< per task of the deployment: heard done
   std::map<std::string, Proc> procs_;
   std::set<long long> pids_seen_;
   std::set<std::pair<std::string, std::string>> running_;

@@ -27,6 +27,7 @@
 #include <ctime>
 #include <deque>
 #include <fstream>
+#include <iterator>
 #include <map>
 #include <random>
 #include <memory>
@@ -85,6 +86,7 @@ struct Child {
   Clock::time_point started{};     ///< when it was started
   int participant_id = -1;         ///< its DDS participant id (TANDEM_PARTICIPANT_ID), -1: Fast DDS's choice
   bool heard = false;              ///< its status was heard over DDS (it is part of the domain)
+  bool active_seen = false;        ///< its status said active once (its start-up CPU is then measured)
   // Multi-host: started by the agent of `host` ("" = by the launcher, on this machine).
   std::string host;
   unsigned long long spawn_id = 0;  ///< the launcher's request id (AgentRequest.spawn_id)
@@ -105,6 +107,27 @@ struct ModuleRun {
   bool paused_for_unplug = false;    ///< a pause was asked for an unplug without standby: resume on plug
 };
 
+
+/// User + system CPU seconds of a process so far (/proc/<pid>/stat), -1 if it cannot be read.
+double process_cpu_s(pid_t pid) {
+  std::ifstream f("/proc/" + std::to_string(pid) + "/stat");
+  std::string text((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  const size_t close = text.rfind(')');
+  if (close == std::string::npos) return -1.0;
+  std::istringstream in(text.substr(close + 2));
+  std::string field;
+  unsigned long long utime = 0, stime = 0;
+  for (int i = 3; i <= 15 && in >> field; ++i) {  // fields 14 and 15: utime, stime (clock ticks)
+    if (i == 14) utime = std::strtoull(field.c_str(), nullptr, 10);
+    if (i == 15) stime = std::strtoull(field.c_str(), nullptr, 10);
+  }
+  return static_cast<double>(utime + stime) / static_cast<double>(::sysconf(_SC_CLK_TCK));
+}
+
+/// Tasks a coordinator's queue state lists as done (its compact done-set).
+size_t done_in(const msg::CoordinatorState& cs) {
+  return static_cast<size_t>(std::count_if(cs.done_by().begin(), cs.done_by().end(), [](uint8_t b) { return b != 0; }));
+}
 
 /// Starts a process on this machine (launcher::spawn); with rt_priority > 0 the child runs SCHED_FIFO at that
 /// priority, and so do the threads it creates (Fast DDS's receive and event threads inherit it).
@@ -350,6 +373,18 @@ class Launcher {
 
   void plug_module(const std::string& name, const std::string& option) {
     auto it = modules_.find(name);
+    const auto ts = task_states_.find(name);
+    const bool failed = ts != task_states_.end() && ts->second.state() == 6;
+    if (it != modules_.end() && it->second.started && it->second.end.empty() && failed) {
+      // A module failed by a drop (its world brakes both arms for good): a person clears it. Its processes are
+      // stopped and the module starts again from its initial grasp once they are gone (docs/failure-model.md).
+      say(true, "clearing module %s (failed: object dropped): its processes stop, then it starts again\n", name.c_str());
+      task_states_.erase(name);
+      it->second.end = "cleared";
+      stop_module(name);
+      pending_clears_.push_back(name);
+      return;
+    }
     if (it != modules_.end() && it->second.started && it->second.end.empty()) {
       say(false, "'plug module %s': it is running already\n", name.c_str());
       return;
@@ -454,6 +489,18 @@ class Launcher {
       if (c.running || c.handled) continue;
       c.handled = true;
       on_exit(c);
+    }
+    // Failed modules being cleared: started again once every process of theirs is gone.
+    for (auto it = pending_clears_.begin(); it != pending_clears_.end();) {
+      bool gone = true;
+      for (const auto& c : children_) gone = gone && !(c.running && c.module == *it);
+      if (!gone || stopping_) {
+        it = stopping_ ? pending_clears_.erase(it) : it + 1;
+        continue;
+      }
+      std::printf("tandem up: module %s cleared; starting it again from its initial grasp\n", it->c_str());
+      start_module(*it);
+      it = pending_clears_.erase(it);
     }
     // Unplugs waiting for their module to be at rest.
     for (auto it = pending_unplugs_.begin(); it != pending_unplugs_.end();) {
@@ -561,7 +608,7 @@ class Launcher {
         if (live_coordinators() == 0 && have_coord_state_ && coord_state_out_ != nullptr) {
           coord_state_out_->write(last_coord_state_);
           std::printf("tandem up: republished the coordinator's last state (%zu task(s) done) for its successor\n",
-                      last_coord_state_.done().size());
+                      done_in(last_coord_state_));
         }
         start_coordinator("coordinator@r" + std::to_string(++coordinator_restarts_), true, " (restart)");
       }
@@ -786,11 +833,21 @@ class Launcher {
   }
 
   /// A status sample from process `label` (pid): it is part of the domain.
-  void on_status(const std::string& label, long long pid) {
+  void on_status(const std::string& label, long long pid, bool active) {
     for (auto& c : children_) {
-      if (c.running && c.label == label && c.pid == pid) c.heard = true;
+      if (!(c.running && c.label == label && c.pid == pid)) continue;
+      c.heard = true;
+      if (active && !c.active_seen && c.host.empty()) {
+        // The CPU one start costs (a soak restarts about a thousand processes an hour): user + system time
+        // of the process from its start to its first active status.
+        c.active_seen = true;
+        const double cpu = process_cpu_s(static_cast<pid_t>(pid));
+        if (cpu >= 0.0) start_cpu_[c.role].push_back(cpu);
+      }
     }
   }
+  /// Per role: the CPU seconds each process took from its start to active.
+  std::map<std::string, std::vector<double>> start_cpu_;
 
   void on_task_state(const msg::TaskState& ts) {
     if (ts.deployment() == d_.name) task_states_[ts.module_id()] = ts;
@@ -812,6 +869,7 @@ class Launcher {
     Clock::time_point since;
   };
   std::vector<PendingUnplug> pending_unplugs_;
+  std::vector<std::string> pending_clears_;  ///< failed modules being cleared (plug module): restarted once stopped
   std::map<std::string, Clock::time_point> world_done_;  ///< modules whose world finished its task, and when
   std::map<std::string, msg::TaskState> task_states_;
   bus::Writer<msg::ControlRequest, msg::ControlRequestPubSubType>* control_out_ = nullptr;
@@ -1453,7 +1511,7 @@ int up_command(const std::vector<std::string>& args) {
       // The most advanced state (the launcher's own republished copy comes back too).
       if (cs.deployment() == d.name &&
           (!have_coord || cs.next_task_id() > last_coord.next_task_id() ||
-           (cs.next_task_id() == last_coord.next_task_id() && cs.done().size() >= last_coord.done().size()))) {
+           (cs.next_task_id() == last_coord.next_task_id() && cs.done_total() >= last_coord.done_total()))) {
         last_coord = cs;
         have_coord = true;
         L.last_coord_state_ = cs;
@@ -1494,7 +1552,7 @@ int up_command(const std::vector<std::string>& args) {
     msg::ProcessStatus ps;
     while (status.take(ps)) {
       view.update(ps);
-      L.on_status(ps.process_id(), ps.pid());
+      L.on_status(ps.process_id(), ps.pid(), ps.state() == static_cast<uint8_t>(runtime::Lifecycle::Active));
     }
     msg::ControlRequest req;
     while (control.take(req)) {
@@ -1638,13 +1696,24 @@ int up_command(const std::vector<std::string>& args) {
     }
   }
   if (d.coordinator && have_coord) {
-    std::set<std::string> unique(last_coord.done().begin(), last_coord.done().end());
-    const size_t dup = last_coord.done().size() - unique.size();
-    std::printf("coordinator: %zu/%zu tasks done, %zu duplicate(s)\n", unique.size(), d.tasks.size(), dup);
-    if (out) out << "coordinator.tasks_done=" << unique.size() << "\ncoordinator.duplicates=" << dup << "\n";
-    for (size_t i = 0; i < last_coord.done().size() && out; ++i) {
-      out << "coordinator.task." << last_coord.done()[i] << "=" << last_coord.done_by()[i] << "\n";
+    const size_t done = done_in(last_coord);
+    const size_t dup = last_coord.done_total() > done ? static_cast<size_t>(last_coord.done_total() - done) : 0;
+    std::printf("coordinator: %zu/%zu tasks done, %zu duplicate(s)\n", done, d.tasks.size(), dup);
+    if (out) out << "coordinator.tasks_done=" << done << "\ncoordinator.duplicates=" << dup << "\n";
+    for (size_t t = 0; t < last_coord.done_by().size() && t < d.tasks.size() && out; ++t) {
+      const uint8_t by = last_coord.done_by()[t];
+      if (by != 0 && by <= last_coord.modules().size()) {
+        out << "coordinator.task." << d.tasks[t].name << "=" << last_coord.modules()[by - 1u] << "\n";
+      }
     }
+  }
+  for (auto& [role, v] : L.start_cpu_) {
+    if (v.empty()) continue;
+    std::sort(v.begin(), v.end());
+    const double median = v[v.size() / 2];
+    std::printf("start-up CPU of a %s (start to active): median %.3f s, max %.3f s over %zu start(s)\n", role.c_str(),
+                median, v.back(), v.size());
+    if (out) out << "startup_cpu." << role << ".median_s=" << median << "\nstartup_cpu." << role << ".starts=" << v.size() << "\n";
   }
   launcher_status.set(runtime::Lifecycle::Finalized, "run over");
   if (recorder > 0) {

@@ -29,7 +29,8 @@
 #include "tandem/runtime/deployment.hpp"
 #include "tandem/runtime/role.hpp"
 #include "tandem/runtime/status.hpp"
-#include "task_queue.hpp"
+#include "tandem/coordinator/leadership.hpp"
+#include "tandem/coordinator/task_queue.hpp"
 
 using namespace tandem;
 namespace bus = tandem::dds;
@@ -37,15 +38,7 @@ using coordinator::TaskQueue;
 
 namespace {
 
-constexpr double kTakeoverS = 0.5;    // a standby takes over when the primary's state stops this long
-constexpr double kFirstStateS = 3.0;  // ... or when it has heard none this long from its start
 constexpr double kHeartbeatS = 0.1;   // state and status are published at least this often
-// A primary whose own loop stood still longer than a standby waits before it takes over (SIGSTOP, starvation)
-// may have been replaced: it decides nothing for kDoubtS while it listens; if another coordinator reports
-// `primary` meanwhile, it leaves (crash-only; the launcher restarts it as a standby), else it goes on. Found
-// by tandem soak: a stalled primary came back and led beside its successor.
-constexpr double kStallS = kTakeoverS;
-constexpr double kDoubtS = 0.3;
 
 struct Options {
   std::string file;
@@ -139,8 +132,9 @@ msg::CoordinatorState to_msg(const std::string& deployment, const coordinator::S
   msg::CoordinatorState m;
   m.deployment(deployment);
   m.next_task_id(s.next_task_id);
-  m.done(s.done);
+  m.modules(s.modules);
   m.done_by(s.done_by);
+  m.done_total(s.done_total);
   m.running(s.running);
   m.running_on(s.running_on);
   m.running_id(s.running_id);
@@ -150,8 +144,9 @@ msg::CoordinatorState to_msg(const std::string& deployment, const coordinator::S
 coordinator::Snapshot from_msg(const msg::CoordinatorState& m) {
   coordinator::Snapshot s;
   s.next_task_id = m.next_task_id();
-  s.done = m.done();
+  s.modules = m.modules();
   s.done_by = m.done_by();
+  s.done_total = m.done_total();
   s.running = m.running();
   s.running_on = m.running_on();
   s.running_id = m.running_id();
@@ -212,7 +207,6 @@ int main(int argc, char** argv) {
   TaskQueue queue(names,
                   d.balance == "round_robin" ? coordinator::Balance::RoundRobin : coordinator::Balance::Wear);
   std::map<std::string, double> wear;   // robot process id -> joint travel [rad]
-  std::map<std::string, double> peers;  // other active coordinators of the deployment -> when last heard
   auto module_wear = [&wear](const std::string& module) {  // joint travel of a module's robots
     double w = 0.0;
     for (const auto& [id, v] : wear) {
@@ -223,28 +217,27 @@ int main(int argc, char** argv) {
 
   const auto t0 = std::chrono::steady_clock::now();
   auto now = [t0] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
-  bool primary = !opt.standby;
-  std::optional<coordinator::Snapshot> last_state;  // standby: the primary's latest
-  double last_state_at = 0.0;
-  uint64_t bad_states = 0;  // CoordinatorStates with lists of unequal lengths
+  coordinator::Leadership lead({opt.id, opt.standby, opt.resume}, now());
   uint64_t published = 0;   // revision of the queue last published
   double last_beat = -1.0, last_progress = 0.0;
   size_t progress_mark = 0;
 
   auto detail = [&] {
     std::string s;
-    if (primary) {
+    if (lead.primary()) {
       s = std::to_string(queue.done_count()) + "/" + std::to_string(queue.task_count()) + " tasks done, " +
           std::to_string(queue.running_count()) + " running, " + std::to_string(queue.pending_count()) +
           " pending; " + std::to_string(queue.module_count()) + " module(s), " +
           std::to_string(queue.lost_count()) + " lost";
     } else {
-      s = last_state ? "standby, primary at " + std::to_string(queue.count_done(*last_state)) + "/" +
-                           std::to_string(queue.task_count()) + " tasks done"
-                     : "standby, no primary heard yet";
+      s = lead.last_state() ? "standby, primary at " + std::to_string(queue.count_done(*lead.last_state())) + "/" +
+                                  std::to_string(queue.task_count()) + " tasks done"
+                            : "standby, no primary heard yet";
     }
     if (queue.rejected() > 0) s += "; " + std::to_string(queue.rejected()) + " invalid task state(s) ignored";
-    if (bad_states > 0) s += "; " + std::to_string(bad_states) + " malformed coordinator state(s) ignored";
+    if (lead.malformed_states() > 0) {
+      s += "; " + std::to_string(lead.malformed_states()) + " malformed coordinator state(s) ignored";
+    }
     return s;
   };
   auto heartbeat = [&](double t) {
@@ -266,42 +259,22 @@ int main(int argc, char** argv) {
     m.waypoints(d.tasks[a.task].waypoints);
     assign.write(m);
   };
-  // Among the live coordinators, a standby takes over only if none before it by id is active.
-  auto first_in_line = [&](double t) {
-    for (const auto& [id, heard] : peers) {
-      if (id < opt.id && t - heard <= kTakeoverS) return false;
-    }
-    return true;
-  };
 
-  double last_loop = now();
-  double doubt_until = -1.0;  // after a stall: listening for a successor before deciding anything
   while (!runtime::g_stop) {
     const double t = now();
-    if (primary && t - last_loop > kStallS && doubt_until < 0.0) {
-      say("stalled for " + fixed((t - last_loop) * 1e3, 0) + " ms (a standby takes over after " +
-          fixed(kTakeoverS * 1e3, 0) + " ms): listening for a successor before deciding anything");
-      doubt_until = t + kDoubtS;
-    }
-    last_loop = t;
+    if (const std::string line = lead.on_loop(t); !line.empty()) say(line);
     msg::ProcessStatus ps;
     while (status_in.take(ps)) {
       if (ps.deployment() != d.name) continue;
       if (ps.role() == "robot") wear[ps.process_id()] = ps.wear();
-      if (ps.role() == "coordinator" && ps.process_id() != opt.id) {
-        if (primary && doubt_until >= 0.0 && ps.serving() == "primary" &&
-            ps.state() == static_cast<uint8_t>(runtime::Lifecycle::Active)) {
-          std::fprintf(stderr, "tandem-coordinator %s: %s took over while this one was stalled; leaving so that only "
-                       "one coordinator leads (restarted as a standby by the policy)\n", opt.id.c_str(),
-                       ps.process_id().c_str());
-          status.set(runtime::Lifecycle::Error, "stalled and replaced: left so that one coordinator leads");
-          return 3;
-        }
-        if (ps.state() == static_cast<uint8_t>(runtime::Lifecycle::Active)) {
-          peers[ps.process_id()] = t;
-        } else {
-          peers.erase(ps.process_id());
-        }
+      if (ps.role() == "coordinator" &&
+          lead.on_peer(ps.process_id(), ps.state() == static_cast<uint8_t>(runtime::Lifecycle::Active),
+                       ps.serving() == "primary", t)) {
+        std::fprintf(stderr, "tandem-coordinator %s: %s took over while this one was stalled; leaving so that only "
+                     "one coordinator leads (restarted as a standby by the policy)\n", opt.id.c_str(),
+                     ps.process_id().c_str());
+        status.set(runtime::Lifecycle::Error, "stalled and replaced: left so that one coordinator leads");
+        return 3;
       }
     }
     msg::TaskState ts;
@@ -309,52 +282,37 @@ int main(int argc, char** argv) {
       if (ts.deployment() != d.name) continue;
       const auto events = queue.report({ts.module_id(), ts.task_id(), ts.state()}, t);
       for (const auto& e : events) {
-        if (primary) say(queue.describe(e));  // a standby only keeps the latest reports
+        if (lead.primary()) say(queue.describe(e));  // a standby only keeps the latest reports
       }
     }
-
-    if (!primary) {
+    if (!lead.primary()) {
       msg::CoordinatorState cs;
       while (state_in.take(cs)) {
-        if (cs.deployment() != d.name) continue;
-        coordinator::Snapshot s = from_msg(cs);
-        if (!s.well_formed()) {
-          ++bad_states;
-          continue;
-        }
-        // Keep the most advanced state: a restarted coordinator may also hear an older copy (the launcher
-        // republishes the last state it saw when no coordinator is left).
-        if (last_state && (s.next_task_id < last_state->next_task_id ||
-                           (s.next_task_id == last_state->next_task_id && s.done.size() < last_state->done.size()))) {
-          continue;
-        }
-        last_state = std::move(s);
-        last_state_at = t;
+        if (cs.deployment() == d.name) lead.on_state(from_msg(cs), t);
       }
-      if (last_state && queue.count_done(*last_state) == queue.task_count()) {
-        say("the primary reports every task done; the standby exits");
-        status.set(runtime::Lifecycle::Finalized, "every task done (by the primary)");
-        std::this_thread::sleep_for(std::chrono::milliseconds(100));
-        return 0;
-      }
-      const double silent = t - last_state_at;  // since the start if no state was heard
-      // A restart (--resume) never starts a fresh queue: the launcher republishes the last state it heard, and
-      // a late joiner may get it only after seconds (found by tandem soak: a restarted coordinator started
-      // afresh after 3 s and the queue went back from 1747 tasks done to none).
-      const bool may_take_over = last_state || !opt.resume;
-      if (!may_take_over || silent <= (last_state ? kTakeoverS : kFirstStateS) || !first_in_line(t)) {
-        if (t - last_beat >= kHeartbeatS) heartbeat(t);
-        states.wait(0.02);
-        continue;
-      }
+    }
+    std::string line;
+    const coordinator::Leadership::Step step = lead.step(t, queue.task_count(), &line);
+    if (!line.empty() && step != coordinator::Leadership::Step::TakeOver) say(line);
+    if (step == coordinator::Leadership::Step::AllDone) {
+      status.set(runtime::Lifecycle::Finalized, "every task done (by the primary)");
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      return 0;
+    }
+    if (step == coordinator::Leadership::Step::Wait) {
+      if (!lead.primary() && t - last_beat >= kHeartbeatS) heartbeat(t);
+      states.wait(0.02);
+      continue;
+    }
+    if (step == coordinator::Leadership::Step::TakeOver) {
       // Take over: the primary's queue, checked against what the modules report.
-      if (last_state) queue.restore(*last_state, t);
+      const double silent = lead.silent(t);
+      if (lead.last_state()) queue.restore(*lead.last_state(), t);
       say("primary silent for " + fixed(silent * 1e3, 0) + " ms; taking over with " +
           std::to_string(queue.done_count()) + " done, " + std::to_string(queue.running_count()) +
           " running, " + std::to_string(queue.pending_count()) + " pending");
       const TaskQueue::Reconciled r = queue.reconcile(t);
       for (const auto& e : r.events) say(queue.describe(e));
-      primary = true;
       status.msg().serving("primary");
       publish_state(t);  // what is in flight, before any assignment
       for (const auto& a : r.resend) {
@@ -364,15 +322,6 @@ int main(int argc, char** argv) {
       }
       last_progress = t;
       progress_mark = queue.done_count();
-    }
-
-    if (doubt_until >= 0.0) {  // back from a stall: no successor heard yet; decide nothing until sure
-      if (t < doubt_until) {
-        states.wait(0.02);
-        continue;
-      }
-      say("no successor took over; carrying on as the primary");
-      doubt_until = -1.0;
     }
     for (const auto& e : queue.expire(t)) say(queue.describe(e));
     while (const auto a = queue.assign_next(module_wear)) {
@@ -396,7 +345,7 @@ int main(int argc, char** argv) {
   }
 
   if (runtime::g_stop) {
-    if (primary) publish_state(now());
+    if (lead.primary()) publish_state(now());
     status.set(runtime::Lifecycle::Finalized, "stopped");
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
     return 0;

@@ -73,9 +73,13 @@ int main(int argc, char** argv) {
   auto take_plans = [&] {  // under mu
     while (plans.take(plan_in)) {
       if (plan_in.module_id() != opt.module) continue;
-      if (core.offer_plan(runtime::from_wire(plan_in), &why) == plan::PlanFollower::Offer::Rejected) {
+      why.clear();
+      const plan::PlanFollower::Offer o = core.offer_plan(runtime::from_wire(plan_in), &why);
+      if (o == plan::PlanFollower::Offer::Rejected) {
         std::fprintf(stderr, "tandem-robot %s: plan from '%s' rejected: %s\n", robot_id.c_str(),
                      plan_in.supervisor_id().c_str(), why.c_str());
+      } else if (!why.empty()) {
+        std::fprintf(stderr, "tandem-robot %s: %s\n", robot_id.c_str(), why.c_str());
       }
     }
   };
@@ -146,6 +150,7 @@ int main(int argc, char** argv) {
     if (done >= 0 && !activated) {
       activated = true;
       status.set(runtime::Lifecycle::Active, "controlling");
+      if (runtime::raise_to_realtime_from_env() < 0) std::fprintf(stderr, "tandem-robot: could not raise to SCHED_FIFO once active\n");
     }
     if (done >= 0 && done / 100 != reported_tick / 100) {
       reported_tick = done;

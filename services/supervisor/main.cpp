@@ -76,6 +76,7 @@ int main(int argc, char** argv) {
   });
   status.msg().serving(core.active() ? "primary" : "standby");
   status.set(runtime::Lifecycle::Active, opt.continuous ? "waiting for a task" : "planning");
+  if (runtime::raise_to_realtime_from_env() < 0) std::fprintf(stderr, "tandem: could not raise to SCHED_FIFO once active\n");
 
   msg::TaskState ts;
   ts.module_id(opt.module);

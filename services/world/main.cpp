@@ -132,13 +132,17 @@ int main(int argc, char** argv) {
   };
   status.msg().serving(core.serving_text());
   status.set(runtime::Lifecycle::Active, opt.realtime ? "real time" : "lockstep");
+  if (runtime::raise_to_realtime_from_env() < 0) std::fprintf(stderr, "tandem: could not raise to SCHED_FIFO once active\n");
   long k = 0;
   for (; k < m.steps && !runtime::g_stop; ++k) {
     while (plans.take(plan_in)) {
       std::string why;
-      if (plan_in.module_id() == opt.module &&
-          core.offer_plan(runtime::from_wire(plan_in), &why) == plan::PlanFollower::Offer::Rejected) {
-        std::fprintf(stderr, "tandem-world %s: a plan was refused: %s\n", opt.module.c_str(), why.c_str());
+      if (plan_in.module_id() == opt.module) {
+        const plan::PlanFollower::Offer o = core.offer_plan(runtime::from_wire(plan_in), &why);
+        if (o == plan::PlanFollower::Offer::Rejected || !why.empty()) {
+          std::fprintf(stderr, "tandem-world %s: %s%s\n", opt.module.c_str(),
+                       o == plan::PlanFollower::Offer::Rejected ? "a plan was refused: " : "", why.c_str());
+        }
       }
     }
     const long long sent = now_ns();

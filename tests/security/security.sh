@@ -117,7 +117,7 @@ fi
 out=$(TANDEM_SECURITY_DIR="$PWD/keys" TANDEM_IDENTITY=robot.m1.left "$bin/tandem_intruder" --domain "$d3" --arm m1/right --seconds 1) && rc=0 || rc=$?
 echo "identity robot.m1.left, torque writer for m1/right: $out"
 [ "$rc" -eq 3 ] || fail "the left robot's identity could create a torque writer for the right arm: $out"
-out=$(TANDEM_SECURITY_DIR="$PWD/keys" TANDEM_IDENTITY=robot.m1.left "$bin/tandem_intruder" --domain "$d3" --arm m1/left --seconds 2) && rc=0 || rc=$?
+out=$(TANDEM_SECURITY_DIR="$PWD/keys" TANDEM_IDENTITY=robot.m1.left "$bin/tandem_intruder" --domain "$d3" --arm m1/left --seconds 15 --until-matched) && rc=0 || rc=$?
 echo "identity robot.m1.left, torque writer for m1/left: $out"
 [ "$rc" -eq 0 ] && echo "$out" | grep -q "matched=[1-9]" || fail "the left robot's own identity could not write its arm: $out"
 # The CLI's identity: `tandem status` sees it, `tandem down` stops it.

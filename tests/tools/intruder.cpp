@@ -1,7 +1,7 @@
 // Test participant for the security tests (tests/security/security.sh): tries to become a torque writer of an
 // arm. With DDS-Security the participant uses TANDEM_SECURITY_DIR/TANDEM_IDENTITY like any tandem process
 // (none set: no credentials). Prints "writer=created matched=N" or "writer=refused: <why>".
-// usage: tandem_intruder --domain ID --arm M/ROBOT [--seconds S] [--transport shm|udp]
+// usage: tandem_intruder --domain ID --arm M/ROBOT [--seconds S] [--until-matched] [--transport shm|udp]
 // Exit: 0 the writer was created (matched readers: see the output), 3 refused, 2 bad arguments.
 #include <tandemPubSubTypes.h>
 
@@ -20,16 +20,23 @@ int main(int argc, char** argv) {
   int domain = -1;
   std::string arm;
   double seconds = 3.0;
+  bool until_matched = false;  // a positive control: stop as soon as the world matched (at most --seconds)
   bus::Transport transport = bus::Transport::SharedMemory;
-  for (int i = 1; i + 1 < argc; i += 2) {
+  for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    if (a == "--domain") domain = std::atoi(argv[i + 1]);
-    if (a == "--arm") arm = argv[i + 1];
-    if (a == "--seconds") seconds = std::atof(argv[i + 1]);
-    if (a == "--transport") transport = std::string(argv[i + 1]) == "udp" ? bus::Transport::Udp : bus::Transport::SharedMemory;
+    if (a == "--until-matched") {
+      until_matched = true;
+      continue;
+    }
+    if (i + 1 >= argc) break;
+    const std::string v = argv[++i];
+    if (a == "--domain") domain = std::atoi(v.c_str());
+    if (a == "--arm") arm = v;
+    if (a == "--seconds") seconds = std::atof(v.c_str());
+    if (a == "--transport") transport = v == "udp" ? bus::Transport::Udp : bus::Transport::SharedMemory;
   }
   if (domain < 0 || arm.empty()) {
-    std::fprintf(stderr, "usage: tandem_intruder --domain ID --arm M/ROBOT [--seconds S] [--transport shm|udp]\n");
+    std::fprintf(stderr, "usage: tandem_intruder --domain ID --arm M/ROBOT [--seconds S] [--until-matched] [--transport shm|udp]\n");
     return 2;
   }
   try {
@@ -41,6 +48,7 @@ int main(int argc, char** argv) {
     const auto t0 = std::chrono::steady_clock::now();
     while (std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() < seconds) {
       matched = std::max(matched, w.matched());
+      if (until_matched && matched > 0) break;
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
     }
     std::printf("writer=created matched=%d\n", matched);

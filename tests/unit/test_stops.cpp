@@ -262,29 +262,38 @@ TEST_CASE("the leading supervisor dies at random ticks: its replica takes over a
   }
 }
 
-TEST_CASE("a follower refuses a plan whose reference jumps now, and a standby that never heard a leader does not lead a moved object", "[stops]") {
+TEST_CASE("followers adopt a takeover plan that jumps (and say so), and a standby that never heard a leader does not lead a moved object", "[stops]") {
   const ts::ModuleSetup& m = sosm_module();
   tp::ModulePlan leader(m, false);
   tp::PlanData p;
   leader.export_to(p);
   p.supervisor_id = "m1/supervisor";
-  tp::PlanFollower f(m, false);
+  tp::PlanFollower f(m, false), lagging(m, false);
   REQUIRE(f.offer(p, nullptr, 2500) == tp::PlanFollower::Offer::Adopted);
-  // A supervisor that paused the path at tick 1000 long ago (a plan that drifted): 0.2 m behind at tick 2500.
+  REQUIRE(lagging.offer(p, nullptr, 2100) == tp::PlanFollower::Offer::Adopted);
+  // The same leader's next version, a pause planned from tick 2300 on, reaches a robot that is 400 ticks
+  // behind (back from a stall) and one that is current: both follow it, whatever it means at their tick, so
+  // the module never splits (the heavy-fault soak's drop came from a robot that refused such a plan).
+  leader.set_rate(2300, 0.0, 0.15);
+  tp::PlanData next;
+  leader.export_to(next);
+  next.supervisor_id = "m1/supervisor";
+  std::string why;
+  CHECK(f.offer(next, &why, 2500) == tp::PlanFollower::Offer::Adopted);
+  CHECK(lagging.offer(next, &why, 2100) == tp::PlanFollower::Offer::Adopted);
+  CHECK(why.empty());  // the same rank: no takeover to report
+  for (long k : {2100L, 2400L, 2600L}) CHECK((f.reference(0, k).x - lagging.reference(0, k).x).norm() == 0.0);
+  // A takeover plan (a new epoch) from a supervisor that paused the path at tick 1000 long ago: 0.2 m behind at
+  // tick 2500. Reported, and adopted as every follower adopts it.
   tp::ModulePlan drifted(m, false);
   drifted.set_rate(1000, 0.0, 0.0);
   tp::PlanData q;
   drifted.export_to(q);
   q.supervisor_id = "m1/supervisor@50";
   q.epoch = 1;
-  std::string why;
-  CHECK(f.offer(q, &why, 2500) == tp::PlanFollower::Offer::Rejected);
-  CHECK(why.find("jumps by") != std::string::npos);
-  // The same change planned ahead of now is followed (a pause from tick 2520 on).
-  tp::ModulePlan ahead(m, false);
-  ahead.set_rate(2520, 0.0, 0.15);
-  ahead.export_to(q);
   CHECK(f.offer(q, &why, 2500) == tp::PlanFollower::Offer::Adopted);
+  CHECK(f.jump() > 0.05);
+  CHECK(why.find("a takeover plan whose reference jumps by") != std::string::npos);
   // A standby that never heard a leader, with the object 5 cm from where its initial plan has it.
   SupervisorCore s(m, SupervisorOptions{"m1/supervisor@50", 50, false, 0.1}, 0);
   std::string log;

@@ -9,7 +9,8 @@
 #include <string>
 #include <vector>
 
-#include "task_queue.hpp"
+#include "tandem/coordinator/leadership.hpp"
+#include "tandem/coordinator/task_queue.hpp"
 
 namespace {
 
@@ -44,12 +45,13 @@ void check_done_once(const TaskQueue& q) {
   CHECK(q.complete());
   CHECK(q.duplicates() == 0);
   const Snapshot s = q.snapshot();
-  CHECK(s.done.size() == q.task_count());
-  std::map<std::string, int> times;
-  for (const auto& n : s.done) ++times[n];
-  for (const auto& [name, n] : times) {
-    INFO(name);
-    CHECK(n == 1);
+  CHECK(s.done_count() == q.task_count());
+  CHECK(s.done_total == q.task_count());  // no task finished twice
+  REQUIRE(s.done_by.size() == q.task_count());
+  for (size_t t = 0; t < s.done_by.size(); ++t) {
+    INFO(q.task_name(t));
+    CHECK(s.done_by[t] >= 1);
+    CHECK(s.done_by[t] <= s.modules.size());
   }
 }
 
@@ -219,8 +221,9 @@ TEST_CASE("a standby rebuilds the queue from the last state and reconciles it wi
   // t4 on m4 (id 6).
   Snapshot s;
   s.next_task_id = 7;
-  s.done = {"t0"};
-  s.done_by = {"m1"};
+  s.modules = {"m1"};
+  s.done_by = {1, 0, 0, 0, 0, 0, 0};  // t0 done by m1
+  s.done_total = 1;
   s.running = {"t1", "t2", "t3", "t4"};
   s.running_on = {"m1", "m2", "m3", "m4"};
   s.running_id = {3, 4, 5, 6};
@@ -402,4 +405,127 @@ TEST_CASE("a module that drops its object fails: its task goes back to the front
   REQUIRE(back);
   CHECK(back->module == "m1");
   CHECK(q.task_name(back->task) == "t2");
+}
+
+TEST_CASE("the queue's state is a compact done-set: 10^5 tasks done stay under 110 kB on the wire", "[coordinator]") {
+  const size_t n = 100000;
+  TaskQueue q(task_names(static_cast<int>(n)), Balance::RoundRobin);
+  for (const char* m : {"m1", "m2", "m3", "m4"}) q.report({m, 0, kIdle}, 0.0);
+  std::map<std::string, uint64_t> last;
+  double t = 0.0;
+  for (size_t done = 0; done < n;) {
+    while (const auto a = q.assign_next(no_wear)) last[a->module] = a->id;
+    for (auto& [m, id] : last) {
+      if (id == 0) continue;
+      q.report({m, id, kDone}, t);
+      id = 0;
+      ++done;
+    }
+    t += 0.001;
+  }
+  check_done_once(q);
+  const Snapshot s = q.snapshot();
+  // One byte per task and the four names: the names of the tasks done, in order, would be about 1.1 MB.
+  CHECK(s.payload_bytes() < 110000);
+  size_t names = 0;
+  for (size_t i = 0; i < n; ++i) names += q.task_name(i).size() + 4 + 2 + 4;
+  INFO("done-set " << s.payload_bytes() << " bytes; as lists of names " << names << " bytes");
+  CHECK(names > 10 * s.payload_bytes());
+  // A standby restores it exactly.
+  TaskQueue standby(task_names(static_cast<int>(n)), Balance::RoundRobin);
+  standby.restore(s, t);
+  CHECK(standby.done_count() == n);
+  CHECK(standby.duplicates() == 0);
+  CHECK(standby.done_by_module().at("m3").size() == n / 4);
+  // A malformed state (a module index past the list) is refused.
+  Snapshot bad = s;
+  bad.done_by[7] = 9;
+  CHECK_FALSE(bad.well_formed());
+}
+
+namespace {
+using tandem::coordinator::Leadership;
+using Step = tandem::coordinator::Leadership::Step;
+
+Snapshot state_with(uint64_t next_id, std::vector<uint8_t> done_by, uint64_t total) {
+  Snapshot s;
+  s.next_task_id = next_id;
+  s.modules = {"m1"};
+  s.done_by = std::move(done_by);
+  s.done_total = total;
+  return s;
+}
+}  // namespace
+
+TEST_CASE("leadership: a standby takes over 0.5 s after the primary's last state, from the most advanced one", "[coordinator]") {
+  Leadership l({"coordinator@1", true, false}, 0.0);
+  CHECK_FALSE(l.primary());
+  CHECK(l.on_state(state_with(5, {1, 1, 0, 0}, 2), 1.0));
+  CHECK_FALSE(l.on_state(state_with(4, {1, 0, 0, 0}, 1), 1.1));  // an older copy (the launcher's republished one)
+  CHECK(l.last_state()->next_task_id == 5);
+  std::string log;
+  CHECK(l.step(1.4, 4, &log) == Step::Wait);
+  CHECK(l.step(1.51, 4, &log) == Step::TakeOver);
+  CHECK(l.primary());
+  CHECK(log.find("taking over") != std::string::npos);
+  CHECK(l.step(1.52, 4, &log) == Step::Lead);
+  // A malformed state is counted and changes nothing.
+  Leadership m({"coordinator@1", true, false}, 0.0);
+  Snapshot bad = state_with(5, {3, 0}, 1);  // names a module past its list
+  CHECK_FALSE(m.on_state(bad, 0.1));
+  CHECK(m.malformed_states() == 1);
+  CHECK_FALSE(m.last_state().has_value());
+}
+
+TEST_CASE("leadership: a late joiner with no state waits 3 s, a restarted one (--resume) never starts a fresh queue", "[coordinator]") {
+  Leadership fresh({"coordinator@1", true, false}, 10.0);
+  CHECK(fresh.step(12.9, 4, nullptr) == Step::Wait);
+  CHECK(fresh.step(13.01, 4, nullptr) == Step::TakeOver);
+  CHECK_FALSE(fresh.last_state().has_value());  // from the whole queue
+  Leadership resumed({"coordinator@r1", true, true}, 10.0);
+  CHECK(resumed.step(100.0, 4, nullptr) == Step::Wait);  // no state heard: never
+  CHECK_FALSE(resumed.primary());
+  CHECK(resumed.on_state(state_with(9, {1, 1, 1, 0}, 3), 100.5));  // the launcher's copy arrives late
+  CHECK(resumed.step(100.9, 4, nullptr) == Step::Wait);
+  CHECK(resumed.step(101.01, 4, nullptr) == Step::TakeOver);
+  CHECK(resumed.last_state()->done_count() == 3);
+}
+
+TEST_CASE("leadership: only the first live standby by id takes over, and a standby exits when every task is done", "[coordinator]") {
+  Leadership a({"coordinator@1", true, false}, 0.0), b({"coordinator@2", true, false}, 0.0);
+  const Snapshot s = state_with(3, {1, 0}, 1);
+  a.on_state(s, 1.0);
+  b.on_state(s, 1.0);
+  a.on_peer("coordinator@2", true, false, 1.5);
+  b.on_peer("coordinator@1", true, false, 1.5);
+  CHECK(b.step(1.6, 2, nullptr) == Step::Wait);      // @1 is before it and alive
+  CHECK(a.step(1.6, 2, nullptr) == Step::TakeOver);
+  CHECK(b.step(2.3, 2, nullptr) == Step::TakeOver);  // @1 not heard for 0.8 s: it is next
+  Leadership c({"coordinator@3", true, false}, 0.0);
+  c.on_state(state_with(4, {1, 1}, 2), 0.5);
+  std::string log;
+  CHECK(c.step(0.6, 2, &log) == Step::AllDone);
+  CHECK(log.find("every task done") != std::string::npos);
+}
+
+TEST_CASE("leadership: a primary back from a stall doubts, leaves if another one leads, else carries on", "[coordinator]") {
+  for (const bool replaced : {true, false}) {
+    INFO("another coordinator took over: " << replaced);
+    Leadership p({"coordinator", false, false}, 0.0);
+    CHECK(p.on_loop(0.1).empty());
+    CHECK(p.step(0.1, 4, nullptr) == Step::Lead);
+    const std::string line = p.on_loop(0.9);  // the loop stood still 0.8 s (SIGSTOP)
+    CHECK(line.find("stalled for 800 ms") != std::string::npos);
+    CHECK(p.doubting());
+    CHECK(p.step(0.95, 4, nullptr) == Step::Wait);  // decides nothing while it listens
+    if (replaced) {
+      CHECK(p.on_peer("coordinator@1", true, true, 1.0));  // a successor says primary: leave
+    } else {
+      CHECK_FALSE(p.on_peer("coordinator@1", true, false, 1.0));  // a standby: no reason to leave
+      std::string log;
+      CHECK(p.step(1.21, 4, &log) == Step::Lead);
+      CHECK(log.find("carrying on as the primary") != std::string::npos);
+      CHECK_FALSE(p.doubting());
+    }
+  }
 }

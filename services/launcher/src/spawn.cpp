@@ -22,13 +22,17 @@ pid_t spawn(const std::string& who, const std::string& exe, const std::vector<st
   argv.push_back(nullptr);
   std::vector<std::string> env_text;
   for (char** e = environ; *e != nullptr; ++e) {
-    if (std::strncmp(*e, "TANDEM_PARTICIPANT_ID=", 22) != 0 && std::strncmp(*e, "TANDEM_IDENTITY=", 16) != 0) {
+    if (std::strncmp(*e, "TANDEM_PARTICIPANT_ID=", 22) != 0 && std::strncmp(*e, "TANDEM_IDENTITY=", 16) != 0 &&
+        std::strncmp(*e, "TANDEM_RT_PRIORITY=", 19) != 0) {
       env_text.emplace_back(*e);
     }
   }
   if (opt.participant_id >= 0) env_text.push_back("TANDEM_PARTICIPANT_ID=" + std::to_string(opt.participant_id));
   // DDS-Security: the child's identity (its slot's key; TANDEM_SECURITY_DIR is inherited from the parent).
   if (!opt.identity.empty()) env_text.push_back("TANDEM_IDENTITY=" + opt.identity);
+  // Real time once active: the child starts at normal priority and raises itself when it turns active
+  // (runtime::raise_to_realtime_from_env), so that its start-up never preempts the running modules.
+  if (opt.rt_priority > 0) env_text.push_back("TANDEM_RT_PRIORITY=" + std::to_string(opt.rt_priority));
   std::vector<char*> envp;
   for (auto& e : env_text) envp.push_back(e.data());
   envp.push_back(nullptr);
@@ -43,11 +47,6 @@ pid_t spawn(const std::string& who, const std::string& exe, const std::vector<st
   ::signal(SIGTERM, SIG_DFL);
   ::prctl(PR_SET_PDEATHSIG, SIGTERM);  // never outlive the parent
   if (::getppid() != parent) ::_exit(127);
-  if (opt.rt_priority > 0) {
-    sched_param sp{};
-    sp.sched_priority = opt.rt_priority;
-    (void)::sched_setscheduler(0, SCHED_FIFO, &sp);  // the parent checked that it is permitted
-  }
   ::execve(exe.c_str(), argv.data(), envp.data());
   static const char msg[] = "tandem: cannot exec a role process\n";
   (void)!::write(2, msg, sizeof msg - 1);

@@ -144,16 +144,15 @@ PlanFollower::Offer PlanFollower::offer(const PlanData& p, std::string* why, lon
   }
   const SupervisorRank r = p.rank();
   if (have_ && (rank_.outranks(r) || (!r.outranks(rank_) && p.version <= version_))) return Offer::Ignored;
-  if (have_ && now_tick >= 0) {
+  if (have_ && now_tick >= 0 && (r.outranks(rank_) || rank_.outranks(r))) {
     ModulePlan next = plan_;
     next.import_from(p);
     const model::Vec3 d = next.sample(now_tick).pose - plan_.sample(now_tick).pose;
-    if (d.head<2>().norm() > kMaxJump || std::abs(d(2)) > kMaxJump) {
-      if (why != nullptr) {
-        *why = "its reference jumps by " + std::to_string(d.head<2>().norm() * 1e3).substr(0, 6) + " mm at tick " +
-               std::to_string(now_tick) + " (from " + p.supervisor_id + ", epoch " + std::to_string(p.epoch) + ")";
-      }
-      return Offer::Rejected;
+    jump_ = std::max(d.head<2>().norm(), std::abs(d(2)));
+    if (jump_ > kMaxJump && why != nullptr) {
+      *why = "a takeover plan whose reference jumps by " + std::to_string(d.head<2>().norm() * 1e3).substr(0, 6) +
+             " mm at tick " + std::to_string(now_tick) + " (from " + p.supervisor_id + ", epoch " +
+             std::to_string(p.epoch) + "); followed, as every follower does";
     }
   }
   plan_.import_from(p);

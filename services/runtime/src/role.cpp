@@ -1,5 +1,9 @@
 #include "tandem/runtime/role.hpp"
 
+#include <sched.h>
+
+#include <dirent.h>
+
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
@@ -168,6 +172,27 @@ int RoleContext::arm_index(const std::string& id) const {
     if (id == arm_id(j)) return j;
   }
   return -1;
+}
+
+int raise_to_realtime_from_env() {
+  const char* env = std::getenv("TANDEM_RT_PRIORITY");
+  const int priority = env != nullptr ? std::atoi(env) : 0;
+  if (priority <= 0) return 0;
+  sched_param sp{};
+  sp.sched_priority = priority;
+  int raised = 0;
+  DIR* dir = ::opendir("/proc/self/task");
+  if (dir == nullptr) return ::sched_setscheduler(0, SCHED_FIFO, &sp) == 0 ? 1 : -1;
+  while (const dirent* e = ::readdir(dir)) {
+    if (e->d_name[0] < '0' || e->d_name[0] > '9') continue;
+    if (::sched_setscheduler(static_cast<pid_t>(std::atoi(e->d_name)), SCHED_FIFO, &sp) != 0) {
+      raised = -1;
+      break;
+    }
+    ++raised;
+  }
+  ::closedir(dir);
+  return raised;
 }
 
 }  // namespace tandem::runtime

@@ -50,7 +50,7 @@ class Judge {
     const auto tasks = add("tasks exactly once", "no task done twice, none lost, none unknown");
     const auto whole = add("tasks held throughout", "a task counts as done only if its object was never slipped nor dropped during it");
     const auto rec = add("recovery", "every fault followed by its recovery within its bound");
-    const auto prog = add("progress", "tasks keep being done (no 45 s without one)");
+    const auto prog = add("progress", "tasks keep being done (no 45 s without one, overall and by every module in service)");
     const auto left = add("nothing left behind", "no process running and no new shared-memory file after the run");
     const auto rss = add("memory flat", "resident memory slope of every long-lived process below the bound");
     const auto logs = add("logs bounded", "the launcher log's growth rate does not climb");
@@ -218,6 +218,10 @@ class Judge {
                                        i < h_.tasks_done_by.size() ? h_.tasks_done_by[i].c_str() : "?"));
       }
       if (!known.empty() && known.count(name) == 0) violate(inv, h_.stop_s, 0, "task " + name + " is not in the task list");
+    }
+    if (h_.tasks_done_total > h_.tasks_done.size()) {
+      violate(inv, h_.stop_s, 0, fmt("the coordinator counted %llu task(s) finished for %zu distinct ones: done twice",
+                                     static_cast<unsigned long long>(h_.tasks_done_total), h_.tasks_done.size()));
     }
     std::set<std::string> running(h_.tasks_running.begin(), h_.tasks_running.end());
     std::map<std::string, double> first_assigned;
@@ -433,17 +437,50 @@ class Judge {
 
   void progress(size_t inv) {
     std::vector<double> done;
+    std::map<std::string, std::vector<double>> done_by;
     for (const Event& e : h_.events) {
-      if (e.type == Event::Type::TaskDone) done.push_back(e.t);
+      if (e.type != Event::Type::TaskDone) continue;
+      done.push_back(e.t);
+      done_by[e.text].push_back(e.t);
     }
     if (h_.task_names.empty()) return;
     double prev = 0.0;
     for (double t : done) {
       ++v_.invariants[inv].checked;
-      if (t - prev > 45.0) violate(inv, prev, fault_before(t), fmt("no task was done from %.1f s to %.1f s", prev, t));
+      if (t - prev > b_.progress_s) violate(inv, prev, fault_before(t), fmt("no task was done from %.1f s to %.1f s", prev, t));
       prev = t;
     }
-    if (h_.stop_s - prev > 45.0) violate(inv, prev, fault_before(h_.stop_s), fmt("no task was done after %.1f s", prev));
+    if (h_.stop_s - prev > b_.progress_s) violate(inv, prev, fault_before(h_.stop_s), fmt("no task was done after %.1f s", prev));
+    // Per module: one in service does a task at least every progress_s. A gap is excused when the module was
+    // out or stopped in it (braked, held, paused for load, failed), or a fault hit it or the whole machine (a
+    // hog) in it or shortly before.
+    for (const auto& [module, series] : h_.modules) {
+      if (series.empty()) continue;
+      const std::vector<double>& ts = done_by[module];
+      auto excused = [&](double a, double b) {
+        for (const ModuleSample& s : series) {
+          if (s.t >= a && s.t <= b && (s.braked || s.hold || s.load_paused || s.failed)) return true;
+        }
+        for (const FaultRecord& f : h_.faults) {
+          if (f.skipped) continue;
+          const double end = f.end_t > f.t ? f.end_t : f.t;
+          const bool here = f.module == module || f.fault.kind == FaultKind::Hog || f.module.empty();
+          if (here && f.t <= b && end >= a - 10.0) return true;
+        }
+        return false;
+      };
+      double from = std::max(series.front().t, b_.startup_grace_s);
+      const double until = std::min(series.back().t, h_.stop_s);
+      std::vector<double> marks = ts;
+      marks.push_back(until);
+      for (double t : marks) {
+        ++v_.invariants[inv].checked;
+        if (t - from > b_.progress_s && !excused(from, t)) {
+          violate(inv, from, fault_before(t, module), fmt("%s did no task from %.1f s to %.1f s while in service", module.c_str(), from, t));
+        }
+        from = t;
+      }
+    }
   }
 
   void leftovers(size_t inv) {
@@ -459,8 +496,13 @@ class Judge {
       if (samples.size() < 3) continue;
       const double first = samples.front()->t, last = samples.back()->t;
       if (last - first < b_.rss_min_life_s) continue;
-      // The later half of its life: start-up (discovery of the others, first allocations) is not growth.
-      const double from = first + std::max(10.0, 0.5 * (last - first));
+      // A process a fault hit (stalled: its peers' samples piled up meanwhile) is not judged.
+      bool hit = false;
+      for (const FaultRecord& f : h_.faults) hit = hit || (!f.skipped && f.pid == samples.front()->pid);
+      if (hit) continue;
+      // The later half of its life, at most the last rss_window_s: start-up (discovery of the others, first
+      // allocations) is not growth.
+      const double from = std::max(first + std::max(10.0, 0.5 * (last - first)), last - b_.rss_window_s);
       std::vector<std::pair<double, double>> xy;
       for (const RssSample* s : samples) {
         if (s->t >= from) xy.emplace_back(s->t / 60.0, s->mib);

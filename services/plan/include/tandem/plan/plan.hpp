@@ -129,14 +129,19 @@ class PlanFollower {
  public:
   PlanFollower(const sim::ModuleSetup& m, bool continuous) : plan_(m, continuous) {}
   enum class Offer { Adopted, Ignored, Rejected };
-  /// A plan whose object pose at the follower's current tick is this far from the pose of the plan it follows
-  /// is refused: supervisors that are replicas of one plan agree about now (their changes are planned ahead,
-  /// kLeadTicks), so such a plan comes from a supervisor that drifted or never heard the module's plan, and
-  /// following it would jump the references under a held object. The follower holds its plan.
+  /// A plan of a new rank (a takeover) whose object pose at the follower's current tick is this far from the
+  /// pose of the plan it follows is reported (`jump()`), and adopted all the same. It is never refused: the
+  /// followers of a module (the world, each robot) must all follow the same plan, and their views of "now"
+  /// differ (a robot back from a stall is hundreds of ticks behind, and may have missed versions), so a refusal
+  /// by some of them splits the module: found by the heavy-fault soak, where a robot back from a 0.34 s stall
+  /// refused its leader's next task, drove against its partner, and the object was dropped. Continuity is the
+  /// supervisors' duty: standbys are replicas, and one that never heard a leader does not lead a moved object.
   static constexpr double kMaxJump = 1e-3;  ///< [m] on the object's (x, y); [rad] on its angle
-  /// Ignored: lower rank, or an old version of the current rank. Rejected: malformed, or (with `now_tick` >= 0
-  /// and a plan already followed) a jump of the reference at that tick (`why` says how).
+  /// Ignored: lower rank, or an old version of the current rank. Rejected: malformed (`why` says how). With
+  /// `now_tick` >= 0, a takeover plan's jump at that tick is measured (`jump()`, and `why` when over kMaxJump).
   Offer offer(const PlanData& p, std::string* why = nullptr, long now_tick = -1);
+  /// The jump of the last plan of a new rank adopted, at the follower's tick then [m] (0: none measured).
+  double jump() const { return jump_; }
   bool has_plan() const { return have_; }
   model::ArmReference reference(int j, long k) const { return plan_.reference(j, k); }
   const ModulePlan& plan() const { return plan_; }
@@ -148,6 +153,7 @@ class PlanFollower {
   bool have_ = false;
   SupervisorRank rank_{};
   uint64_t version_ = 0;
+  double jump_ = 0.0;
 };
 
 }  // namespace tandem::plan

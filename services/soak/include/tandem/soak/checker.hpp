@@ -23,11 +23,13 @@ struct Bounds {
   double startup_grace_s = 1.0;  ///< normal force is not judged in a world's first second (the grasp builds up)
   double brake_grace_s = 0.5;    ///< nor while an arm is braked or held and this long after
   double task_lost_s = 60.0;     ///< a task assigned this long before the stop must be done or running at the end
+  double progress_s = 45.0;      ///< the deployment, and every module in service, does a task at least this often
   double rss_slope_mib_per_min = 1.0;  ///< resident memory growth of a long-lived process
   /// Judged only for processes that lived this long, over the later half of their life (so over 60 s at least):
   /// in a shorter window start-up growth (discovering the others, first allocations) cannot be told from a leak
   /// (a 75 s CI soak saw its launcher grow 1.8 MiB in 38 s, an hour-long one did not).
   double rss_min_life_s = 120.0;
+  double rss_window_s = 1800.0;  ///< ... and over at most its last half hour (anonymous memory, RssAnon)
   double log_growth_ratio = 3.0; ///< the log's rate in the last third over the first third
 };
 

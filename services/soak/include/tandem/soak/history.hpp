@@ -79,6 +79,7 @@ struct History {
   std::vector<std::pair<double, double>> log_bytes;          ///< (t, bytes of the launcher's log)
   std::vector<std::string> task_names;                       ///< the coordinator's task list
   std::vector<std::string> tasks_done, tasks_done_by, tasks_running;  ///< the final queue state heard
+  uint64_t tasks_done_total = 0;  ///< tasks finished as the coordinator counted them (more than done: twice)
   std::vector<std::string> leftover_processes;               ///< still running after the run
   std::vector<std::string> leftover_shm;                     ///< /dev/shm files new since the start and left
   int launcher_exit = -1;

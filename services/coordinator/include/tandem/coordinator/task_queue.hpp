@@ -10,6 +10,7 @@
 #pragma once
 
 #include <cstddef>
+#include <algorithm>
 #include <cstdint>
 #include <deque>
 #include <functional>
@@ -33,14 +34,25 @@ struct ModuleReport {
   uint8_t state = 0;     ///< a ModuleState; larger values are rejected
 };
 
-/// The queue's state as a CoordinatorState carries it: task names, done in order, and the tasks in flight.
+/// The queue's state as a CoordinatorState carries it: a compact done-set (one byte per task of the
+/// deployment's list, in file order: 0 not done, i done by modules[i - 1]), and the tasks in flight. Its size is
+/// bounded by the deployment (tasks + module names), not by how long it runs: 10^5 tasks done by 255 modules
+/// are 10^5 bytes + the names (the names of the tasks done, in order, grew without bound: coordinators grew
+/// 1.4-1.8 MiB/min in the hour-long soak).
 struct Snapshot {
+  static constexpr size_t kMaxModules = 255;
   uint64_t next_task_id = 1;
-  std::vector<std::string> done, done_by;
+  std::vector<std::string> modules;  ///< modules that did tasks (at most kMaxModules)
+  std::vector<uint8_t> done_by;      ///< per task: 0 not done, i: done by modules[i - 1]
+  uint64_t done_total = 0;           ///< tasks finished, a task finished twice counted twice
   std::vector<std::string> running, running_on;
   std::vector<uint64_t> running_id;
-  /// The parallel lists have equal lengths.
+  /// The parallel lists have equal lengths, and every done_by names a module of the list.
   bool well_formed() const;
+  /// Tasks done (distinct).
+  size_t done_count() const;
+  /// Bytes of its content (what the wire carries, without the CDR overhead).
+  size_t payload_bytes() const;
 };
 
 /// A task handed to a module (or handed again, with the same id, after a takeover).
@@ -116,11 +128,11 @@ class TaskQueue {
   /// One line for the log, e.g. "m2 left; task out-1 (id 4) back to the front of the queue".
   std::string describe(const Event& e) const;
   /// Distinct tasks of this deployment that `s` lists as done.
-  size_t count_done(const Snapshot& s) const;
+  size_t count_done(const Snapshot& s) const { return std::min(s.done_count(), names_.size()); }
   size_t task_count() const { return names_.size(); }
   const std::string& task_name(size_t task) const { return names_[task]; }
-  size_t done_count() const;  ///< distinct tasks done
-  size_t duplicates() const;  ///< entries of the done list beyond the first of each task
+  size_t done_count() const { return done_count_; }      ///< distinct tasks done
+  size_t duplicates() const { return done_total_ - done_count_; }  ///< finishes of a task already done
   bool complete() const { return done_count() == names_.size(); }
   size_t running_count() const;
   size_t pending_count() const { return pending_.size(); }
@@ -128,7 +140,7 @@ class TaskQueue {
   size_t module_count() const { return modules_.size(); }
   size_t lost_count() const;
   uint64_t rejected() const { return rejected_; }
-  /// Every module known or credited with a task -> the names of the tasks it did, in order.
+  /// Every module known or credited with a task -> the names of the tasks it did, in the deployment's order.
   std::map<std::string, std::vector<std::string>> done_by_module() const;
 
  private:
@@ -140,10 +152,6 @@ class TaskQueue {
     bool lost = false;
     uint64_t running_id = 0;  // task id in flight (0: none)
     size_t running_task = 0;
-  };
-  struct Done {
-    size_t task;
-    std::string module;
   };
   static bool finished_state(uint8_t state);
   std::optional<size_t> find_task(const std::string& name) const;
@@ -158,7 +166,12 @@ class TaskQueue {
   std::map<uint64_t, std::pair<size_t, std::string>>
       abandoned_;  // id taken from a lost module -> task, module
   std::deque<size_t> pending_;
-  std::vector<Done> done_;
+  std::vector<uint8_t> done_by_;              // per task: 0 not done, i: done by module_names_[i - 1]
+  std::vector<std::string> module_names_;     // modules that did tasks (index + 1 in done_by_)
+  std::map<std::string, size_t> done_of_;     // module -> tasks it did
+  size_t done_count_ = 0;
+  uint64_t done_total_ = 0;
+  uint8_t module_index(const std::string& module);  // 0 if more than Snapshot::kMaxModules modules did tasks
   uint64_t next_id_ = 1;
   uint64_t revision_ = 0;
   uint64_t rejected_ = 0;

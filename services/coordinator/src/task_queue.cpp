@@ -1,4 +1,4 @@
-#include "task_queue.hpp"
+#include "tandem/coordinator/task_queue.hpp"
 
 #include <algorithm>
 #include <cstdio>
@@ -10,13 +10,37 @@
 namespace tandem::coordinator {
 
 bool Snapshot::well_formed() const {
-  return done.size() == done_by.size() && running.size() == running_on.size() &&
-         running.size() == running_id.size();
+  if (running.size() != running_on.size() || running.size() != running_id.size() || modules.size() > kMaxModules) {
+    return false;
+  }
+  for (const uint8_t b : done_by) {
+    if (b > modules.size()) return false;
+  }
+  return done_total >= done_count();
+}
+
+size_t Snapshot::done_count() const {
+  return static_cast<size_t>(std::count_if(done_by.begin(), done_by.end(), [](uint8_t b) { return b != 0; }));
+}
+
+size_t Snapshot::payload_bytes() const {
+  size_t n = 16 + done_by.size();
+  for (const auto& m : modules) n += m.size() + 4;
+  for (size_t i = 0; i < running.size(); ++i) n += running[i].size() + running_on[i].size() + 16;
+  return n;
 }
 
 TaskQueue::TaskQueue(std::vector<std::string> tasks, Balance balance)
-    : names_(std::move(tasks)), balance_(balance) {
+    : names_(std::move(tasks)), balance_(balance), done_by_(names_.size(), 0) {
   for (size_t t = 0; t < names_.size(); ++t) pending_.push_back(t);
+}
+
+uint8_t TaskQueue::module_index(const std::string& module) {
+  const auto it = std::find(module_names_.begin(), module_names_.end(), module);
+  if (it != module_names_.end()) return static_cast<uint8_t>(it - module_names_.begin() + 1);
+  if (module_names_.size() >= Snapshot::kMaxModules) return 0;
+  module_names_.push_back(module);
+  return static_cast<uint8_t>(module_names_.size());
 }
 
 // The module is idle after the task it reports (left: it finished its task before leaving).
@@ -32,12 +56,19 @@ std::optional<size_t> TaskQueue::find_task(const std::string& name) const {
 }
 
 size_t TaskQueue::tasks_of(const std::string& module) const {
-  return static_cast<size_t>(
-      std::count_if(done_.begin(), done_.end(), [&](const Done& d) { return d.module == module; }));
+  const auto it = done_of_.find(module);
+  return it == done_of_.end() ? 0 : it->second;
 }
 
 void TaskQueue::finish(const std::string& name, Module& m, std::vector<Event>& events) {
-  done_.push_back({m.running_task, name});
+  ++done_total_;
+  uint8_t& by = done_by_[m.running_task];
+  if (by == 0) {
+    ++done_count_;
+    by = module_index(name);
+    if (by == 0) by = 1;  // past 255 modules: credited to the first (counts stay right)
+    ++done_of_[name];
+  }
   events.push_back({EventKind::Finished, name, names_[m.running_task], m.running_id, done_count()});
   m.running_id = 0;
   ++revision_;
@@ -162,17 +193,25 @@ std::optional<Assignment> TaskQueue::assign_next(const std::function<double(cons
 }
 
 void TaskQueue::restore(const Snapshot& s, double now) {
-  done_.clear();
+  std::fill(done_by_.begin(), done_by_.end(), 0);
+  module_names_.clear();
+  done_of_.clear();
+  done_count_ = 0;
   pending_.clear();
   abandoned_.clear();
   for (auto& entry : modules_) entry.second.running_id = 0;
   std::vector<bool> placed(names_.size(), false);
-  for (size_t i = 0; i < std::min(s.done.size(), s.done_by.size()); ++i) {
-    const auto t = find_task(s.done[i]);
-    if (!t) continue;
-    done_.push_back({*t, s.done_by[i]});
-    placed[*t] = true;
+  for (size_t t = 0; t < std::min(s.done_by.size(), names_.size()); ++t) {
+    const uint8_t b = s.done_by[t];
+    if (b == 0 || b > s.modules.size()) continue;
+    const std::string& module = s.modules[b - 1];
+    done_by_[t] = module_index(module);
+    if (done_by_[t] == 0) done_by_[t] = 1;
+    ++done_of_[module];
+    ++done_count_;
+    placed[t] = true;
   }
+  done_total_ = std::max<uint64_t>(s.done_total, done_count_);
   const size_t n_running = std::min({s.running.size(), s.running_on.size(), s.running_id.size()});
   for (size_t i = 0; i < n_running; ++i) {
     const auto t = find_task(s.running[i]);
@@ -229,10 +268,9 @@ TaskQueue::Reconciled TaskQueue::reconcile(double now) {
 Snapshot TaskQueue::snapshot() const {
   Snapshot s;
   s.next_task_id = next_id_;
-  for (const auto& d : done_) {
-    s.done.push_back(names_[d.task]);
-    s.done_by.push_back(d.module);
-  }
+  s.modules = module_names_;
+  s.done_by = done_by_;
+  s.done_total = done_total_;
   std::vector<std::tuple<uint64_t, size_t, std::string>> running;
   for (const auto& [name, m] : modules_) {
     if (m.running_id != 0) running.emplace_back(m.running_id, m.running_task, name);
@@ -274,21 +312,6 @@ std::string TaskQueue::describe(const Event& e) const {
   return "";
 }
 
-size_t TaskQueue::count_done(const Snapshot& s) const {
-  std::set<size_t> tasks;
-  for (const auto& name : s.done) {
-    if (const auto t = find_task(name)) tasks.insert(*t);
-  }
-  return tasks.size();
-}
-
-size_t TaskQueue::done_count() const {
-  std::set<size_t> tasks;
-  for (const auto& d : done_) tasks.insert(d.task);
-  return tasks.size();
-}
-
-size_t TaskQueue::duplicates() const { return done_.size() - done_count(); }
 
 size_t TaskQueue::running_count() const {
   return static_cast<size_t>(std::count_if(modules_.begin(), modules_.end(),
@@ -309,7 +332,9 @@ size_t TaskQueue::lost_count() const {
 std::map<std::string, std::vector<std::string>> TaskQueue::done_by_module() const {
   std::map<std::string, std::vector<std::string>> out;
   for (const auto& entry : modules_) out[entry.first];
-  for (const auto& d : done_) out[d.module].push_back(names_[d.task]);
+  for (size_t t = 0; t < done_by_.size(); ++t) {
+    if (done_by_[t] != 0) out[module_names_[done_by_[t] - 1]].push_back(names_[t]);
+  }
   return out;
 }
 

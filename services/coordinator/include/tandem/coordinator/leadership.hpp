@@ -1,0 +1,81 @@
+// Who leads a deployment's task queue, as a component (no DDS, no clock: times in seconds are passed in). The
+// rules that lived in the coordinator's main (services/coordinator/main.cpp wires this to DDS now):
+// - a standby keeps the most advanced queue state it hears (next task id, then tasks finished): a restarted
+//   coordinator may also hear an older copy (the launcher republishes the last state it saw);
+// - it takes over when the primary's state has been silent for kTakeoverS (kFirstStateS if it never heard one,
+//   then from the whole queue), and only if no live standby before it by id is active (first in line);
+// - a restarted one (--resume: a queue existed before it started) never takes over without a state heard: the
+//   launcher's republished copy may reach a late joiner only after seconds, and a fresh queue would do every
+//   task again (found by tandem soak: the queue went back from 1747 tasks done to none);
+// - a primary whose own loop stood still longer than kStallS may have been replaced: it decides nothing for
+//   kDoubtS while it listens; if another coordinator reports `primary` meanwhile, it leaves (crash-only; the
+//   launcher restarts it as a standby), else it goes on (found by tandem soak: a stalled primary came back and
+//   led beside its successor);
+// - a standby that hears a state with every task done exits with the primary.
+// Unit tests: tests/unit/test_task_queue.cpp ("leadership: ...").
+#pragma once
+
+#include <cstddef>
+#include <map>
+#include <optional>
+#include <string>
+
+#include "tandem/coordinator/task_queue.hpp"
+
+namespace tandem::coordinator {
+
+struct LeadershipOptions {
+  std::string id = "coordinator";  ///< this process's id; among standbys the smallest live one goes first
+  bool standby = false;            ///< start as a standby (else as the primary)
+  bool resume = false;             ///< a queue existed before this one started: never take over without its state
+};
+
+class Leadership {
+ public:
+  static constexpr double kTakeoverS = 0.5;    ///< the primary's state silent this long: a standby takes over
+  static constexpr double kFirstStateS = 3.0;  ///< ... or none heard this long since the start
+  static constexpr double kStallS = kTakeoverS;
+  static constexpr double kDoubtS = 0.3;
+
+  Leadership(const LeadershipOptions& o, double now) : o_(o), primary_(!o.standby), start_(now), last_loop_(now) {}
+
+  // --- Inputs --------------------------------------------------------------------------------------------
+  /// The start of a pass of the coordinator's loop. A primary whose loop stood still past kStallS starts to
+  /// doubt (returns the line to log, else "").
+  std::string on_loop(double now);
+  /// Another coordinator's status: `active` (its lifecycle), `claims_primary` (its status says `primary`).
+  /// True if this one must leave: it doubts after a stall and another one leads.
+  bool on_peer(const std::string& id, bool active, bool claims_primary, double now);
+  /// A primary's queue state (read while a standby). False if it was malformed or older than the one kept.
+  bool on_state(const Snapshot& s, double now);
+
+  // --- Decisions -----------------------------------------------------------------------------------------
+  enum class Step {
+    Wait,      ///< a standby that does not take over now, or a primary that doubts: decide nothing
+    TakeOver,  ///< become the primary: restore last_state() (if any), reconcile, then lead (primary() is now true)
+    Lead,      ///< the primary: assign, expire, publish
+    AllDone,   ///< a standby heard every task done: exit
+  };
+  /// What to do at `now` for a queue of `tasks` tasks; `log` gets a line when something changed.
+  Step step(double now, size_t tasks, std::string* log);
+
+  bool primary() const { return primary_; }
+  bool doubting() const { return doubt_until_ >= 0.0; }
+  const std::optional<Snapshot>& last_state() const { return last_state_; }
+  /// Seconds since the primary's last state (since the start if none was heard).
+  double silent(double now) const { return now - (last_state_ ? last_state_at_ : start_); }
+  uint64_t malformed_states() const { return malformed_; }
+
+ private:
+  bool first_in_line(double now) const;
+  LeadershipOptions o_;
+  bool primary_;
+  double start_, last_loop_;
+  double doubt_until_ = -1.0;
+  std::optional<Snapshot> last_state_;
+  double last_state_at_ = 0.0;
+  uint64_t malformed_ = 0;
+  std::map<std::string, double> peers_;  ///< other active coordinators -> when last heard
+};
+
+}  // namespace tandem::coordinator

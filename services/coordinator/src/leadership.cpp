@@ -1,0 +1,79 @@
+#include "tandem/coordinator/leadership.hpp"
+
+#include <cmath>
+#include <cstdio>
+
+namespace tandem::coordinator {
+
+namespace {
+std::string ms(double s) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.0f ms", s * 1e3);
+  return b;
+}
+}  // namespace
+
+std::string Leadership::on_loop(double now) {
+  std::string line;
+  if (primary_ && now - last_loop_ > kStallS && doubt_until_ < 0.0) {
+    line = "stalled for " + ms(now - last_loop_) + " (a standby takes over after " + ms(kTakeoverS) +
+           "): listening for a successor before deciding anything";
+    doubt_until_ = now + kDoubtS;
+  }
+  last_loop_ = now;
+  return line;
+}
+
+bool Leadership::on_peer(const std::string& id, bool active, bool claims_primary, double now) {
+  if (id == o_.id) return false;
+  if (primary_ && doubting() && claims_primary && active) return true;
+  if (active) {
+    peers_[id] = now;
+  } else {
+    peers_.erase(id);
+  }
+  return false;
+}
+
+bool Leadership::on_state(const Snapshot& s, double now) {
+  if (!s.well_formed()) {
+    ++malformed_;
+    return false;
+  }
+  if (last_state_ && (s.next_task_id < last_state_->next_task_id ||
+                      (s.next_task_id == last_state_->next_task_id && s.done_total < last_state_->done_total))) {
+    return false;
+  }
+  last_state_ = s;
+  last_state_at_ = now;
+  return true;
+}
+
+bool Leadership::first_in_line(double now) const {
+  for (const auto& [id, heard] : peers_) {
+    if (id < o_.id && now - heard <= kTakeoverS) return false;
+  }
+  return true;
+}
+
+Leadership::Step Leadership::step(double now, size_t tasks, std::string* log) {
+  if (!primary_) {
+    if (last_state_ && last_state_->done_count() >= tasks) {
+      if (log) *log = "the primary reports every task done; the standby exits";
+      return Step::AllDone;
+    }
+    const bool may = last_state_ || !o_.resume;
+    if (!may || silent(now) <= (last_state_ ? kTakeoverS : kFirstStateS) || !first_in_line(now)) return Step::Wait;
+    primary_ = true;
+    if (log) *log = "primary silent for " + ms(silent(now)) + "; taking over";
+    return Step::TakeOver;
+  }
+  if (doubting()) {
+    if (now < doubt_until_) return Step::Wait;
+    doubt_until_ = -1.0;
+    if (log) *log = "no successor took over; carrying on as the primary";
+  }
+  return Step::Lead;
+}
+
+}  // namespace tandem::coordinator

@@ -8,6 +8,8 @@
 #include <cstdlib>
 #include <thread>
 
+#include <unistd.h>
+
 #include "tandem/runtime/deployment.hpp"
 #include "tandem/runtime/role.hpp"
 #include "tandem/runtime/security.hpp"
@@ -166,9 +168,12 @@ int send_request(const char* verb, const Deployment& d, const std::string& targe
   req.target(target);
   req.option(option);
   // A sequence number unique enough to tell this request's answer from an earlier one; the launcher carries
-  // a request out once, however often it arrives (it is re-sent until answered).
-  const auto seq = static_cast<unsigned long long>(
+  // a request out once, however often it arrives (it is re-sent until answered). The time in microseconds
+  // and this process's pid: two CLIs started together got the same microsecond once, and the launcher took
+  // the second request for a re-send of the first (a `plug` answered with a `down`'s reply).
+  const auto us = static_cast<unsigned long long>(
       std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch()).count());
+  const auto seq = us * 1000ULL + static_cast<unsigned long long>(::getpid()) % 1000ULL;
   req.seq(seq);
   control.write(req);
   const std::string prefix = "reply " + std::to_string(seq) + " ";

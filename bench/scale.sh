@@ -5,7 +5,10 @@
 # in steady state (from /proc, all role processes, over a window after every world has ticked), RSS per
 # process, start-up time until every world's first tick, slips, dropped objects, pauses for load (count and
 # module-seconds paused: an overloaded module holds its object and brakes, docs/failure-model.md), and the timer
-# loop's late fraction (ticks > 0.5 ms late).
+# loop's late fraction (ticks > 0.5 ms late). Beside them, in the same run: `tandem up --check`'s calibrated
+# estimate of the CPU per module (and its error against the measured figure), and the bare layout's floor
+# (bench/floor.cpp: the same processes per module, futex wake-ups, plant- and law-sized work, no DDS), with the
+# runtime's CPU per module as a ratio to it (docs/benchmarks.md, "Capacity" and "Floor").
 #
 # Usage: bash bench/scale.sh [N ...]        default: 1 2 4 8 16
 #   env: SECONDS_RUN (scenario duration, default 8), DOMAIN_BASE (default 170), PRIO (realtime_priority,
@@ -14,7 +17,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bin=build/bin
-[ -x "$bin/tandem" ] && [ -x "$bin/tandem_bench_timer" ] || { echo "scale.sh: build first (bash scripts/build.sh)" >&2; exit 2; }
+[ -x "$bin/tandem" ] && [ -x "$bin/tandem_bench_timer" ] && [ -x "$bin/tandem_bench_floor" ] || { echo "scale.sh: build first (bash scripts/build.sh)" >&2; exit 2; }
 ns=("$@")
 [ ${#ns[@]} -gt 0 ] || ns=(1 2 4 8 16)
 for n in "${ns[@]}"; do
@@ -30,7 +33,7 @@ hz=$(getconf CLK_TCK)
 echo "machine: $(nproc) cores, $(lscpu | sed -n 's/^Model name: *//p'), kernel $(uname -r)"
 echo "command: bash bench/scale.sh ${ns[*]}  (duration ${dur} s, realtime_priority $prio, transport $transport, discovery $discovery, commit $(git rev-parse --short HEAD 2>/dev/null || echo '?'))"
 sed "s/^  duration: .*/  duration: $dur/" config/scenarios/paper.yaml > "$work/scenario.yaml"
-printf "%-4s %-8s %-8s %-8s %-8s %-8s %-8s %-6s %-6s %-13s %-7s %-10s\n" N late% p50_us p99_us cpu/mod rss_MB start_s slips drops "paused(n/s)" timer% result
+printf "%-4s %-8s %-8s %-8s %-8s %-8s %-8s %-6s %-6s %-13s %-7s %-8s %-8s %-8s %-7s %-10s\n" N late% p50_us p99_us cpu/mod rss_MB start_s slips drops "paused(n/s)" timer% est/mod est_err% floor/mod ratio result
 idx=0
 for n in "${ns[@]}"; do
   domain=$(( ${DOMAIN_BASE:-170} + idx ))
@@ -49,6 +52,8 @@ for n in "${ns[@]}"; do
       echo "  - {name: m$i, scenario: scenario.yaml, case: SOSM}"
     done
   } > "$dep"
+  # The calibrated estimate, before the run (tandem up --check: well under a second).
+  est=$("$bin/tandem" up "$dep" --check | sed -n 's/.*(\([0-9.]*\) per module.*/\1/p' | head -1)
   log="$work/up$n.log"
   : > "$log"
   start=$(date +%s.%N)
@@ -96,7 +101,12 @@ for n in "${ns[@]}"; do
   pct=$(awk -v l="$late" -v t="$ticks" 'BEGIN {if (t > 0) printf "%.2f", 100 * l / (2 * t); else print "nan"}')
   tl=$(sed -n 's/^timer_late_fraction=//p' "$work/timer$n.txt" 2>/dev/null | awk '{printf "%.2f", 100 * $1}')
   result=$([ "$rc" -eq 0 ] && echo PASS || echo "FAIL($rc)")
-  printf "%-4s %-8s %-8s %-8s %-8s %-8s %-8s %-6s %-6s %-13s %-7s %-10s\n" "$n" "$pct" "$p50" "$p99" "$cpu" "$rss" "$startup" "$slips" "$drops" "$pauses/$paused_s" "${tl:-nan}" "$result"
+  # The floor with the same number of modules, at the same priority, right after.
+  ffifo=(); [ "$prio" -gt 0 ] && ffifo=(--fifo "$prio")
+  floor=$("$bin/tandem_bench_floor" --modules "$n" --seconds 4 --robot-us "${FLOOR_ROBOT_US:-1}" --world-us "${FLOOR_WORLD_US:-45}" "${ffifo[@]}" | sed -n 's/.*cpu_per_module=\([0-9.]*\).*/\1/p')
+  err=$(awk -v e="${est:-nan}" -v c="$cpu" 'BEGIN {if (c + 0 > 0 && e != "") printf "%+.0f", 100 * (e - c) / c; else print "nan"}')
+  ratio=$(awk -v f="${floor:-0}" -v c="$cpu" 'BEGIN {if (f + 0 > 0 && c + 0 > 0) printf "%.2f", c / f; else print "nan"}')
+  printf "%-4s %-8s %-8s %-8s %-8s %-8s %-8s %-6s %-6s %-13s %-7s %-8s %-8s %-8s %-7s %-10s\n" "$n" "$pct" "$p50" "$p99" "$cpu" "$rss" "$startup" "$slips" "$drops" "$pauses/$paused_s" "${tl:-nan}" "${est:-nan}" "$err" "${floor:-nan}" "$ratio" "$result"
   if [ -n "${KEEP:-}" ]; then mkdir -p "$KEEP"; cp "$log" "$sum" "$work/timer$n.txt" "$KEEP/" 2>/dev/null || true; fi
   sleep 1
 done

@@ -17,6 +17,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <cstdarg>
 #include <atomic>
 #include <chrono>
@@ -38,6 +39,7 @@
 #include <vector>
 
 #include "live_view.hpp"
+#include "tandem/launcher/capacity.hpp"
 #include "tandem/launcher/host_watch.hpp"
 #include "tandem/launcher/restart_policy.hpp"
 #include "tandem/launcher/spawn.hpp"
@@ -47,6 +49,8 @@
 #include "tandem/runtime/role.hpp"
 #include "tandem/runtime/shm_clean.hpp"
 #include "tandem/runtime/status.hpp"
+#include "tandem/model/controller.hpp"
+#include "tandem/model/plant.hpp"
 #include "tandem/sim/module_setup.hpp"
 #include "tandem/sim/scenario_yaml.hpp"
 
@@ -1169,27 +1173,76 @@ class Launcher {
   double seconds() const { return std::chrono::duration<double>(Clock::now() - t0_).count(); }
 };
 
-// The real-time capacity estimate: "" in lockstep, else what the deployment needs against what the machine has,
-// a warning when it does not fit.
+/// The plant step and control-law step of a module, timed here (thread CPU time, the median of a few batches).
+void time_model(const runtime::ModuleDeployment& m, launcher::Calibration& c) {
+  const sim::Scenario sc = sim::load_scenario(m.scenario);
+  const sim::CaseConfig* cc = nullptr;
+  for (const auto& x : sc.cases) {
+    if (x.name == m.case_name) cc = &x;
+  }
+  if (cc == nullptr) return;
+  const sim::ModuleSetup ms = sim::make_module(sc, *cc);
+  auto thread_cpu_us = [] {
+    timespec ts{};
+    ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+    return static_cast<double>(ts.tv_sec) * 1e6 + static_cast<double>(ts.tv_nsec) * 1e-3;
+  };
+  model::ModulePlant plant(ms.plant);
+  plant.reset(ms.initial);
+  const std::array<model::Vec3, 2> tau{model::gravity(ms.plant.arms[0], ms.initial.q[0]),
+                                       model::gravity(ms.plant.arms[1], ms.initial.q[1])};
+  model::HybridController law(ms.plant.arms[0], ms.control[0]);
+  model::ArmSensors in;
+  in.q = ms.initial.q[0];
+  std::vector<double> plant_us, law_us;
+  for (int batch = 0; batch < 5; ++batch) {
+    double t = thread_cpu_us();
+    for (int k = 0; k < 40; ++k) plant.step(tau, 0.0, ms.period, ms.substeps);
+    plant_us.push_back((thread_cpu_us() - t) / 40.0);
+    t = thread_cpu_us();
+    for (int k = 0; k < 200; ++k) (void)law.step(in, sim::supervisor_reference(ms, 0, k));
+    law_us.push_back((thread_cpu_us() - t) / 200.0);
+  }
+  std::sort(plant_us.begin(), plant_us.end());
+  std::sort(law_us.begin(), law_us.end());
+  c.plant_us = plant_us[2];
+  c.law_us = law_us[2];
+}
+
+// The real-time capacity estimate: what the deployment needs against what the machine has, calibrated on this
+// machine (launcher::Calibration: a cross-process wake-up, a plant step, a law step), with a warning when it does
+// not fit. In lockstep there is no real-time load.
 std::string capacity_estimate(const Deployment& d) {
   if (d.timing != "realtime") return "lockstep: no real-time load (it runs as fast as the machine allows)";
-  // The steady-state cost measured by bench/scale.sh on a 2-core machine (docs/benchmarks.md): about 0.2 core
-  // per basic module in real time, and a standby robot adds its own wake-ups per tick.
+  launcher::Calibration cal = launcher::calibrate_wakeup();
+  const auto t0 = std::chrono::steady_clock::now();
+  if (!d.modules.empty()) {
+    try {
+      time_model(d.modules.front(), cal);
+    } catch (const std::exception&) {
+      // the scenario was checked when the file was loaded; a failure here only leaves the model's share out
+    }
+  }
+  cal.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const launcher::CapacityModel model;
+  const double per_module = cal.ok ? model.core_per_module(cal) : kCorePerModule;
+  const double per_standby = cal.ok ? model.core_per_standby(cal) : kCorePerStandbyRobot;
   double need = 0.0;
-  for (const auto& m : d.modules) need += kCorePerModule + 2.0 * m.standby * kCorePerStandbyRobot;
+  for (const auto& m : d.modules) need += per_module + 2.0 * m.standby * per_standby;
   const long cores = ::sysconf(_SC_NPROCESSORS_ONLN);
-  char text[512];
+  const std::string measured = cal.ok ? "calibrated here: " + launcher::describe(cal)
+                                      : std::string("the calibration could not run: figures from docs/benchmarks.md");
+  char text[768];
   if (need > kUsableShare * static_cast<double>(cores)) {
     std::snprintf(text, sizeof text,
-                  "warning: this deployment needs about %.1f cores in real time (%.2f per module, %.2f per standby "
-                  "robot, measured; docs/benchmarks.md) and this machine has %ld: expect modules to pause for load%s, "
-                  "or run it in lockstep",
-                  need, kCorePerModule, kCorePerStandbyRobot, cores,
+                  "warning: this deployment needs about %.2f cores in real time (%.3f per module, %.3f per standby "
+                  "robot; %s) and this machine has %ld: expect modules to pause for load%s, or run it in lockstep",
+                  need, per_module, per_standby, measured.c_str(), cores,
                   d.overload_brake ? " (the world holds the object and brakes; they resume when there is room)"
                                    : "; overload_brake is off, so late commands may drop objects");
   } else {
-    std::snprintf(text, sizeof text, "real time: about %.1f of %ld cores (%.2f per module, %.2f per standby robot, "
-                  "measured; docs/benchmarks.md)", need, cores, kCorePerModule, kCorePerStandbyRobot);
+    std::snprintf(text, sizeof text, "real time: about %.2f of %ld cores (%.3f per module, %.3f per standby robot; %s)",
+                  need, cores, per_module, per_standby, measured.c_str());
   }
   std::string out = text;
   if (d.discovery == "simple" && d.modules.size() >= 4) {

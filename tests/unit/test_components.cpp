@@ -8,11 +8,14 @@
 //   resume after the backoff, with no slip.
 #include <catch2/catch.hpp>
 
+#include <sys/wait.h>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <string>
 
+#include "tandem/launcher/capacity.hpp"
 #include "tandem/launcher/restart_policy.hpp"
 #include "tandem/plan/plan.hpp"
 #include "tandem/robot/robot_core.hpp"
@@ -763,4 +766,22 @@ TEST_CASE("launcher component: standby strengths never run out over a thousand k
   std::vector<int> all;
   for (int s = 1; s <= 50; ++s) all.push_back(s);
   CHECK(next_standby_strength(all) == 0);
+}
+
+TEST_CASE("launcher component: the capacity model from a calibration, and the calibration reaps its child", "[components]") {
+  tandem::launcher::Calibration c;
+  c.wake_us = 5.0;
+  c.plant_us = 40.0;
+  c.law_us = 1.0;
+  c.ok = true;
+  tandem::launcher::CapacityModel m;
+  m.dds_factor = 3.0;
+  // 1000 ticks/s x (5 wake-ups x 5 us x 3 + 40 us + 2 x 1 us) = 0.117 core; a standby: 1000 x (2 x 5 x 3 + 1) us.
+  CHECK(m.core_per_module(c) == Approx(0.117));
+  CHECK(m.core_per_standby(c) == Approx(0.031));
+  const tandem::launcher::Calibration real = tandem::launcher::calibrate_wakeup(50);
+  CHECK(real.ok);
+  CHECK(real.wake_us > 0.0);
+  CHECK(::waitpid(-1, nullptr, WNOHANG) <= 0);  // no child left behind (none, or none exited unreaped)
+  CHECK(tandem::launcher::describe(c).find("wake-up 5.0 us, plant step 40.0 us, law 1.0 us") != std::string::npos);
 }

@@ -1,0 +1,50 @@
+// Real-time capacity measured on the machine at hand (docs/benchmarks.md, "Capacity"). What a module costs in
+// real time is mostly cross-process wake-ups (a world on a 1 kHz timer, a robot woken by each sample, the world
+// woken by each command), and a wake-up costs what the host makes it cost: hosts differed by 1.7x. So the
+// estimate is calibrated here, in well under a second, from
+//   - the CPU of one cross-process wake-up: two processes ping-pong through futexes in shared memory once per
+//     1 ms tick, the way the wake-up floor does (shared/tools/wakefloor.c), and the CPU both used is divided by
+//     the wake-ups;
+//   - the CPU of one plant step and one control-law step (passed in: measured by the caller on the model);
+// and a per-module model: W wake-ups per tick, each paid `dds_factor` times over by the middleware (the fitted
+// ratio of the runtime to its floor, measured by bench/scale.sh beside the floor in the same run).
+#pragma once
+
+#include <string>
+
+namespace tandem::launcher {
+
+struct Calibration {
+  double wake_us = 0.0;   ///< CPU per cross-process wake-up, both sides [us]
+  double plant_us = 0.0;  ///< one plant step of one module (its RK4 substeps) [us]
+  double law_us = 0.0;    ///< one control-law step of one robot [us]
+  double seconds = 0.0;   ///< wall time the calibration took
+  bool ok = false;        ///< the wake-up measurement ran (fork and shared memory worked)
+};
+
+/// Measures the CPU of a cross-process wake-up: `ticks` ticks of 1 ms, each a futex round trip between this
+/// process (woken by its timer) and a forked child, so that the cores idle between ticks as in a deployment;
+/// the CPU both used over 3 wake-ups per tick. Fills wake_us, seconds and ok.
+Calibration calibrate_wakeup(int ticks = 300);
+
+/// The per-module cost model (docs/benchmarks.md, "Capacity").
+struct CapacityModel {
+  /// Wake-ups per tick of a basic module: the world's timer, a robot's listener per sample (2), the world's
+  /// listener per command (2).
+  static constexpr double kWakesPerTick = 5.0;
+  /// A standby robot: its listener per sample and the world's per command.
+  static constexpr double kWakesPerStandby = 2.0;
+  /// Fitted on this project's 2-core machines with bench/scale.sh (1, 4 and 8 modules): the middleware's
+  /// delivery costs this many bare wake-ups per wake-up (data-sharing, listener hand-offs, history bookkeeping).
+  double dds_factor = 2.2;
+  double ticks_per_s = 1000.0;
+  /// Cores one module needs: ticks/s x (W x wake x dds_factor + plant + 2 x law).
+  double core_per_module(const Calibration& c) const;
+  /// Cores one standby robot adds.
+  double core_per_standby(const Calibration& c) const;
+};
+
+/// "wake-up 17.2 us, plant step 31.0 us, law 1.9 us (calibrated in 0.21 s)".
+std::string describe(const Calibration& c);
+
+}  // namespace tandem::launcher

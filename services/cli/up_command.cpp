@@ -40,6 +40,7 @@
 
 #include "live_view.hpp"
 #include "tandem/launcher/capacity.hpp"
+#include "tandem/launcher/governor.hpp"
 #include "tandem/launcher/host_watch.hpp"
 #include "tandem/launcher/restart_policy.hpp"
 #include "tandem/launcher/spawn.hpp"
@@ -385,6 +386,7 @@ class Launcher {
       say(true, "clearing module %s (failed: object dropped): its processes stop, then it starts again\n", name.c_str());
       task_states_.erase(name);
       it->second.end = "cleared";
+      if (governor_) governor_->set_available(name, true);
       stop_module(name);
       pending_clears_.push_back(name);
       return;
@@ -438,6 +440,10 @@ class Launcher {
     }
     say(true, "plugging module %s (%s, case %s)\n", name.c_str(), modules_.at(name).cfg.scenario.c_str(),
                 modules_.at(name).cfg.case_name.c_str());
+    if (governor_) {  // plugged by hand: out of the governor's parked set, and in its hands again
+      governor_->set_available(name, false);
+      governor_->set_available(name, true);
+    }
     start_module(name);
   }
 
@@ -453,6 +459,7 @@ class Launcher {
       // Drain: the supervisor finishes the module's task, takes no new one, and exits; then the rest stops.
       say(true, "unplugging module %s: draining (it finishes its task first)\n", name.c_str());
       it->second.end = "draining";
+      if (governor_) governor_->set_available(name, false);
       send(name, "drain");
       return;
     }
@@ -647,6 +654,7 @@ class Launcher {
     if (c.role == "supervisor" && c.status == 0 && mr.end == "draining") {
       std::printf("tandem up: module %s drained; stopping its processes\n", c.module.c_str());
       mr.end = "unplugged";
+      if (governor_) governor_->set_available(c.module, false);
       stop_module(c.module);
       return;
     }
@@ -692,6 +700,7 @@ class Launcher {
       std::printf("tandem up: module %s failed (%s exited with code %d); stopping its processes, the others go on\n",
                   c.module.c_str(), c.label.c_str(), c.status);
       mr.end = "failed: " + c.label + " exited with code " + std::to_string(c.status);
+      if (governor_) governor_->set_available(c.module, false);
       stop_module(c.module);
       return;
     }
@@ -800,6 +809,71 @@ class Launcher {
         c.participant_id = -1;
       }
     }
+  }
+
+  // --- Shedding whole modules (launcher::Governor, docs/failure-model.md) ---------------------------------
+  /// A world's status: paused for load or not, for the governor.
+  void on_world_load(const std::string& module, const std::string& detail) {
+    if (!governor_ || stopping_) return;
+    const auto it = modules_.find(module);
+    if (it == modules_.end() || !it->second.started || !it->second.end.empty()) return;
+    governor_->on_load(module, detail.rfind("paused for load", 0) == 0, seconds());
+  }
+  /// Carries out the governor's decision, if any: a module parks (its supervisor pauses the path, then its
+  /// processes stop; the coordinator re-plans its task) or comes back (its processes start again).
+  void govern() {
+    if (!governor_ || stopping_) return;
+    const launcher::Governor::Decision dec = governor_->decide(seconds());
+    if (dec.kind == launcher::Governor::Decision::Kind::Park) {
+      std::printf("tandem up: parking module %s (%s): its processes stop once it is paused; its task goes back to "
+                  "the queue\n", dec.module.c_str(), dec.why.c_str());
+      modules_.at(dec.module).end = "parked: " + dec.why;
+      ++parks_;
+      send(dec.module, "pause");
+      pending_parks_.push_back({dec.module, Clock::now()});
+    } else if (dec.kind == launcher::Governor::Decision::Kind::Unpark) {
+      std::printf("tandem up: unparking module %s (%s)\n", dec.module.c_str(), dec.why.c_str());
+      pending_unparks_.push_back(dec.module);
+    }
+    // Parks: stop once the module reports paused (object at rest), or after 2 s (the brakes hold it).
+    for (auto it = pending_parks_.begin(); it != pending_parks_.end();) {
+      const auto ts = task_states_.find(it->module);
+      const bool paused = ts != task_states_.end() && ts->second.state() == 3;
+      if (!paused && Clock::now() - it->since < std::chrono::seconds(2)) {
+        ++it;
+        continue;
+      }
+      stop_module(it->module);
+      task_states_.erase(it->module);
+      std::printf("tandem up: module %s parked%s\n", it->module.c_str(), paused ? " (paused first)" : " (not paused within 2 s)");
+      it = pending_parks_.erase(it);
+    }
+    // Unparks: once every process of the module is gone.
+    for (auto it = pending_unparks_.begin(); it != pending_unparks_.end();) {
+      bool gone = true;
+      for (const auto& c : children_) gone = gone && !(c.running && c.module == *it);
+      if (!gone) {
+        ++it;
+        continue;
+      }
+      start_module(*it);
+      it = pending_unparks_.erase(it);
+    }
+  }
+  struct PendingPark {
+    std::string module;
+    Clock::time_point since;
+  };
+  std::unique_ptr<launcher::Governor> governor_;
+  std::vector<PendingPark> pending_parks_;
+  std::vector<std::string> pending_unparks_;
+  unsigned long long parks_ = 0;
+  /// "m3, m4" (for status and the summary).
+  std::string parked_text() const {
+    std::string out;
+    if (!governor_) return out;
+    for (const auto& m : governor_->parked_set()) out += (out.empty() ? "" : ", ") + m;
+    return out;
   }
 
   void send(const std::string& module, const std::string& command) {
@@ -1212,8 +1286,21 @@ void time_model(const runtime::ModuleDeployment& m, launcher::Calibration& c) {
 // The real-time capacity estimate: what the deployment needs against what the machine has, calibrated on this
 // machine (launcher::Calibration: a cross-process wake-up, a plant step, a law step), with a warning when it does
 // not fit. In lockstep there is no real-time load.
-std::string capacity_estimate(const Deployment& d) {
-  if (d.timing != "realtime") return "lockstep: no real-time load (it runs as fast as the machine allows)";
+struct Capacity {
+  std::string text;
+  double per_module = 0.0, per_standby = 0.0, usable = 0.0;
+  bool realtime = false;
+  /// Cores a module needs with its standby robots.
+  double of(const runtime::ModuleDeployment& m) const { return per_module + 2.0 * m.standby * per_standby; }
+};
+
+Capacity capacity_estimate(const Deployment& d) {
+  Capacity cap;
+  if (d.timing != "realtime") {
+    cap.text = "lockstep: no real-time load (it runs as fast as the machine allows)";
+    return cap;
+  }
+  cap.realtime = true;
   launcher::Calibration cal = launcher::calibrate_wakeup();
   const auto t0 = std::chrono::steady_clock::now();
   if (!d.modules.empty()) {
@@ -1227,9 +1314,12 @@ std::string capacity_estimate(const Deployment& d) {
   const launcher::CapacityModel model;
   const double per_module = cal.ok ? model.core_per_module(cal) : kCorePerModule;
   const double per_standby = cal.ok ? model.core_per_standby(cal) : kCorePerStandbyRobot;
+  cap.per_module = per_module;
+  cap.per_standby = per_standby;
   double need = 0.0;
   for (const auto& m : d.modules) need += per_module + 2.0 * m.standby * per_standby;
   const long cores = ::sysconf(_SC_NPROCESSORS_ONLN);
+  cap.usable = kUsableShare * static_cast<double>(cores);
   const std::string measured = cal.ok ? "calibrated here: " + launcher::describe(cal)
                                       : std::string("the calibration could not run: figures from docs/benchmarks.md");
   char text[768];
@@ -1249,7 +1339,8 @@ std::string capacity_estimate(const Deployment& d) {
     // Measured: 8 modules with simple discovery all paused for load at start-up, none with the server.
     out += "; with 4 or more modules 'discovery: server' keeps discovery from loading the machine";
   }
-  return out;
+  cap.text = out;
+  return cap;
 }
 
 }  // namespace
@@ -1347,7 +1438,7 @@ int up_command(const std::vector<std::string>& args) {
   }
   if (check_only) {
     std::printf("tandem up: %s is valid: %zu module(s), domain %d, %s timing\n%s\n", file.c_str(), d.modules.size(),
-                d.domain_id, d.timing.c_str(), capacity_estimate(d).c_str());
+                d.domain_id, d.timing.c_str(), capacity_estimate(d).text.c_str());
     return 0;
   }
 
@@ -1484,8 +1575,8 @@ int up_command(const std::vector<std::string>& args) {
   std::printf("tandem up %s: %zu module(s), domain %d, %s, %s timing%s\n", d.name.c_str(), d.modules.size(),
               d.domain_id, d.transport.c_str(), d.timing.c_str(),
               L.rt_priority_ > 0 ? (", SCHED_FIFO " + std::to_string(L.rt_priority_)).c_str() : "");
-  const std::string capacity = capacity_estimate(d);
-  if (capacity.find("warning") != std::string::npos) std::printf("tandem up: %s\n", capacity.c_str());
+  const Capacity capacity = capacity_estimate(d);
+  if (capacity.text.find("warning") != std::string::npos) std::printf("tandem up: %s\n", capacity.text.c_str());
   // record: the recorder joins first and is heard before any module starts, so that it has every tick (the
   // worlds also wait for its readers in lockstep: --observers). It is stopped last, after the summaries.
   pid_t recorder = -1;
@@ -1541,8 +1632,39 @@ int up_command(const std::vector<std::string>& args) {
   } recorder_stop{recorder};
   bool recording_failed = false;
   if (L.hosts_) L.hosts_->restart_clock(L.seconds());  // the recorder was awaited without reading agent states
+  std::set<std::string> start_parked;
+  if (capacity.realtime && d.coordinator && d.shed_modules && d.overload_brake) {
+    // Shedding whole modules (launcher::Governor), and admission: the modules the calibrated estimate fits,
+    // in file order, start; the others start parked and come back when the machine has been calm.
+    std::vector<std::string> order;
+    size_t fit = 0;
+    double need = 0.0;
+    bool full = false;
+    for (const auto& m : d.modules) {
+      if (!m.autostart) continue;
+      order.push_back(m.name);
+      full = full || need + capacity.of(m) > capacity.usable;
+      if (!full) {
+        need += capacity.of(m);
+        ++fit;
+      }
+    }
+    L.governor_ = std::make_unique<launcher::Governor>(order);
+    for (const std::string& m : L.governor_->admit(fit, L.seconds())) {
+      start_parked.insert(m);
+      L.modules_.at(m).end = "parked: admission";
+    }
+    if (!start_parked.empty()) {
+      std::string list;
+      for (const auto& m : start_parked) list += (list.empty() ? "" : ", ") + m;
+      std::printf("tandem up: starting %s parked: the calibrated estimate gives %.3f core per module (with its "
+                  "standbys) and %zu of %zu fit in %.2f usable cores; parked modules start when the machine has been "
+                  "calm (docs/failure-model.md, \"Shedding whole modules\")\n",
+                  list.c_str(), capacity.of(d.modules.front()), fit, order.size(), capacity.usable);
+    }
+  }
   for (const auto& m : d.modules) {
-    if (m.autostart) L.start_module(m.name);
+    if (m.autostart && !start_parked.count(m.name)) L.start_module(m.name);
   }
   L.start_coordinators();
 
@@ -1585,6 +1707,7 @@ int up_command(const std::vector<std::string>& args) {
       }
     }
     L.poll();
+    L.govern();
     L.escalate();
     {
       // The launcher's status lists what it runs, so that `tandem status` knows whom to wait for.
@@ -1606,6 +1729,7 @@ int up_command(const std::vector<std::string>& args) {
     while (status.take(ps)) {
       view.update(ps);
       L.on_status(ps.process_id(), ps.pid(), ps.state() == static_cast<uint8_t>(runtime::Lifecycle::Active));
+      if (ps.role() == "world" && ps.deployment() == d.name) L.on_world_load(ps.module_id(), ps.detail());
     }
     msg::ControlRequest req;
     while (control.take(req)) {
@@ -1767,6 +1891,11 @@ int up_command(const std::vector<std::string>& args) {
     std::printf("start-up CPU of a %s (start to active): median %.3f s, max %.3f s over %zu start(s)\n", role.c_str(),
                 median, v.back(), v.size());
     if (out) out << "startup_cpu." << role << ".median_s=" << median << "\nstartup_cpu." << role << ".starts=" << v.size() << "\n";
+  }
+  if (L.governor_) {
+    std::printf("tandem up: modules parked for load during the run: %llu time(s); parked at the end: %s\n",
+                L.parks_, L.parked_text().empty() ? "none" : L.parked_text().c_str());
+    if (out) out << "shedding.parks=" << L.parks_ << "\nshedding.parked=" << L.parked_text() << "\n";
   }
   launcher_status.set(runtime::Lifecycle::Finalized, "run over");
   if (recorder > 0) {

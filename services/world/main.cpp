@@ -126,7 +126,9 @@ int main(int argc, char** argv) {
   auto publish_status_if_changed = [&] {
     if (!core.serving_changed()) return;
     status.msg().serving(core.serving_text());
-    status.msg().detail(core.paused_for_load() ? "paused for load (overload: commands late)"
+    status.msg().detail(core.failed()            ? "failed: object dropped (" + core.failure() + ")"
+                        : core.paused_for_load() ? "paused for load (overload: commands late)"
+                        : core.stopping(0) || core.stopping(1) ? "stopping: an arm has no live controller"
                         : core.braked(0) || core.braked(1) ? "arm braked: no live controller" : "");
     status.publish();
   };

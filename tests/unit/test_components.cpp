@@ -13,9 +13,11 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <set>
 #include <string>
 
 #include "tandem/launcher/capacity.hpp"
+#include "tandem/launcher/governor.hpp"
 #include "tandem/launcher/restart_policy.hpp"
 #include "tandem/plan/plan.hpp"
 #include "tandem/robot/robot_core.hpp"
@@ -784,4 +786,70 @@ TEST_CASE("launcher component: the capacity model from a calibration, and the ca
   CHECK(real.wake_us > 0.0);
   CHECK(::waitpid(-1, nullptr, WNOHANG) <= 0);  // no child left behind (none, or none exited unreaped)
   CHECK(tandem::launcher::describe(c).find("wake-up 5.0 us, plant step 40.0 us, law 1.0 us") != std::string::npos);
+}
+
+TEST_CASE("governor: a hog of a few seconds parks nothing; a load that does not fit parks the lowest-priority module, then the next", "[components]") {
+  using tandem::launcher::Governor;
+  using Kind = Governor::Decision::Kind;
+  Governor g({"m1", "m2", "m3", "m4"});
+  double t = 0.0;
+  auto feed = [&](double until, const std::set<std::string>& paused) {
+    for (; t < until; t += 0.1) {
+      for (const char* m : {"m1", "m2", "m3", "m4"}) g.on_load(m, paused.count(m) != 0, t);
+    }
+  };
+  // 30 s of normal running with a 4 s hog that pauses every module: no decision.
+  feed(10.0, {});
+  feed(14.0, {"m1", "m2", "m3", "m4"});
+  feed(30.0, {});
+  CHECK(g.decide(t).kind == Kind::None);
+  // From 30 s every module takes turns at being paused for load, 3 of 4 at any time: it does not fit.
+  std::set<std::string> all{"m1", "m2", "m3", "m4"};
+  feed(38.0, all);
+  CHECK(g.decide(t).kind == Kind::None);  // 8 s of the last 20: not more than half yet
+  feed(40.0, all);
+  feed(50.0, all);
+  Governor::Decision d = g.decide(t);
+  REQUIRE(d.kind == Kind::Park);
+  CHECK(d.module == "m4");  // the lowest priority: last in the file
+  CHECK(d.why.find("paused for load 100% of the last 20 s") != std::string::npos);
+  CHECK(g.parked("m4"));
+  // Still overloaded without m4: after the settle time and a new window, m3 goes too.
+  feed(60.0, {"m1", "m2", "m3"});
+  CHECK(g.decide(t).kind == Kind::None);  // settling
+  feed(75.0, {"m1", "m2", "m3"});
+  d = g.decide(t);
+  REQUIRE(d.kind == Kind::Park);
+  CHECK(d.module == "m3");
+  // Now it fits: after 30 s of calm m3 (the first parked in file order) comes back, not m4 yet.
+  feed(100.0, {});
+  CHECK(g.decide(t).kind == Kind::None);
+  feed(106.0, {});
+  d = g.decide(t);
+  REQUIRE(d.kind == Kind::Unpark);
+  CHECK(d.module == "m3");
+  CHECK_FALSE(g.parked("m3"));
+  CHECK(g.parked("m4"));
+  // m3 overloads the machine again at once: parked again, and its next return needs twice the calm.
+  feed(127.0, {"m1", "m2", "m3"});
+  d = g.decide(t);
+  REQUIRE(d.kind == Kind::Park);
+  CHECK(d.module == "m3");
+  feed(168.0, {});
+  CHECK(g.decide(t).kind == Kind::None);  // 40 s of calm is not the 60 s it needs now
+  feed(190.0, {});
+  d = g.decide(t);
+  CHECK(d.kind == Kind::Unpark);
+  CHECK(d.module == "m3");
+}
+
+TEST_CASE("governor: admission parks what the estimate does not fit, and the last running module is never parked", "[components]") {
+  using tandem::launcher::Governor;
+  Governor g({"a", "b", "c"});
+  CHECK(g.admit(1, 0.0) == std::vector<std::string>{"b", "c"});
+  double t = 0.0;
+  for (; t < 40.0; t += 0.1) g.on_load("a", true, t);
+  CHECK(g.decide(t).kind == Governor::Decision::Kind::None);  // a alone: never parked
+  Governor none({"a", "b"});
+  CHECK(none.admit(5, 0.0).empty());
 }

@@ -100,6 +100,7 @@ Deployment load_deployment(const std::string& path) {
   top.num("timeout", d.timeout, 0.1, 3600.0);
   top.integer("realtime_priority", d.realtime_priority, 0, 98);
   top.boolean("overload_brake", d.overload_brake);
+  top.boolean("shed_modules", d.shed_modules);
   top.boolean("test_no_brakes", d.test_no_brakes);
   top.choice("discovery", d.discovery, {"simple", "server"});
   top.integer("discovery_port", d.discovery_port, 1024, 65535);

@@ -66,6 +66,9 @@ struct Deployment {
   /// the system does not permit it (needs root or CAP_SYS_NICE / RLIMIT_RTPRIO).
   int realtime_priority = 20;
   bool overload_brake = true;  ///< real time: brake and pause a module whose commands keep coming late
+  /// Real time with a coordinator: park whole modules when the load does not fit (launcher::Governor), and
+  /// start the ones the calibrated estimate does not fit parked.
+  bool shed_modules = true;
   /// Test only: the worlds never brake an arm whose controller is gone (it keeps its last torque and the object
   /// falls). Exists to show that `tandem soak`'s checker catches a dropped object; never for real deployments.
   bool test_no_brakes = false;

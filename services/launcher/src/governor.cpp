@@ -1,0 +1,98 @@
+#include "tandem/launcher/governor.hpp"
+
+#include <algorithm>
+#include <cstdio>
+
+namespace tandem::launcher {
+
+Governor::Governor(std::vector<std::string> modules, GovernorRule rule) : order_(std::move(modules)), rule_(rule) {}
+
+std::vector<std::string> Governor::admit(size_t fit, double now) {
+  std::vector<std::string> out;
+  fit = std::max<size_t>(fit, 1);  // one module always runs
+  for (size_t i = fit; i < order_.size(); ++i) {
+    parked_.insert(order_[i]);
+    out.push_back(order_[i]);
+  }
+  if (!out.empty()) last_decision_ = now;
+  return out;
+}
+
+void Governor::set_available(const std::string& module, bool available) {
+  if (available) {
+    unavailable_.erase(module);
+  } else {
+    unavailable_.insert(module);
+    parked_.erase(module);
+    paused_now_.erase(module);
+  }
+}
+
+void Governor::on_load(const std::string& module, bool paused_for_load, double now) {
+  if (parked_.count(module) || unavailable_.count(module)) return;
+  paused_now_[module] = paused_for_load;
+  samples_.push_back({now, module, paused_for_load});
+  if (paused_for_load) last_paused_ = now;
+  while (!samples_.empty() && samples_.front().t < now - rule_.window_s) samples_.pop_front();
+}
+
+double Governor::paused_share(double now) const {
+  size_t n = 0, paused = 0;
+  for (const Sample& s : samples_) {
+    if (s.t < now - rule_.window_s || parked_.count(s.module) || unavailable_.count(s.module)) continue;
+    ++n;
+    paused += s.paused ? 1 : 0;
+  }
+  return n == 0 ? 0.0 : static_cast<double>(paused) / static_cast<double>(n);
+}
+
+Governor::Decision Governor::decide(double now) {
+  Decision d;
+  if (!rule_.enabled || now - last_decision_ < rule_.settle_s) return d;
+  std::vector<std::string> running;
+  for (const std::string& m : order_) {
+    if (!parked_.count(m) && !unavailable_.count(m)) running.push_back(m);
+  }
+  // Enough history since the last decision to judge the window: the oldest sample is most of a window old.
+  const bool judged = !samples_.empty() && samples_.front().t <= now - 0.8 * rule_.window_s &&
+                      samples_.front().t >= last_decision_;
+  const double share = paused_share(now);
+  if (judged && share > rule_.share && running.size() > 1) {
+    d.kind = Decision::Kind::Park;
+    d.module = running.back();
+    char why[160];
+    std::snprintf(why, sizeof why, "overload: the running modules were paused for load %.0f%% of the last %.0f s", 100.0 * share,
+                  rule_.window_s);
+    d.why = why;
+    double& calm = calm_needed_[d.module];
+    if (calm <= 0.0) calm = rule_.calm_s;
+    const auto back = returned_at_.find(d.module);
+    if (back != returned_at_.end() && now - back->second < calm + rule_.window_s) calm = std::min(2.0 * calm, rule_.calm_max_s);
+    parked_.insert(d.module);
+    paused_now_.erase(d.module);
+    samples_.clear();
+    last_decision_ = now;
+    return d;
+  }
+  if (parked_.empty()) return d;
+  for (const std::string& m : order_) {
+    if (!parked_.count(m) || unavailable_.count(m)) continue;
+    double calm = calm_needed_[m];
+    if (calm <= 0.0) calm = calm_needed_[m] = rule_.calm_s;
+    const double quiet = now - std::max(last_paused_, last_decision_);
+    if (quiet < calm) return d;
+    d.kind = Decision::Kind::Unpark;
+    d.module = m;
+    char why[128];
+    std::snprintf(why, sizeof why, "calm: no module paused for load for %.0f s", quiet);
+    d.why = why;
+    parked_.erase(m);
+    returned_at_[m] = now;
+    samples_.clear();
+    last_decision_ = now;
+    return d;
+  }
+  return d;
+}
+
+}  // namespace tandem::launcher

@@ -255,7 +255,24 @@ class Soak {
 
   void sample_logs(double t) {
     struct stat st {};
-    if (::stat(log_path_.c_str(), &st) == 0) h_.log_bytes.emplace_back(t, static_cast<double>(st.st_size));
+    if (::stat(log_path_.c_str(), &st) != 0) return;
+    h_.log_bytes.emplace_back(t, static_cast<double>(st.st_size));
+    // The launcher's shedding decisions (launcher::Governor), from its log lines as they come.
+    std::ifstream f(log_path_);
+    f.seekg(static_cast<std::streamoff>(log_read_));
+    std::string line;
+    while (std::getline(f, line)) {
+      if (f.eof()) break;  // a partial last line: read again next time
+      log_read_ += line.size() + 1;
+      for (const char* key : {"tandem up: parking module ", "tandem up: unparking module "}) {
+        if (line.rfind(key, 0) != 0) continue;
+        const std::string rest = line.substr(std::strlen(key));
+        const std::string module = rest.substr(0, rest.find(' '));
+        const auto open = rest.find('('), close = rest.find(')');
+        const std::string why = open != std::string::npos && close > open ? rest.substr(open + 1, close - open - 1) : "";
+        h_.events.push_back({t, key[11] == 'p' ? Event::Type::Parked : Event::Type::Unparked, module, why});
+      }
+    }
   }
 
   /// Deletes this observer's readers and writer (before their participant goes).
@@ -688,6 +705,7 @@ class Soak {
   const runtime::Deployment& d_;
   const Schedule& sched_;
   std::string dir_, log_path_;
+  size_t log_read_ = 0;  ///< bytes of the launcher's log read for its decisions
   pid_t launcher_;
   std::string hog_exe_;
   Clock::time_point t0_ = Clock::now();

@@ -308,7 +308,17 @@ std::string summary_text(const RunInfo& info, const History& h, const Bounds& b,
   std::map<std::string, int> by_module;
   for (const auto& m : h.tasks_done_by) ++by_module[m];
   for (const auto& [m, n] : by_module) o << "- " << m << ": " << n << "\n";
-  o << "\n## Memory (RSS slope over the later half of each process's life, processes that lived " << b.rss_min_life_s
+  o << "\n## Modules parked for load\n\n";
+  int parks = 0;
+  for (const Event& e : h.events) {
+    if (e.type != Event::Type::Parked && e.type != Event::Type::Unparked) continue;
+    parks += e.type == Event::Type::Parked ? 1 : 0;
+    o << "- " << f2(e.t, "%.1f") << " s: " << e.subject << (e.type == Event::Type::Parked ? " parked (" : " back (") << e.text
+      << ")\n";
+  }
+  if (parks == 0) o << "None: the load always fitted, or passed within the governor's window (docs/failure-model.md).\n";
+  o << "\n## Memory (anonymous resident memory slope over the later half of each process's life, at most its last half "
+       "hour, processes that lived " << b.rss_min_life_s
     << " s or more)\n\n";
   o << "| process | worst slope MiB/min |\n|---|---:|\n";
   std::vector<std::pair<double, std::string>> slopes;
@@ -376,7 +386,7 @@ std::string write_report(const std::string& dir, const RunInfo& info, const Hist
           << s.load_paused << "\n";
     }
   }
-  static const char* kTypes[] = {"owners", "state", "serving", "task_assigned", "task_done", "queue_back"};
+  static const char* kTypes[] = {"owners", "state", "serving", "task_assigned", "task_done", "queue_back", "parked", "unparked"};
   ev << "t,type,subject,text\n";
   for (const Event& e : h.events) ev << e.t << "," << kTypes[static_cast<int>(e.type)] << "," << e.subject << ",\"" << e.text << "\"\n";
   fl << "index,t,kind,target,label,pid,duration_s,end_t,skipped,had_standby,note\n";

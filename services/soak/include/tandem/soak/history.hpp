@@ -42,6 +42,8 @@ struct Event {
     TaskDone,      ///< subject: task name; text: module
     QueueBack,     ///< a coordinator's queue state with fewer tasks done than already heard (its state was lost);
                    ///< subject: tasks done before; text: tasks done in the new state
+    Parked,        ///< the launcher parked a module for load; subject: module; text: why
+    Unparked,      ///< ... and brought it back; subject: module; text: why
   } type = Type::State;
   std::string subject, text;
 };

@@ -529,3 +529,19 @@ TEST_CASE("leadership: a primary back from a stall doubts, leaves if another one
     }
   }
 }
+
+TEST_CASE("leadership: a primary that hears its successor only after the doubt still leaves; two primaries keep the smaller id", "[coordinator]") {
+  Leadership p({"coordinator", false, false}, 0.0);
+  p.on_loop(0.1);
+  CHECK(p.on_loop(2.1).find("stalled") != std::string::npos);  // a 2 s SIGSTOP
+  CHECK(p.step(2.5, 4, nullptr) == Step::Lead);                 // nobody heard within the doubt: leads on
+  CHECK(p.on_peer("coordinator@r9", true, true, 2.6));          // the successor's status arrives late: leave
+  // Two primaries, neither stalled (a partition healed): the larger id leaves, the smaller stays.
+  Leadership a({"coordinator@1", false, false}, 0.0), b({"coordinator@2", false, false}, 0.0);
+  a.on_loop(0.05);
+  b.on_loop(0.05);
+  CHECK_FALSE(a.on_peer("coordinator@2", true, true, 20.0));
+  CHECK(b.on_peer("coordinator@1", true, true, 20.0));
+  // A standby's status is no claim: it never makes a primary leave.
+  CHECK_FALSE(a.on_peer("coordinator@0", true, false, 30.0));
+}

@@ -19,6 +19,7 @@ std::string Leadership::on_loop(double now) {
     line = "stalled for " + ms(now - last_loop_) + " (a standby takes over after " + ms(kTakeoverS) +
            "): listening for a successor before deciding anything";
     doubt_until_ = now + kDoubtS;
+    last_stall_ = now;
   }
   last_loop_ = now;
   return line;
@@ -26,7 +27,10 @@ std::string Leadership::on_loop(double now) {
 
 bool Leadership::on_peer(const std::string& id, bool active, bool claims_primary, double now) {
   if (id == o_.id) return false;
-  if (primary_ && doubting() && claims_primary && active) return true;
+  if (primary_ && claims_primary && active &&
+      (doubting() || now - last_stall_ <= kStallMemoryS || id < o_.id)) {
+    return true;
+  }
   if (active) {
     peers_[id] = now;
   } else {

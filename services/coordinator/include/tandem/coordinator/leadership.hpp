@@ -10,7 +10,10 @@
 // - a primary whose own loop stood still longer than kStallS may have been replaced: it decides nothing for
 //   kDoubtS while it listens; if another coordinator reports `primary` meanwhile, it leaves (crash-only; the
 //   launcher restarts it as a standby), else it goes on (found by tandem soak: a stalled primary came back and
-//   led beside its successor);
+//   led beside its successor). Its successor's status may reach it only after the doubt (seen in the hour-long
+//   soak: a primary back from a 2 s SIGSTOP heard nobody within 0.3 s and led on beside its successor): so a
+//   primary that hears another primary later leaves too if it stalled within kStallMemoryS, and two primaries
+//   that never stalled keep the smaller id;
 // - a standby that hears a state with every task done exits with the primary.
 // Unit tests: tests/unit/test_task_queue.cpp ("leadership: ...").
 #pragma once
@@ -36,6 +39,7 @@ class Leadership {
   static constexpr double kFirstStateS = 3.0;  ///< ... or none heard this long since the start
   static constexpr double kStallS = kTakeoverS;
   static constexpr double kDoubtS = 0.3;
+  static constexpr double kStallMemoryS = 10.0;
 
   Leadership(const LeadershipOptions& o, double now) : o_(o), primary_(!o.standby), start_(now), last_loop_(now) {}
 
@@ -44,7 +48,8 @@ class Leadership {
   /// doubt (returns the line to log, else "").
   std::string on_loop(double now);
   /// Another coordinator's status: `active` (its lifecycle), `claims_primary` (its status says `primary`).
-  /// True if this one must leave: it doubts after a stall and another one leads.
+  /// True if this one must leave: another one leads while this one doubts after a stall, stalled within
+  /// kStallMemoryS, or has a larger id (two primaries that never stalled: the smaller id stays).
   bool on_peer(const std::string& id, bool active, bool claims_primary, double now);
   /// A primary's queue state (read while a standby). False if it was malformed or older than the one kept.
   bool on_state(const Snapshot& s, double now);
@@ -72,6 +77,7 @@ class Leadership {
   bool primary_;
   double start_, last_loop_;
   double doubt_until_ = -1.0;
+  double last_stall_ = -1e300;
   std::optional<Snapshot> last_state_;
   double last_state_at_ = 0.0;
   uint64_t malformed_ = 0;

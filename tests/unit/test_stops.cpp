@@ -369,3 +369,41 @@ TEST_CASE("a drop is a failure: the world brakes both arms for good, the supervi
   // The path stopped: the plan never reaches the task's end, so the task is never finished.
   CHECK_FALSE(rig.sup[0]->plan().motion_over(rig.k + 10000));
 }
+
+TEST_CASE("a standby back from its own stall does not take over before the leader's plans of the meantime arrive", "[stops]") {
+  const ts::ModuleSetup& m = sosm_module();
+  SupervisorCore leader(m, SupervisorOptions{"m1/supervisor", 100, true, 0.1}, 0);
+  SupervisorCore standby(m, SupervisorOptions{"m1/supervisor@50", 50, true, 0.1}, 0);
+  std::string log;
+  standby.set_log([&](const std::string& l) { log += l + "\n"; });
+  auto report = [](long k) {
+    tandem::supervisor::ReportIn r;
+    r.tick = k;
+    r.normal_min = 29.0;
+    return r;
+  };
+  std::vector<tp::PlanData> backlog;
+  for (long k = 0; k < 4000; k += 10) {
+    const int64_t now = k * kMs;
+    leader.on_report(report(k), now);
+    if (k == 1000) leader.on_assignment(1, "t1", {0.0, 0.8, 0.0, 1.0});
+    if (k == 2400) leader.on_assignment(2, "t2", {-0.1, 0.8, 0.0, 1.0});
+    leader.update(now);
+    const auto p = leader.take_plan();
+    const bool stalled = k >= 2300 && k < 2600;  // the standby is SIGSTOPped for 300 ms
+    if (stalled) {
+      if (p) backlog.push_back(*p);
+      continue;
+    }
+    // Back from the stall: the world's report and update() come before the backlog of plans is delivered.
+    standby.on_report(report(k), now);
+    standby.update(now);
+    for (const auto& q : backlog) standby.on_plan(q, now);
+    backlog.clear();
+    if (p) standby.on_plan(*p, now);
+  }
+  INFO(log);
+  CHECK_FALSE(standby.active());
+  CHECK(log.find("stood still for") != std::string::npos);
+  CHECK(standby.plan().task_id() == 2);  // its replica has the leader's task of the meantime
+}

@@ -154,6 +154,17 @@ void SupervisorCore::update(int64_t now_ns) {
   const bool stronger = stronger_now_;
   stronger_now_ = false;
   if (leaving_) return;
+  if (!active_ && last_update_ns_ > 0 && now_ns - last_update_ns_ > kTakeOverAfterNs && heard_stronger_) {
+    // This standby itself stood still (SIGSTOP, starvation): the leader's silence counts from now, so that the
+    // plans it published meanwhile (transient-local) arrive before any takeover. Found by the hour-long soak: a
+    // standby back from a stall took over at once with a replica that lacked the leader's last task, and the
+    // references jumped 10 mm under the held object.
+    last_stronger_ = now_ns;
+    stronger_tick_ = std::max(stronger_tick_, heard_tick_);
+    log("stood still for " + std::to_string((now_ns - last_update_ns_) / 1000000) +
+        " ms; the leader's silence counts from now");
+  }
+  last_update_ns_ = now_ns;
   if (suspect_from_ >= 0 && !stronger && (others_newest_ >= suspect_from_ || now_ns - suspect_since_ > kSuspectMaxNs)) {
     log(std::string(others_newest_ >= suspect_from_ ? "no other supervisor took over" : "no other supervisor heard") +
         "; leading on");

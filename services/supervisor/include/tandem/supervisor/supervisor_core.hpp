@@ -120,6 +120,7 @@ class SupervisorCore {
   int64_t t_start_, last_report_, last_stronger_;
   long stronger_tick_ = -1, others_newest_ = -1, suspect_from_ = -1;
   int64_t suspect_since_ = 0;
+  int64_t last_update_ns_ = 0;  // the previous update(): a standby that stood still does not take over at once
   bool heard_stronger_ = false, stronger_now_ = false, alone_refused_ = false;
   uint64_t max_epoch_ = 0;
   plan::SupervisorRank followed_{0, plan::kPrimaryStrength};

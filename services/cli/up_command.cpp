@@ -699,6 +699,18 @@ class Launcher {
       fail(c.label + " exited with code " + std::to_string(c.status));
       return;
     }
+    if (c.role == "supervisor" && c.status == 5 && d_.coordinator && !stopping_) {
+      // A supervisor that never heard a leader and could not lead the moved object (its initial plan is elsewhere):
+      // the module's plan is lost (its leader died before a standby heard it). Tier 3: the module restarts from
+      // its initial grasp with new processes; the coordinator re-plans its task meanwhile.
+      std::printf("tandem up: module %s lost its plan (%s had no leader to follow); restarting the module\n",
+                  c.module.c_str(), c.label.c_str());
+      ++plan_restarts_;
+      mr.end = "repairing";
+      stop_module(c.module);
+      pending_clears_.push_back(c.module);
+      return;
+    }
     if (c.role == "supervisor" && !(c.status == 0 && !d_.coordinator) && live_robots(c.arm) > 0) {
       // Hot standby: another supervisor of the module carries on with the same plan (tier 1).
       const bool restarting = schedule_restart(c, mr.cfg.restart, mr.cfg.restart_limit, mr.cfg.restart_window,
@@ -972,6 +984,7 @@ class Launcher {
   std::vector<std::string> pending_clears_;  ///< failed modules being cleared (plug module): restarted once stopped
   static constexpr int kStartRepairs = 3;
   unsigned long long start_repairs_ = 0;     ///< modules restarted because they did not come up
+  unsigned long long plan_restarts_ = 0;     ///< modules restarted because their supervisors lost the plan
   std::map<std::string, Clock::time_point> world_done_;  ///< modules whose world finished its task, and when
   std::map<std::string, msg::TaskState> task_states_;
   bus::Writer<msg::ControlRequest, msg::ControlRequestPubSubType>* control_out_ = nullptr;
@@ -1917,7 +1930,8 @@ int up_command(const std::vector<std::string>& args) {
     if (out) out << "startup_cpu." << role << ".median_s=" << median << "\nstartup_cpu." << role << ".starts=" << v.size() << "\n";
   }
   std::printf("tandem up: start-up repairs (modules restarted because they did not come up): %llu\n", L.start_repairs_);
-  if (out) out << "start_repairs=" << L.start_repairs_ << "\n";
+  if (out) out << "start_repairs=" << L.start_repairs_ << "\nplan_restarts=" << L.plan_restarts_ << "\n";
+  if (L.plan_restarts_ > 0) std::printf("tandem up: modules restarted because their supervisors lost the plan: %llu\n", L.plan_restarts_);
   if (L.governor_) {
     std::printf("tandem up: modules parked for load during the run: %llu time(s); parked at the end: %s\n",
                 L.parks_, L.parked_text().empty() ? "none" : L.parked_text().c_str());

@@ -148,6 +148,15 @@ int main(int argc, char** argv) {
     }
     core.update(now);
     publish();
+    if (core.no_plan()) {
+      // Never heard a leader and cannot lead the moved object with the initial plan: the module has lost its
+      // plan. Exit 5: the launcher restarts the module (docs/architecture.md, "Hot standby (supervisors)").
+      std::fprintf(stderr, "tandem-supervisor %s: no plan to follow (never heard a leader, and the object is not where "
+                   "the initial plan has it); the module must be restarted\n", opt.module.c_str());
+      status.set(runtime::Lifecycle::Error, "no plan to follow");
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      return 5;
+    }
     if (std::chrono::duration<double>(std::chrono::steady_clock::now() - last_report).count() > opt.timeout) {
       std::fprintf(stderr, "tandem-supervisor %s: no report from the world for %.1f s; stopping\n", opt.module.c_str(),
                    opt.timeout);

@@ -86,6 +86,9 @@ class SupervisorCore {
   bool active() const { return active_; }
   bool leaving() const { return leaving_; }       ///< the module left (drained, or the leader drained it)
   bool world_done() const { return world_done_; } ///< scenario mode: the world reported its last tick
+  /// A standby that never heard a leader and cannot lead (the object is not where its initial plan has it):
+  /// the module has lost its plan (its process exits, the launcher restarts the module).
+  bool no_plan() const { return alone_refused_; }
   long heard_tick() const { return heard_tick_; }
   plan::SupervisorRank rank() const { return rank_; }
   const plan::ModulePlan& plan() const { return plan_; }

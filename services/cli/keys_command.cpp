@@ -160,7 +160,7 @@ int keys_command(const std::vector<std::string>& args) {
   const std::time_t now = std::time(nullptr);
   if (ok) {
     try {
-      soak::write_file(dir + "/governance.xml", runtime::governance_xml(d.domain_id));
+      soak::write_file(dir + "/governance.xml", runtime::governance_xml(d));
       soak::write_file(dir + "/permissions.xml",
                        runtime::permissions_xml(ids, d.domain_id, iso(now - 3600), iso(now + 86400L * days)));
     } catch (const std::exception& e) {

@@ -57,10 +57,36 @@ TEST_CASE("the permissions document has one default-deny grant per identity, on 
   CHECK(x.find("<subject_name>CN=robot.m1.left</subject_name>") != std::string::npos);
   CHECK(x.find("<domains><id>48</id></domains>") != std::string::npos);
   CHECK(x.find("<default>DENY</default>") != std::string::npos);
-  const std::string g = governance_xml(d.domain_id);
+  const std::string g = governance_xml(d);
   CHECK(g.find("<allow_unauthenticated_participants>false</allow_unauthenticated_participants>") != std::string::npos);
   CHECK(g.find("<data_protection_kind>ENCRYPT</data_protection_kind>") != std::string::npos);
   CHECK(g.find("<enable_write_access_control>true</enable_write_access_control>") != std::string::npos);
+  CHECK(g.find("<enable_read_access_control>false</enable_read_access_control>") == std::string::npos);
+  // By topic class: on one host over shared memory the per-tick topics (first rules) carry no per-sample crypto
+  // and keep data-sharing; access control stays on for them; everything else is encrypted (the last rule).
+  Deployment local = d;
+  local.transport = "shm";
+  local.hosts.clear();
+  REQUIRE(per_tick_local(local));
+  const std::string gl = governance_xml(local);
+  const auto sensors = gl.find("<topic_expression>tandem/arm_sensors/*</topic_expression>");
+  const auto torques = gl.find("<topic_expression>tandem/torque_commands/*</topic_expression>");
+  const auto rest = gl.find("<topic_expression>*</topic_expression>");
+  REQUIRE(sensors != std::string::npos);
+  REQUIRE(torques != std::string::npos);
+  REQUIRE(rest != std::string::npos);
+  CHECK(sensors < rest);
+  CHECK(torques < rest);
+  CHECK(gl.find("<data_protection_kind>NONE</data_protection_kind>", sensors) < rest);
+  CHECK(gl.find("<data_protection_kind>ENCRYPT</data_protection_kind>", rest) != std::string::npos);
+  size_t access = 0;
+  for (size_t at = gl.find("<enable_write_access_control>true"); at != std::string::npos; at = gl.find("<enable_write_access_control>true", at + 1)) ++access;
+  CHECK(access == 3);
+  // Over UDP (or across hosts) the per-tick samples cross a wire a capture can read: encrypted like the rest.
+  Deployment wire = local;
+  wire.transport = "udp";
+  CHECK_FALSE(per_tick_local(wire));
+  CHECK(governance_xml(wire).find("tandem/arm_sensors/*") == std::string::npos);
 }
 
 TEST_CASE("security in a deployment: a missing keys directory or a discovery server is refused by name", "[security]") {

@@ -1,3 +1,5 @@
+#include <sys/stat.h>
+
 #include <cstdlib>
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
 #include <fastdds/dds/domain/qos/DomainParticipantQos.hpp>
@@ -11,10 +13,10 @@
 namespace tandem::dds {
 
 Participant::Participant(int domain_id, const std::string& name, Transport transport) : transport_(transport) {
-  // DDS-Security (below): UDPv4 only. Protected topics lose data-sharing anyway, and over the shared-memory
-  // transport secured participants now and then failed to match at start-up (two secured modules: 4 of 11
-  // runs over shared memory, 0 of 8 over UDP; docs/security.md).
-  if (const char* dir = std::getenv("TANDEM_SECURITY_DIR"); dir != nullptr && *dir != '\0') transport_ = Transport::Udp;
+  // DDS-Security (below) keeps the deployment's transport: on one host over shared memory the per-tick topics are
+  // governed without per-sample crypto and keep data-sharing (docs/security.md, "Threat model"). Secured
+  // participants were held to UDPv4 while a pair sometimes failed to authenticate at start-up (a race in Fast
+  // DDS 2.9.1, more frequent over shared memory): the launcher now repairs that by restarting the module.
   transport = transport_;
   fdds::DomainParticipantQos qos = fdds::PARTICIPANT_QOS_DEFAULT;
   qos.name(name);
@@ -44,6 +46,12 @@ Participant::Participant(int domain_id, const std::string& name, Transport trans
   // DDS-Security (docs/security.md): the deployment's keys (TANDEM_SECURITY_DIR, made by `tandem keys`) and this
   // process's identity (TANDEM_IDENTITY), set by runtime::use_security or handed down by the launcher.
   std::string security;
+  if (const char* dir = std::getenv("TANDEM_SECURITY_DIR"); dir != nullptr && *dir != '\0') {
+    // The per-tick samples of a secured one-host deployment travel unencrypted in shared memory (data-sharing):
+    // only the deployment's user may open its segments (Fast DDS creates them with the process's umask, 0644 by
+    // default: readable by every local user). docs/security.md, "Threat model".
+    ::umask(077);
+  }
   if (const char* dir = std::getenv("TANDEM_SECURITY_DIR"); dir != nullptr && *dir != '\0') {
     const char* id = std::getenv("TANDEM_IDENTITY");
     if (id == nullptr || *id == '\0') {

@@ -58,7 +58,19 @@ std::vector<Identity> identities(const Deployment& d) {
   return out;
 }
 
-std::string governance_xml(int domain_id) {
+bool per_tick_local(const Deployment& d) { return d.hosts.empty() && d.transport == "shm"; }
+
+std::string governance_xml(const Deployment& d) {
+  auto rule = [](const std::string& topic, bool discovery, const char* protection) {
+    return std::string("        <topic_rule>\n          <topic_expression>") + topic + "</topic_expression>\n"
+           "          <enable_discovery_protection>" + (discovery ? "true" : "false") + "</enable_discovery_protection>\n"
+           "          <enable_liveliness_protection>false</enable_liveliness_protection>\n"
+           "          <enable_read_access_control>true</enable_read_access_control>\n"
+           "          <enable_write_access_control>true</enable_write_access_control>\n"
+           "          <metadata_protection_kind>" + protection + "</metadata_protection_kind>\n"
+           "          <data_protection_kind>" + protection + "</data_protection_kind>\n"
+           "        </topic_rule>\n";
+  };
   std::ostringstream x;
   x << "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
        "<!-- tandem: made by `tandem keys` from the deployment (docs/security.md). -->\n"
@@ -66,23 +78,20 @@ std::string governance_xml(int domain_id) {
        "xsi:noNamespaceSchemaLocation=\"http://www.omg.org/spec/DDS-SECURITY/20170901/omg_shared_ca_governance.xsd\">\n"
        "  <domain_access_rules>\n"
        "    <domain_rule>\n"
-       "      <domains><id>" << domain_id << "</id></domains>\n"
+       "      <domains><id>" << d.domain_id << "</id></domains>\n"
        "      <allow_unauthenticated_participants>false</allow_unauthenticated_participants>\n"
        "      <enable_join_access_control>true</enable_join_access_control>\n"
        "      <discovery_protection_kind>ENCRYPT</discovery_protection_kind>\n"
        "      <liveliness_protection_kind>ENCRYPT</liveliness_protection_kind>\n"
        "      <rtps_protection_kind>NONE</rtps_protection_kind>\n"
-       "      <topic_access_rules>\n"
-       "        <topic_rule>\n"
-       "          <topic_expression>*</topic_expression>\n"
-       "          <enable_discovery_protection>true</enable_discovery_protection>\n"
-       "          <enable_liveliness_protection>false</enable_liveliness_protection>\n"
-       "          <enable_read_access_control>true</enable_read_access_control>\n"
-       "          <enable_write_access_control>true</enable_write_access_control>\n"
-       "          <metadata_protection_kind>ENCRYPT</metadata_protection_kind>\n"
-       "          <data_protection_kind>ENCRYPT</data_protection_kind>\n"
-       "        </topic_rule>\n"
-       "      </topic_access_rules>\n"
+       "      <topic_access_rules>\n";
+  if (per_tick_local(d)) {
+    // The first matching rule applies: the per-tick topics of a one-host shared-memory deployment (access
+    // control only; their samples never leave shared memory), then everything else (encrypted).
+    x << rule(std::string(bus::kSensorsTopic) + "/*", true, "NONE") << rule(std::string(bus::kTorquesTopic) + "/*", true, "NONE");
+  }
+  x << rule("*", true, "ENCRYPT");
+  x << "      </topic_access_rules>\n"
        "    </domain_rule>\n"
        "  </domain_access_rules>\n"
        "</dds>\n";

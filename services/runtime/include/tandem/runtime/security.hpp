@@ -28,8 +28,14 @@ std::vector<Identity> identities(const Deployment& d);
 std::string identity_name(const std::string& role, const std::string& module = "", const std::string& robot = "");
 
 /// The governance document (unsigned XML) for the deployment's domain: authenticated participants only, join
-/// access control, read and write access control on every topic, discovery and data encrypted (AES-GCM).
-std::string governance_xml(int domain_id);
+/// access control, read and write access control on every topic, discovery encrypted (AES-GCM). Data by topic
+/// class (docs/security.md, "Threat model"): where the per-tick topics never leave the host's shared memory (one
+/// host, `transport: shm`: data-sharing), they carry no per-sample crypto, so that they keep data-sharing
+/// (Fast DDS 2.9.1 turns it off for any protected endpoint); everything else, and everything of a multi-host or
+/// UDP deployment, is encrypted.
+std::string governance_xml(const Deployment& d);
+/// True if the deployment's per-tick topics stay in one host's shared memory (the class governed without crypto).
+bool per_tick_local(const Deployment& d);
 
 /// The permissions document (unsigned XML): one grant per identity, valid from `not_before` to `not_after`
 /// (ISO 8601, "2026-11-23T00:00:00"), default DENY.

@@ -285,11 +285,25 @@ int main(int argc, char** argv) {
         if (lead.primary()) say(queue.describe(e));  // a standby only keeps the latest reports
       }
     }
-    if (!lead.primary()) {
+    if (!lead.primary() || lead.recently_stalled(t)) {
       msg::CoordinatorState cs;
       while (state_in.take(cs)) {
         if (cs.deployment() == d.name) lead.on_state(from_msg(cs), t);
       }
+    }
+    if (lead.primary() && lead.recently_stalled(t) && lead.last_state() &&
+        lead.last_state()->next_task_id > queue.snapshot().next_task_id) {
+      // A successor led while this one was stalled, and died before this one heard it: its queue state is more
+      // advanced than ours (it assigned tasks we never saw). Adopt it, as a takeover would, so that no task is
+      // lost or done twice and the modules it assigned are not held as busy with our stale tasks (found by the
+      // hour-long soak: no task was done for 63 s).
+      queue.restore(*lead.last_state(), t);
+      const TaskQueue::Reconciled r = queue.reconcile(t);
+      say("a successor led while this one was stalled: adopting its queue state (" + std::to_string(queue.done_count()) +
+          " done, " + std::to_string(queue.running_count()) + " running)");
+      for (const auto& e : r.events) say(queue.describe(e));
+      publish_state(t);
+      for (const auto& a : r.resend) send(a);
     }
     std::string line;
     const coordinator::Leadership::Step step = lead.step(t, queue.task_count(), &line);

@@ -545,3 +545,15 @@ TEST_CASE("leadership: a primary that hears its successor only after the doubt s
   // A standby's status is no claim: it never makes a primary leave.
   CHECK_FALSE(a.on_peer("coordinator@0", true, false, 30.0));
 }
+
+TEST_CASE("leadership: a primary back from a stall keeps the most advanced queue state it hears for 10 s", "[coordinator]") {
+  Leadership p({"coordinator", false, false}, 0.0);
+  CHECK_FALSE(p.recently_stalled(0.1));
+  p.on_loop(0.1);
+  p.on_loop(2.1);  // stalled 2 s
+  CHECK(p.recently_stalled(2.2));
+  CHECK(p.on_state(state_with(9, {1, 1, 1, 0}, 3), 2.3));  // its successor's state, published before it died
+  CHECK(p.last_state()->next_task_id == 9);
+  CHECK_FALSE(p.on_state(state_with(7, {1, 1, 0, 0}, 2), 2.4));  // its own older one is not kept
+  CHECK_FALSE(p.recently_stalled(12.5));
+}

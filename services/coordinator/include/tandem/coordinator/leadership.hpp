@@ -66,6 +66,9 @@ class Leadership {
 
   bool primary() const { return primary_; }
   bool doubting() const { return doubt_until_ >= 0.0; }
+  /// Its loop stood still past kStallS within the last kStallMemoryS: a successor may have led meanwhile (the
+  /// primary reads the queue states then, and adopts a more advanced one).
+  bool recently_stalled(double now) const { return now - last_stall_ <= kStallMemoryS; }
   const std::optional<Snapshot>& last_state() const { return last_state_; }
   /// Seconds since the primary's last state (since the start if none was heard).
   double silent(double now) const { return now - (last_state_ ? last_state_at_ : start_); }

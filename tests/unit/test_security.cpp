@@ -1,5 +1,6 @@
 // The security documents derived from a deployment (runtime::identities, permissions_xml, governance_xml):
 // least privilege per identity, checked on deploy/secure-one-module.yaml.
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <catch2/catch.hpp>
@@ -9,6 +10,7 @@
 #include <fstream>
 #include <string>
 
+#include "tandem/dds/qos.hpp"
 #include "tandem/runtime/security.hpp"
 
 using namespace tandem::runtime;
@@ -69,8 +71,8 @@ TEST_CASE("the permissions document has one default-deny grant per identity, on 
   local.hosts.clear();
   REQUIRE(per_tick_local(local));
   const std::string gl = governance_xml(local);
-  const auto sensors = gl.find("<topic_expression>tandem/arm_sensors/*</topic_expression>");
-  const auto torques = gl.find("<topic_expression>tandem/torque_commands/*</topic_expression>");
+  const auto sensors = gl.find("<topic_expression>tandem/arm_sensors/m1/left</topic_expression>");
+  const auto torques = gl.find("<topic_expression>tandem/torque_commands/m1/right</topic_expression>");
   const auto rest = gl.find("<topic_expression>*</topic_expression>");
   REQUIRE(sensors != std::string::npos);
   REQUIRE(torques != std::string::npos);
@@ -81,12 +83,12 @@ TEST_CASE("the permissions document has one default-deny grant per identity, on 
   CHECK(gl.find("<data_protection_kind>ENCRYPT</data_protection_kind>", rest) != std::string::npos);
   size_t access = 0;
   for (size_t at = gl.find("<enable_write_access_control>true"); at != std::string::npos; at = gl.find("<enable_write_access_control>true", at + 1)) ++access;
-  CHECK(access == 3);
+  CHECK(access == 5);  // the four per-tick topics of m1's two arms, and the rest
   // Over UDP (or across hosts) the per-tick samples cross a wire a capture can read: encrypted like the rest.
   Deployment wire = local;
   wire.transport = "udp";
   CHECK_FALSE(per_tick_local(wire));
-  CHECK(governance_xml(wire).find("tandem/arm_sensors/*") == std::string::npos);
+  CHECK(governance_xml(wire).find("tandem/arm_sensors/") == std::string::npos);
 }
 
 TEST_CASE("security in a deployment: a missing keys directory or a discovery server is refused by name", "[security]") {
@@ -118,4 +120,15 @@ TEST_CASE("security with a discovery server, or without a keys directory, is ref
   CHECK(load("security: {}\n").find("security.keys") != std::string::npos);
   CHECK(load("security: {keys: k, cipher: rot13}\n").find("cipher") != std::string::npos);
   CHECK(load("security: {keys: k}\n").empty());
+}
+
+TEST_CASE("secured data-sharing segments go in a directory only this user can enter", "[security]") {
+  const std::string dir = tandem::dds::private_shm_dir();
+  REQUIRE_FALSE(dir.empty());
+  struct stat st {};
+  REQUIRE(::stat(dir.c_str(), &st) == 0);
+  CHECK(S_ISDIR(st.st_mode));
+  CHECK((st.st_mode & 0777) == 0700);
+  CHECK(st.st_uid == ::getuid());
+  CHECK(dir == "/dev/shm/tandem-" + std::to_string(::getuid()));
 }

@@ -1,7 +1,34 @@
 #include "tandem/dds/qos.hpp"
 
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdlib>
+#include <stdexcept>
+
 namespace tandem::dds {
 namespace fdds = eprosima::fastdds::dds;
+
+bool secured() {
+  const char* dir = std::getenv("TANDEM_SECURITY_DIR");
+  return dir != nullptr && *dir != '\0';
+}
+
+std::string private_shm_dir() {
+  static const std::string dir = [] {
+    const std::string d = "/dev/shm/tandem-" + std::to_string(::getuid());
+    if (::mkdir(d.c_str(), 0700) != 0 && errno != EEXIST) return std::string();
+    struct stat st {};
+    if (::stat(d.c_str(), &st) != 0 || !S_ISDIR(st.st_mode) || st.st_uid != ::getuid()) {
+      throw std::runtime_error(d + " exists but is not a directory of this user: the secured per-tick samples "
+                               "would not be private (remove it)");
+    }
+    if ((st.st_mode & 077) != 0) ::chmod(d.c_str(), 0700);
+    return d;
+  }();
+  return dir;
+}
 
 namespace {
 // Per-tick topics: reliable (lockstep must not lose a tick), keep-last 256 (a reader that is behind, a
@@ -56,7 +83,14 @@ void apply(Q& q, TopicKind kind) {
 template <class Q>
 void apply_data_sharing(Q& q, TopicKind kind, bool data_sharing) {
   if (per_tick(kind) && data_sharing) {
-    q.data_sharing().automatic();
+    // Secured: the segments go in a directory only this user can enter (their samples are not encrypted, and
+    // Fast DDS creates the files 0644 whatever the umask). docs/security.md, "Threat model".
+    const std::string dir = secured() ? private_shm_dir() : std::string();
+    if (dir.empty()) {
+      q.data_sharing().automatic();
+    } else {
+      q.data_sharing().automatic(dir);
+    }
   } else {
     q.data_sharing().off();
   }

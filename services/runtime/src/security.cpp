@@ -87,8 +87,14 @@ std::string governance_xml(const Deployment& d) {
        "      <topic_access_rules>\n";
   if (per_tick_local(d)) {
     // The first matching rule applies: the per-tick topics of a one-host shared-memory deployment (access
-    // control only; their samples never leave shared memory), then everything else (encrypted).
-    x << rule(std::string(bus::kSensorsTopic) + "/*", true, "NONE") << rule(std::string(bus::kTorquesTopic) + "/*", true, "NONE");
+    // control only; their samples never leave shared memory), then everything else (encrypted). By name, arm by
+    // arm: Fast DDS matches topic expressions like file names, where '*' does not cross a '/'.
+    for (const auto& m : d.modules) {
+      for (const auto& r : sim::load_scenario(m.scenario).robots) {
+        const std::string arm = m.name + "/" + r.name;
+        x << rule(bus::arm_topic(bus::kSensorsTopic, arm), true, "NONE") << rule(bus::arm_topic(bus::kTorquesTopic, arm), true, "NONE");
+      }
+    }
   }
   x << rule("*", true, "ENCRYPT");
   x << "      </topic_access_rules>\n"

@@ -74,6 +74,14 @@ std::set<std::string> fastdds_shm_files() {
     }
     ::closedir(d);
   }
+  // Secured processes' data-sharing segments, in this user's private directory (dds::private_shm_dir).
+  const std::string sub = "tandem-" + std::to_string(::getuid());
+  if (DIR* d = ::opendir((kPrefix + sub).c_str())) {
+    while (dirent* e = ::readdir(d)) {
+      if (is_fastdds(e->d_name)) out.insert(sub + "/" + e->d_name);
+    }
+    ::closedir(d);
+  }
   return out;
 }
 

@@ -23,6 +23,11 @@ enum class TopicKind {
 
 /// strength: kept for the call sites; torque writers use SHARED ownership (the world picks by strength).
 eprosima::fastdds::dds::DataWriterQos writer_qos(TopicKind kind, int32_t strength = 0, bool data_sharing = true);
+/// True if this process takes part in a secured deployment (TANDEM_SECURITY_DIR is set).
+bool secured();
+/// The directory a secured process's data-sharing segments go in: /dev/shm/tandem-<uid>, mode 0700 (made if
+/// missing). Throws if it exists and is not this user's directory.
+std::string private_shm_dir();
 
 eprosima::fastdds::dds::DataReaderQos reader_qos(TopicKind kind, bool data_sharing = true);
 

@@ -47,9 +47,9 @@ Participant::Participant(int domain_id, const std::string& name, Transport trans
   // process's identity (TANDEM_IDENTITY), set by runtime::use_security or handed down by the launcher.
   std::string security;
   if (const char* dir = std::getenv("TANDEM_SECURITY_DIR"); dir != nullptr && *dir != '\0') {
-    // The per-tick samples of a secured one-host deployment travel unencrypted in shared memory (data-sharing):
-    // only the deployment's user may open its segments (Fast DDS creates them with the process's umask, 0644 by
-    // default: readable by every local user). docs/security.md, "Threat model".
+    // Files a secured process creates are its user's alone. (The per-tick samples of a secured one-host
+    // deployment travel unencrypted through data-sharing segments, which Fast DDS makes 0644 whatever the umask:
+    // those go in a private directory, dds::private_shm_dir. docs/security.md, "Threat model".)
     ::umask(077);
   }
   if (const char* dir = std::getenv("TANDEM_SECURITY_DIR"); dir != nullptr && *dir != '\0') {

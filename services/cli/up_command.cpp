@@ -1719,17 +1719,25 @@ int up_command(const std::vector<std::string>& args) {
     msg::TaskState ts;
     while (task_states.take(ts)) L.on_task_state(ts);
     msg::CoordinatorState cs;
+    bool advanced = false;
     while (coord_state.take(cs)) {
       // The most advanced state (the launcher's own republished copy comes back too).
+      const bool more = !have_coord || cs.next_task_id() > last_coord.next_task_id() ||
+                        (cs.next_task_id() == last_coord.next_task_id() && cs.done_total() > last_coord.done_total());
       if (cs.deployment() == d.name &&
-          (!have_coord || cs.next_task_id() > last_coord.next_task_id() ||
-           (cs.next_task_id() == last_coord.next_task_id() && cs.done_total() >= last_coord.done_total()))) {
+          (more || (cs.next_task_id() == last_coord.next_task_id() && cs.done_total() == last_coord.done_total()))) {
+        advanced = advanced || more;
         last_coord = cs;
         have_coord = true;
         L.last_coord_state_ = cs;
         L.have_coord_state_ = true;
       }
     }
+    // Mirrored: every advance of the queue is republished from the launcher's own writer (transient-local), so
+    // that a coordinator that starts with --resume always finds the queue's state, even when every coordinator
+    // that published it died meanwhile. Found by the hour-long soak: the primary died while its restarted peer
+    // was still starting, both came back with --resume and no state, and no task was done again.
+    if (advanced && d.coordinator) coord_state_out.write(last_coord);
   };
   std::string running_labels;
   auto launcher_published = Clock::now();

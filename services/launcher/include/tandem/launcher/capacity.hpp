@@ -34,9 +34,11 @@ struct CapacityModel {
   static constexpr double kWakesPerTick = 5.0;
   /// A standby robot: its listener per sample and the world's per command.
   static constexpr double kWakesPerStandby = 2.0;
-  /// Fitted on this project's 2-core machines with bench/scale.sh (1, 4 and 8 modules): the middleware's
-  /// delivery costs this many bare wake-ups per wake-up (data-sharing, listener hand-offs, history bookkeeping).
-  double dds_factor = 2.2;
+  /// The middleware's delivery costs this many bare wake-ups per wake-up (data-sharing, listener hand-offs,
+  /// history bookkeeping, the participants' event threads). Fitted 2026-11-24 with bench/scale.sh 1 4 8 on this
+  /// project's 2-core machine: 0.156-0.183 core per module measured beside a calibrated wake-up of 3.9 us and a
+  /// 43 us plant step (docs/benchmarks.md, "Capacity measured here").
+  double dds_factor = 6.5;
   double ticks_per_s = 1000.0;
   /// Cores one module needs: ticks/s x (W x wake x dds_factor + plant + 2 x law).
   double core_per_module(const Calibration& c) const;

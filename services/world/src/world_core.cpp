@@ -446,6 +446,9 @@ bool WorldCore::end_tick(int64_t now_ns) {
       ++L.miss_run;
       const double quiet = static_cast<double>(now_ns - L.heard) * 1e-9;
       if (L.last_tick >= 0 && quiet > brake_after_s_ && o_.brakes) begin_stop(j, "no command for " + ms_text(quiet * 1e3), now_ns);
+      // Test only (no brakes): an arm whose controller is gone goes limp, as its drives would with nobody to
+      // command them: zero torque, and it falls with what it holds.
+      if (L.last_tick >= 0 && quiet > brake_after_s_ && !o_.brakes) tau_[a] = model::Vec3::Zero();
       if (o_.brakes && (L.stopping || load_pending_ || L.miss_run > kDriveAfterMisses)) {
         tau_[a] = drive_torque(j);
         applied_from_[a] = -1;

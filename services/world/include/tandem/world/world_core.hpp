@@ -56,8 +56,9 @@ struct WorldOptions {
   bool realtime = false;
   bool continuous = false;
   OverloadRule overload;
-  /// Test only (deployment key `test_no_brakes`): an arm whose controller is gone is not braked, so it keeps its
-  /// last torque, as it would with no brakes at all. Used to show that the soak's checker catches a drop.
+  /// Test only (deployment key `test_no_brakes`): an arm whose controller is gone is neither driven nor braked:
+  /// after brake_after_s it goes limp (zero torque), as an arm with no brakes and its drives off would, and
+  /// drops what it holds. Used to show that the soak's checker catches a drop, and that the drop fails the module.
   bool brakes = true;
   /// A drop fails the module (kDropContactTicks, kDropSlideM). Off only in unit tests that drive the world with
   /// stand-in torques that hold nothing, to look at other bookkeeping.

@@ -262,12 +262,9 @@ secured_run() {
   for pid in "${pids[@]}"; do await "$pid" 20 "an agent (--once)" || true; done; pids=()
   return "$rc"
 }
+# A pair that never authenticates at start-up is repaired by the launcher (the module restarts; docs/security.md).
 rc=0; secured_run || rc=$?
-if [ "$rc" -ne 0 ] && grep -q "peers not found\|no valid torque\|no report from the world" secure.log agent4-*.log; then
-  # now and then a pair of secured participants never matches (open finding, docs/security.md)
-  echo "RETRY: the secured run did not come up: $(grep -h -m1 'peers not found\|no valid torque\|no report from the world' secure.log agent4-*.log | head -1)"
-  rc=0; secured_run || rc=$?
-fi
+echo "secured multi-host run: start-up repairs $(sed -n 's/^start_repairs=//p' secure.summary 2>/dev/null)"
 [ "$rc" -eq 0 ] || { cat secure.log agent4-*.log; fail "the secured multi-host run failed ($rc)"; }
 grep -q "started m1/left                pid" agent4-b.log || fail "the secured robots did not run on b"
 python3 - one-host.summary secure.summary <<'EOF' || fail "the secured multi-host numbers differ from the single-host run"

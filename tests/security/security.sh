@@ -18,16 +18,14 @@ pids=()
 cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; wait "$p" 2>/dev/null || true; done; }
 trap cleanup EXIT
 fail() { echo "FAIL: $*"; exit 1; }
-# A secured run whose processes did not all match at start-up is run once more, saying so: now and then a pair of
-# secured participants never matches (open finding, docs/security.md). What is checked here is what a secured
-# deployment lets through, not that finding.
+# A pair of secured participants that never authenticates at start-up (a race in Fast DDS 2.9.1, docs/security.md)
+# is repaired by the launcher: it restarts the module with new participants (counted in start_repairs). The run
+# must pass whether or not a repair was needed; the count is printed.
 up_secured() {  # file summary log
   local rc=0
   "$bin/tandem" up "$1" --summary "$2" > "$3" 2>&1 || rc=$?
-  if [ "$rc" -ne 0 ] && grep -q "peers not found\|no valid torque\|no report from the world" "$3"; then
-    echo "RETRY: $1 did not come up (start-up matching, the open finding): $(grep -m1 'peers not found\|no valid torque\|no report from the world' "$3")"
-    rc=0; "$bin/tandem" up "$1" --summary "$2" > "$3" 2>&1 || rc=$?
-  elif [ "$rc" -eq 0 ] && [ "$(grep -c '\.ep_pos_rms=' "$2")" -lt 2 ]; then
+  echo "$1: start-up repairs $(sed -n 's/^start_repairs=//p' "$2" 2>/dev/null)"
+  if [ "$rc" -eq 0 ] && [ "$(grep -c '\.ep_pos_rms=' "$2")" -lt 2 ]; then
     # It passed, but the launcher never heard a robot's summary (the same finding, between the launcher and it).
     echo "RETRY: $1 passed without every robot's summary reaching the launcher (the open finding)"
     rc=0; "$bin/tandem" up "$1" --summary "$2" > "$3" 2>&1 || rc=$?
@@ -37,8 +35,9 @@ up_secured() {  # file summary log
 sed "s/ duration: 5.0 / duration: 120.0 /" "$src/config/scenarios/paper.yaml" > long.yaml
 deploy() {  # name domain timing transport scenario security(yes|no)
   {
-    # Secured runs wait up to 60 s for their peers: the pairwise handshakes can take long on a loaded machine.
-    echo "name: $1"; echo "domain_id: $2"; echo "timing: $3"; echo "transport: $4"; echo "timeout: $([ "$6" = yes ] && echo 60 || echo 10)"
+    # Secured runs wait up to 20 s for their peers (a healthy handshake takes a second or two on a loaded machine;
+    # past that the launcher repairs the module).
+    echo "name: $1"; echo "domain_id: $2"; echo "timing: $3"; echo "transport: $4"; echo "timeout: $([ "$6" = yes ] && echo 20 || echo 10)"
     [ "$6" = yes ] && printf "security:\n  keys: keys\n"
     printf "modules:\n  - {name: m1, scenario: %s, case: SOSM}\n" "$5"
   }
@@ -139,20 +138,15 @@ for mode in plain secure; do
   d4=$((base + 3)); [ "$mode" = secure ] && d4=$((base + 4))
   deploy "cap-$mode" "$d4" lockstep udp "$src/config/scenarios/paper.yaml" $([ "$mode" = secure ] && echo yes || echo no) > "cap-$mode.yaml"
   [ "$mode" = secure ] && { "$bin/tandem" keys "cap-$mode.yaml" > /dev/null 2>&1 || fail "tandem keys cap"; }
-  # The capture covers the whole run: a secured run that did not come up is run again with a new capture.
-  for attempt in 1 2; do
-    python3 "$src/tests/security/capture.py" capture lo "cap-$mode.bin" 150 > "cap-$mode.txt" &
-    cap=$!; pids+=($cap)
-    sleep 0.5
-    rc=0; "$bin/tandem" up "cap-$mode.yaml" --summary "cap-$mode.sum" > "up-cap-$mode.log" 2>&1 || rc=$?
-    kill "$cap" 2>/dev/null || true; wait "$cap" || true; pids=()
-    [ "$rc" -eq 0 ] && break
-    if [ "$attempt" = 1 ] && grep -q "peers not found\|no valid torque\|no report from the world" "up-cap-$mode.log"; then
-      echo "RETRY: cap-$mode.yaml did not come up (start-up matching, the open finding): $(grep -m1 'peers not found\|no valid torque\|no report from the world' "up-cap-$mode.log")"
-      continue
-    fi
-    tail -20 "up-cap-$mode.log"; fail "capture run ($mode)"
-  done
+  # The capture covers the whole run, a start-up repair included (the launcher restarts a module that did not
+  # come up; docs/security.md).
+  python3 "$src/tests/security/capture.py" capture lo "cap-$mode.bin" 150 > "cap-$mode.txt" &
+  cap=$!; pids+=($cap)
+  sleep 0.5
+  rc=0; "$bin/tandem" up "cap-$mode.yaml" --summary "cap-$mode.sum" > "up-cap-$mode.log" 2>&1 || rc=$?
+  kill "$cap" 2>/dev/null || true; wait "$cap" || true; pids=()
+  [ "$rc" -eq 0 ] || { tail -20 "up-cap-$mode.log"; fail "capture run ($mode)"; }
+  echo "cap-$mode.yaml: start-up repairs $(sed -n 's/^start_repairs=//p' "cap-$mode.sum")"
   grep -q "^rtps_frames=[1-9]" "cap-$mode.txt" || { cat "cap-$mode.txt"; fail "the capture of the $mode run saw no RTPS frames"; }
   found=$(python3 "$src/tests/security/capture.py" find "cap-$mode.bin" 1000 1999 0.001)
   echo "$mode run over UDP: $(cat "cap-$mode.txt"), $found"

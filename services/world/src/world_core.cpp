@@ -514,7 +514,7 @@ bool WorldCore::end_tick(int64_t now_ns) {
       load_pending_ = true;
       load_pending_ns_ = now_ns;
       still_count_ = 0;
-      for (ArmLink& L : link_) L.late_run = 0;  // "missed while holding" counts from now
+      for (ArmLink& L : link_) L.late_run = 0;
       ++load_pauses;
       if (braked_since_ < 0) braked_since_ = k_;
       report_now_ = true;

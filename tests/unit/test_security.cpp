@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <string>
 
@@ -131,4 +132,28 @@ TEST_CASE("secured data-sharing segments go in a directory only this user can en
   CHECK((st.st_mode & 0777) == 0700);
   CHECK(st.st_uid == ::getuid());
   CHECK(dir == "/dev/shm/tandem-" + std::to_string(::getuid()));
+}
+
+TEST_CASE("certificates are checked with OpenSSL's X509 API: missing, not a certificate, expired", "[security]") {
+  const std::string dir = "/tmp/tandem-cert-test-" + std::to_string(::getpid());
+  ::mkdir(dir.c_str(), 0700);
+  CHECK(tandem::runtime::certificate_problem(dir + "/none.pem") == "cannot be read");
+  std::ofstream(dir + "/junk.pem") << "not a certificate\n";
+  CHECK(tandem::runtime::certificate_problem(dir + "/junk.pem") == "is not a PEM certificate");
+  // A quote in a path is just a path (the shell command this replaces broke on it).
+  const std::string quoted = dir + "/it's.pem";
+  std::ofstream(quoted) << "x\n";
+  CHECK(tandem::runtime::certificate_problem(quoted) == "is not a PEM certificate");
+  const std::string key = dir + "/k.pem", good = dir + "/good.pem", old = dir + "/old.pem";
+  const std::string mk = "openssl req -x509 -newkey rsa:2048 -nodes -keyout " + key + " -subj /CN=t -out ";
+  // openssl (a test dependency, scripts/install-deps.sh) makes a valid and an expired certificate.
+  REQUIRE(std::system((mk + good + " -days 1 >/dev/null 2>&1").c_str()) == 0);
+  CHECK(tandem::runtime::certificate_problem(good).empty());
+  // Expired: a certificate whose validity ended yesterday (openssl x509 -days -1, self-signed with the same key).
+  const std::string csr = dir + "/r.csr";
+  REQUIRE(std::system(("openssl req -new -key " + key + " -subj /CN=t -out " + csr + " >/dev/null 2>&1 && openssl x509 -req -in " +
+                       csr + " -signkey " + key + " -days -1 -out " + old + " >/dev/null 2>&1").c_str()) == 0);
+  CHECK(tandem::runtime::certificate_problem(old) == "has expired");
+  for (const char* f : {"/junk.pem", "/it's.pem", "/k.pem", "/good.pem", "/old.pem", "/r.csr"}) std::remove((dir + f).c_str());
+  ::rmdir(dir.c_str());
 }

@@ -52,6 +52,9 @@ std::string missing_key_file(const std::string& dir, const std::string& name);
 /// Every identity's files are in the keys' directory and its certificate is valid now (openssl x509
 /// -checkend). Returns "" or an error naming the file, what is wrong and the command that makes new keys.
 std::string check_keys(const Deployment& d);
+/// Why the PEM certificate at `path` cannot be used now ("" if it can): "cannot be read", "is not a PEM
+/// certificate", "has expired", "is not valid yet".
+std::string certificate_problem(const std::string& path);
 
 /// Makes the participants this process creates from now on (and the processes it starts) use DDS-Security
 /// with identity `name` and the deployment's keys (TANDEM_SECURITY_DIR, TANDEM_IDENTITY; read by

@@ -91,6 +91,7 @@ struct Child {
   Clock::time_point started{};     ///< when it was started
   int participant_id = -1;         ///< its DDS participant id (TANDEM_PARTICIPANT_ID), -1: Fast DDS's choice
   bool heard = false;              ///< its status was heard over DDS (it is part of the domain)
+  bool cut_off = false;            ///< killed because it was never heard (kSilentStartS)
   bool active_seen = false;        ///< its status said active once (its start-up CPU is then measured)
   // Multi-host: started by the agent of `host` ("" = by the launcher, on this machine).
   std::string host;
@@ -112,6 +113,7 @@ struct ModuleRun {
   bool paused_for_unplug = false;    ///< a pause was asked for an unplug without standby: resume on plug
   bool ticked = false;               ///< its world has reported a tick past 0 (the module came up)
   int repairs = 0;                   ///< restarts because it did not come up (docs/security.md, "Start-up")
+  Clock::time_point started_at{};    ///< when its processes were last started
 };
 
 
@@ -179,6 +181,7 @@ class Launcher {
     mr.end.clear();
     mr.task_over = false;
     mr.ticked = false;
+    mr.started_at = Clock::now();
     Child w;
     w.label = m.name + "/world";
     w.role = "world";
@@ -557,7 +560,7 @@ class Launcher {
       for (const auto& c : children_) {
         if (!c.running || c.expected) continue;
         ++n;
-        all = all && c.heard;
+        all = all && c.heard && !c.cut_off;
       }
       if (all && n > 0) {
         std::printf("tandem up: all %d process(es) heard on the domain\n", n);
@@ -574,6 +577,19 @@ class Launcher {
                     "restart policy applies\n", c.label.c_str(), c.pid, kSilentStartS);
         signal_child(c, SIGKILL);
         c.heard = true;  // once
+        c.cut_off = true;
+      }
+    }
+    // A module that has not come up in time (start_timeout): some pair of its participants never matched.
+    if (!stopping_) {
+      for (auto& [name, mr] : modules_) {
+        if (!mr.started || mr.ticked || !mr.end.empty() || mr.repairs >= kStartRepairs) continue;
+        // (A world waits up to half its timeout for late sensor readers besides the first: not cut short.)
+        const double limit = std::max(d_.start_timeout, 0.5 * d_.timeout + 2.0);
+        if (Clock::now() - mr.started_at < std::chrono::duration<double>(limit)) continue;
+        char why[96];
+        std::snprintf(why, sizeof why, "its world did not tick within %.1f s of its start", limit);
+        repair_start(name, why);
       }
     }
     // A process asked to stop alone that is still there after 5 s (hung, or stopped by a signal).
@@ -661,15 +677,10 @@ class Launcher {
     // docs/security.md), and nothing in the library retries it; new participants for the whole module (new
     // GUIDs, fresh handshakes with everyone) repair it. Restarted up to kStartRepairs times, logged and counted.
     if (!mr.ticked && !stopping_ && (c.role == "world" || c.role == "robot" || c.role == "supervisor") &&
-        (c.status == 3 || c.status == 4) && mr.repairs < kStartRepairs) {
-      ++mr.repairs;
-      ++start_repairs_;
-      std::printf("tandem up: module %s did not come up (%s exited with code %d before the first tick: its peers did "
-                  "not match); restarting the module with new participants (repair %d of at most %d)\n",
-                  c.module.c_str(), c.label.c_str(), c.status, mr.repairs, kStartRepairs);
-      mr.end = "repairing";
-      stop_module(c.module);
-      pending_clears_.push_back(c.module);
+        (c.status == 3 || c.status == 4 || c.cut_off) && mr.repairs < kStartRepairs) {
+      repair_start(c.module, c.label + (c.cut_off ? " was never heard on the domain"
+                                                  : " exited with code " + std::to_string(c.status)) +
+                                 " before the first tick: its peers did not match");
       return;
     }
     if (c.role == "supervisor" && c.status == 0 && mr.end == "draining") {
@@ -760,6 +771,23 @@ class Launcher {
     if (c.role == "robot" && modules_.at(c.module).cfg.restart_as == "standby") next.strength = 0;  // below the live ones
     pending_restarts_.push_back({now + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(delay)), next});
     return true;
+  }
+
+  /// A module that did not come up: a process gave up waiting for its peers (world 3: peers not found; world,
+  /// robot or supervisor 4: no tick, input or report), or was never heard, before the world's first tick, or its
+  /// world did not tick within start_timeout. With DDS-Security a pair of participants sometimes never
+  /// authenticates (a race in Fast DDS 2.9.1's SecurityManager, fixed in 2.9.2; docs/security.md), and nothing in
+  /// the library retries it; new participants for the whole module (new GUIDs, fresh handshakes with everyone)
+  /// repair it. Restarted up to kStartRepairs times, logged and counted.
+  void repair_start(const std::string& module, const std::string& why) {
+    ModuleRun& mr = modules_.at(module);
+    ++mr.repairs;
+    ++start_repairs_;
+    std::printf("tandem up: module %s did not come up (%s); restarting the module with new participants (repair %d "
+                "of at most %d)\n", module.c_str(), why.c_str(), mr.repairs, kStartRepairs);
+    mr.end = "repairing";
+    stop_module(module);
+    pending_clears_.push_back(module);
   }
 
   void stop_module(const std::string& module) {

@@ -732,6 +732,37 @@ TEST_CASE("tandem down with a robot that cannot stop: the launcher SIGKILLs it 5
   CHECK_FALSE(processes_left(domain));
 }
 
+TEST_CASE("a module whose world never ticks is restarted with new processes after start_timeout, with the same numbers", "[distributed]") {
+  // The world is stopped (SIGSTOP) as soon as it exists, before it can match anyone: its module never ticks, as
+  // when a pair of secured participants never authenticates. The launcher restarts the module once the limit is
+  // past (max(start_timeout, timeout / 2 + 2 s) = 7 s here), and the new processes run the task from the start.
+  const int domain = test_domain(19);
+  const std::string deploy = write_deployment("startfix", domain, "SOSM", "lockstep", 0, "start_timeout: 2\n", kCrashTransport);
+  const std::string up_log = work_dir() + "/startfix.log";
+  const std::string summary = work_dir() + "/startfix.summary";
+  const std::string cmd = kBin + "/tandem up " + deploy + " --summary " + summary + " > " + up_log + " 2>&1 & up=$!; " +
+                          "for i in $(seq 2000); do pid=$(pgrep -f \"tandem-[w]orld .*--domain " + std::to_string(domain) +
+                          " \"); [ -n \"$pid\" ] && break; sleep 0.002; done; kill -STOP $pid; echo pid=$pid; " +
+                          "wait $up; echo up_rc=$?; if kill -0 $pid 2>/dev/null; then echo world_left; kill -CONT $pid; kill -KILL $pid; fi";
+  const Run r = run("bash -c '" + cmd + "'");
+  const std::string log = read_file(up_log);
+  INFO(r.output << "\n--- tandem up ---\n" << log);
+  REQUIRE(r.output.find("pid=\n") == std::string::npos);
+  CHECK(r.output.find("up_rc=0") != std::string::npos);
+  CHECK(r.output.find("world_left") == std::string::npos);
+  CHECK(log.find("module m1 did not come up (its world did not tick within 7.0 s of its start); restarting the module "
+                 "with new participants (repair 1 of at most 3)") != std::string::npos);
+  const auto kv = read_summary(summary);
+  REQUIRE(kv.count("start_repairs") == 1);
+  CHECK(kv.at("start_repairs") == 1);
+  REQUIRE(kv.count("m1.ticks") == 1);
+  CHECK(kv.at("m1.ticks") == 5000);
+  const tandem::sim::CaseResult& e = embedded_sosm();
+  CHECK(kv.at("m1/left.ep_pos_rms") == Approx(e.robots[0].ep_pos_rms).epsilon(1e-12));
+  CHECK(kv.at("m1/right.eh_rms") == Approx(e.robots[1].eh_rms).epsilon(1e-12));
+  CHECK_FALSE(processes_left(domain));
+}
+
 TEST_CASE("a world stalled for 0.4 s re-anchors its clock instead of a catch-up burst, and the grasp holds", "[distributed]") {
   const int domain = test_domain(18);
   const std::string deploy = write_deployment("wstall", domain, "SOSM", "realtime", 0, "", kCrashTransport);

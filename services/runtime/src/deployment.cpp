@@ -98,6 +98,7 @@ Deployment load_deployment(const std::string& path) {
   top.choice("transport", d.transport, {"shm", "udp"});
   top.choice("timing", d.timing, {"lockstep", "realtime"});
   top.num("timeout", d.timeout, 0.1, 3600.0);
+  top.num("start_timeout", d.start_timeout, 1.0, 3600.0);
   top.integer("realtime_priority", d.realtime_priority, 0, 98);
   top.boolean("overload_brake", d.overload_brake);
   top.boolean("shed_modules", d.shed_modules);

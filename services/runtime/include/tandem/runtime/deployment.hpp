@@ -60,6 +60,9 @@ struct Deployment {
   std::string transport = "shm";  ///< shm | udp
   std::string timing = "lockstep";
   double timeout = 10.0;
+  /// A started module whose world has not ticked within this long is restarted with new participants (a pair
+  /// of its participants never matched; with DDS-Security see docs/security.md "Start-up"), at most 3 times.
+  double start_timeout = 20.0;
   /// Real-time timing: SCHED_FIFO priority of the per-tick processes (world, supervisor, robots), so that
   /// the rest of the machine (discovery of a joining process, the launcher, a compiler) cannot delay a
   /// tick; 0 = normal scheduling. Ignored in lockstep. Falls back to normal scheduling, with a note, where

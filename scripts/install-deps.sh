@@ -11,7 +11,7 @@ PACKAGES=(
   build-essential cmake pkg-config
   libeigen3-dev
   libfastrtps-dev fastddsgen fastdds-tools
-  libprotobuf-dev protobuf-compiler
+  libprotobuf-dev protobuf-compiler zlib1g-dev
   libyaml-cpp-dev
   catch2
   openssl

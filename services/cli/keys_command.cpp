@@ -15,7 +15,7 @@
 
 #include "tandem/runtime/deployment.hpp"
 #include "tandem/runtime/security.hpp"
-#include "tandem/soak/files.hpp"
+#include "tandem/page/files.hpp"
 
 namespace tandem::cli {
 
@@ -129,7 +129,7 @@ int keys_command(const std::vector<std::string>& args) {
     std::fprintf(stderr, "tandem keys: needs the openssl command (Debian package openssl)\n");
     return 1;
   }
-  if (!soak::make_dirs(dir, 0700)) {
+  if (!page::make_dirs(dir, 0700)) {
     std::fprintf(stderr, "tandem keys: cannot create %s: %s\n", dir.c_str(), std::strerror(errno));
     return 1;
   }
@@ -160,8 +160,8 @@ int keys_command(const std::vector<std::string>& args) {
   const std::time_t now = std::time(nullptr);
   if (ok) {
     try {
-      soak::write_file(dir + "/governance.xml", runtime::governance_xml(d));
-      soak::write_file(dir + "/permissions.xml",
+      page::write_file(dir + "/governance.xml", runtime::governance_xml(d));
+      page::write_file(dir + "/permissions.xml",
                        runtime::permissions_xml(ids, d.domain_id, iso(now - 3600), iso(now + 86400L * days)));
     } catch (const std::exception& e) {
       ok = false;

@@ -16,7 +16,7 @@
 
 #include "tandem/model/grasp.hpp"
 #include "tandem/record/recording.hpp"
-#include "tandem/soak/files.hpp"
+#include "tandem/page/files.hpp"
 #include "tandem/sim/embedded.hpp"
 #include "tandem/sim/module_setup.hpp"
 #include "tandem/sim/scenario_yaml.hpp"
@@ -154,8 +154,8 @@ int sim_command(const std::vector<std::string>& args) {
   if (out_dir.empty()) out_dir = "runs/" + sc.name;
   if (mcap && mcap_file.empty()) mcap_file = out_dir + "/" + sim::file_name(sc.name) + ".mcap";
   if (!mcap) mcap_file.clear();
-  if (((csv || !mcap_file.empty()) && !soak::make_dirs(out_dir)) ||
-      (!mcap_file.empty() && mcap_file.find('/') != std::string::npos && !soak::make_dirs(mcap_file.substr(0, mcap_file.rfind('/'))))) {
+  if (((csv || !mcap_file.empty()) && !page::make_dirs(out_dir)) ||
+      (!mcap_file.empty() && mcap_file.find('/') != std::string::npos && !page::make_dirs(mcap_file.substr(0, mcap_file.rfind('/'))))) {
     std::fprintf(stderr, "tandem sim: cannot create output directory '%s'\n", out_dir.c_str());
     return 2;
   }

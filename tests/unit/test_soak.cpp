@@ -8,9 +8,10 @@
 
 #include "tandem/soak/checker.hpp"
 #include "tandem/soak/schedule.hpp"
-#include "tandem/soak/svg.hpp"
+#include "tandem/page/svg.hpp"
 
 using namespace tandem::soak;
+using namespace tandem::page;
 
 namespace {
 

@@ -1,5 +1,7 @@
 #include "tandem/record/mcap.hpp"
 
+#include <zlib.h>
+
 #include <fcntl.h>
 #include <sys/mman.h>
 #include <sys/stat.h>
@@ -42,19 +44,6 @@ const char* op_name(uint8_t op) {
   }
 }
 
-const std::array<uint32_t, 256>& crc_table() {
-  static const std::array<uint32_t, 256> t = [] {
-    std::array<uint32_t, 256> r{};
-    for (uint32_t i = 0; i < 256; ++i) {
-      uint32_t c = i;
-      for (int k = 0; k < 8; ++k) c = (c & 1U) ? 0xEDB88320U ^ (c >> 1) : c >> 1;
-      r[i] = c;
-    }
-    return r;
-  }();
-  return t;
-}
-
 // Little-endian encoders (MCAP is little-endian throughout).
 void u8(std::string& b, uint8_t v) { b.push_back(static_cast<char>(v)); }
 template <class T>
@@ -86,11 +75,16 @@ std::string record(uint8_t op, const std::string& content) {
 }  // namespace
 
 uint32_t crc32(const void* data, size_t n, uint32_t crc) {
-  const auto& t = crc_table();
-  const auto* p = static_cast<const unsigned char*>(data);
-  uint32_t c = crc ^ 0xFFFFFFFFU;
-  for (size_t i = 0; i < n; ++i) c = t[(c ^ p[i]) & 0xFFU] ^ (c >> 8);
-  return c ^ 0xFFFFFFFFU;
+  // zlib's CRC-32 (the same polynomial as MCAP's), fed in blocks that fit its uInt length.
+  const auto* p = static_cast<const Bytef*>(data);
+  uLong c = crc;
+  while (n > 0) {
+    const uInt len = static_cast<uInt>(std::min<size_t>(n, 1U << 30));
+    c = ::crc32(c, p, len);
+    p += len;
+    n -= len;
+  }
+  return static_cast<uint32_t>(c);
 }
 
 // ---------------------------------------------------------------------------------------------- writer

@@ -11,17 +11,17 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "tandem/soak/files.hpp"
-#include "tandem/soak/svg.hpp"
+#include "tandem/page/files.hpp"
+#include "tandem/page/svg.hpp"
 
 namespace tandem::record {
 namespace {
 
-using soak::Plot;
-using soak::RefLine;
-using soak::Series;
-using soak::write_file;
-using soak::xml_escape;
+using page::Plot;
+using page::RefLine;
+using page::Series;
+using page::write_file;
+using page::xml_escape;
 
 std::string fmt(double v, const char* f = "%.4g") {
   char b[64];
@@ -30,7 +30,7 @@ std::string fmt(double v, const char* f = "%.4g") {
 }
 
 void make_dirs(const std::string& dir) {
-  if (!soak::make_dirs(dir)) throw std::runtime_error("cannot create the directory " + dir);
+  if (!page::make_dirs(dir)) throw std::runtime_error("cannot create the directory " + dir);
 }
 
 /// Keeps a plot readable and its file small: at most ~n points, per bucket the extreme (max, or min with
@@ -251,7 +251,7 @@ ReportResult write_recording_report(const std::string& mcap, const std::string& 
 
   std::ostringstream body;
   auto image = [&](const std::string& name, const Plot& p, int w = 960, int h = 320) {
-    write_file(dir + "/" + name + ".svg", soak::render_svg(p, w, h));
+    write_file(dir + "/" + name + ".svg", page::render_svg(p, w, h));
     res.images.push_back(dir + "/" + name + ".svg");
     return "<img src=\"" + name + ".svg\" alt=\"" + xml_escape(p.title) + "\" width=\"" + std::to_string(w) + "\">";
   };

@@ -239,12 +239,6 @@ std::string file_name(const std::string& case_name) {
   return out;
 }
 
-const ControllerConfig* Scenario::find_controller(const std::string& n) const {
-  for (const auto& c : controllers) {
-    if (c.name == n) return &c;
-  }
-  return nullptr;
-}
 
 Scenario parse_scenario(const std::string& yaml_text, const std::string& source) {
   YAML::Node root;

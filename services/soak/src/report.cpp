@@ -11,10 +11,18 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "tandem/soak/files.hpp"
-#include "tandem/soak/svg.hpp"
+#include "tandem/page/files.hpp"
+#include "tandem/page/svg.hpp"
 
 namespace tandem::soak {
+using page::make_dirs;
+using page::nice_ticks;
+using page::Plot;
+using page::RefLine;
+using page::render_svg;
+using page::Series;
+using page::write_file;
+using page::xml_escape;
 namespace {
 
 /// The summary's Markdown as HTML: headings, tables (a header row, the |---| row, body rows), list items and

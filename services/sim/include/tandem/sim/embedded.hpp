@@ -57,11 +57,6 @@ struct RunOptions {
 CaseResult run_case(const Scenario& sc, const CaseConfig& cc, const RunOptions& opt = {},
                     std::vector<SeriesRow>* series = nullptr);
 
-/// Gains K per contact-frame axis that meet eq. (33)-(34) for robot j along the scenario's path,
-/// with the given disturbance on or off. Evaluated on the reference trajectory (inverse kinematics).
-model::Vec3 reaching_condition_gains(const Scenario& sc, int j, const ControllerConfig& cc, bool disturbance,
-                                     double disturbance_scale);
-
 /// Writes the time series as CSV.
 void write_csv(const std::string& path, const std::vector<SeriesRow>& rows, const Scenario& sc);
 

@@ -29,6 +29,11 @@ struct ModuleSetup {
 /// reach its initial reference or the case names an unknown controller.
 ModuleSetup make_module(const Scenario& sc, const CaseConfig& cc);
 
+/// Gains K per contact-frame axis that meet eq. (33)-(34) for robot j along the scenario's path,
+/// with the given disturbance on or off. Evaluated on the reference trajectory (inverse kinematics).
+model::Vec3 reaching_condition_gains(const Scenario& sc, int j, const ControllerConfig& cc, bool disturbance,
+                                     double disturbance_scale);
+
 /// The supervisor's reference for arm j at tick k (eq. 15 on the planned object pose at t = k T).
 inline model::ArmReference supervisor_reference(const ModuleSetup& m, int j, long k) {
   const double t = static_cast<double>(k) * m.period;

@@ -6,7 +6,7 @@
 #include <utility>
 #include <vector>
 
-namespace tandem::soak {
+namespace tandem::page {
 
 struct Series {
   std::string name;
@@ -41,4 +41,4 @@ std::vector<double> nice_ticks(double lo, double hi, int n = 6);
 /// Text escaped for XML.
 std::string xml_escape(const std::string& s);
 
-}  // namespace tandem::soak
+}  // namespace tandem::page

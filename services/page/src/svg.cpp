@@ -1,11 +1,11 @@
-#include "tandem/soak/svg.hpp"
+#include "tandem/page/svg.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <sstream>
 
-namespace tandem::soak {
+namespace tandem::page {
 namespace {
 const char* kPalette[] = {"#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b",
                           "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"};
@@ -200,4 +200,4 @@ std::string render_svg(const Plot& p, int width, int height) {
   return o.str();
 }
 
-}  // namespace tandem::soak
+}  // namespace tandem::page

@@ -5,7 +5,7 @@
 #include <string>
 #include <sys/types.h>
 
-namespace tandem::soak {
+namespace tandem::page {
 
 /// Creates `path` and its missing parents with `mode` (existing ones are left as they are). False if one cannot
 /// be created; errno says why.
@@ -14,4 +14,4 @@ bool make_dirs(const std::string& path, mode_t mode = 0755);
 /// Writes `text` to `path` (truncated). Throws std::runtime_error("cannot write <path>") on failure.
 void write_file(const std::string& path, const std::string& text);
 
-}  // namespace tandem::soak
+}  // namespace tandem::page

@@ -1,4 +1,4 @@
-#include "tandem/soak/files.hpp"
+#include "tandem/page/files.hpp"
 
 #include <sys/stat.h>
 
@@ -6,7 +6,7 @@
 #include <fstream>
 #include <stdexcept>
 
-namespace tandem::soak {
+namespace tandem::page {
 
 bool make_dirs(const std::string& path, mode_t mode) {
   std::string cur;
@@ -26,4 +26,4 @@ void write_file(const std::string& path, const std::string& text) {
   if (!out) throw std::runtime_error("cannot write " + path);
 }
 
-}  // namespace tandem::soak
+}  // namespace tandem::page

@@ -36,7 +36,10 @@ std::optional<model::Vec3> RobotCore::on_sample(long k, const model::ArmSensors&
   model::ControlOutput out = ctl_.step(in, ref);
   // Actuator limits: the command is saturated here as the drive would (the plant clips the same way).
   const model::Vec3& lim = m_.plant.arms[j_].tau_max;
-  out.tau = out.tau.cwiseMax(-lim).cwiseMin(lim);
+  const model::Vec3 clipped = out.tau.cwiseMax(-lim).cwiseMin(lim);
+  last_saturated_ = clipped != out.tau;
+  if (last_saturated_) ++saturated_;
+  out.tau = clipped;
   meter_.add(static_cast<double>(k) * m_.period, ref, out);
   if (done_ >= 0) {  // wear and workload, for the coordinator's balancing
     const model::Vec3 dq = (in.q - prev_q_).cwiseAbs();
@@ -47,6 +50,7 @@ std::optional<model::Vec3> RobotCore::on_sample(long k, const model::ArmSensors&
   tracking_ = out.e_p.head<2>().norm();
   tau_ = out.tau;
   out_ = out;
+  ref_ = ref;
   done_ = k;
   return tau_;
 }

@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "tandem/model/grasp.hpp"
+#include "tandem/sim/hosted_module.hpp"
 #include "tandem/sim/module_setup.hpp"
 
 namespace tandem::sim {
@@ -59,14 +60,9 @@ CaseResult run_case(const Scenario& sc, const CaseConfig& cc, const RunOptions& 
   res.safe_grasp_force = m.safe_grasp_force;
   res.reference_force = m.reference_force;
 
-  // World, supervisor and the two robots, wired in one process.
-  model::ModulePlant plant(m.plant);
-  plant.reset(m.initial);
-  std::array<model::HybridController, 2> ctl{model::HybridController(m.plant.arms[0], m.control[0]),
-                                              model::HybridController(m.plant.arms[1], m.control[1])};
-  const double motion_end = m.path.motion_end();
-  std::array<RobotMeter, 2> meter{RobotMeter(m.control[0].selection_p, sc.transient, motion_end),
-                                  RobotMeter(m.control[1].selection_p, sc.transient, motion_end)};
+  // World, supervisor and the two robots: the distributed processes' components, hosted in one process.
+  HostedModule mod(m, sc.transient);
+  const model::ModulePlant& plant = mod.world().plant();
   for (int j = 0; j < 2; ++j) {
     const model::HybridParams& hp = m.control[j];
     res.robots[j].gains = hp.law.type == model::LawType::PD
@@ -78,21 +74,26 @@ CaseResult run_case(const Scenario& sc, const CaseConfig& cc, const RunOptions& 
     series->reserve(static_cast<size_t>(m.steps));
   }
   Rms obj;
+  long saturated = 0;
   for (long k = 0; k < m.steps; ++k) {
     const double t = static_cast<double>(k) * m.period;
-    const model::ContactReading contact = plant.contacts();  // world: sensor sample of tick k
-    std::array<Vec3, 2> tau;
+    const model::PoseSample ps = m.path.sample(t);
+    obj.add((plant.state().c - ps.pose.head<2>()).norm());
     SeriesRow row{};
+    if (series != nullptr && opt.record) {
+      row.t = t;
+      row.obj_c = plant.state().c;
+      row.obj_ref = ps.pose.head<2>();
+      row.obj_psi = plant.state().psi;
+    }
+    const bool ok = mod.tick();
+    // The robots clip their commands at tau_max (as the drives would): a period in which either did counts.
+    if (ok && (mod.robot(0).last_saturated() || mod.robot(1).last_saturated())) ++saturated;
     for (int j = 0; j < 2; ++j) {
-      const model::ArmReference ref = supervisor_reference(m, j, k);  // supervisor, eq. (15)
-      model::ArmSensors in;
-      in.q = plant.state().q[j];
-      in.qd = plant.state().qd[j];
-      in.h = contact.h[j];
-      const model::ControlOutput out = ctl[j].step(in, ref);  // robot j
-      tau[j] = out.tau;
-      meter[j].add(t, ref, out);
-      if (!tau[j].allFinite()) res.finite = false;
+      const robot::RobotCore& r = mod.robot(j);
+      if (!ok || r.done() != k || !r.last_tau().allFinite()) continue;
+      const model::ControlOutput& out = r.last_output();
+      const model::ArmReference& ref = r.last_reference();
       row.x[j] = ref.x - out.e_p;
       row.xd[j] = ref.x;
       row.tau[j] = out.tau;
@@ -100,29 +101,22 @@ CaseResult run_case(const Scenario& sc, const CaseConfig& cc, const RunOptions& 
       row.normal[j] = out.normal_force;
       row.e_h[j] = out.e_h;
     }
-    const model::PoseSample ps = m.path.sample(t);
-    obj.add((plant.state().c - ps.pose.head<2>()).norm());
-    if (series != nullptr && opt.record) {
-      row.t = t;
-      row.obj_c = plant.state().c;
-      row.obj_ref = ps.pose.head<2>();
-      row.obj_psi = plant.state().psi;
-      series->push_back(row);
-    }
-    if (!res.finite) {
+    if (series != nullptr && opt.record) series->push_back(row);
+    const auto& st = plant.state();
+    if (!ok || !mod.robot(0).last_tau().allFinite() || !mod.robot(1).last_tau().allFinite()) {
+      res.finite = false;
       res.diverged_at = t;
       break;
     }
-    plant.step(tau, t, m.period, m.substeps);  // world: torques held over the period
-    const auto& st = plant.state();
     if (!st.c.allFinite() || !st.q[0].allFinite() || !st.q[1].allFinite()) {
       res.finite = false;
       res.diverged_at = t + m.period;
       break;
     }
   }
-  for (int j = 0; j < 2; ++j) static_cast<RobotMeter::Summary&>(res.robots[j]) = meter[j].summary();
+  for (int j = 0; j < 2; ++j) static_cast<RobotMeter::Summary&>(res.robots[j]) = mod.robot(j).summary();
   res.counters = plant.counters();
+  res.counters.torque_saturated = saturated;
   res.object_pos_rms = obj.value();
   res.object_final_error = (plant.state().c - m.path.sample(sc.duration).pose.head<2>()).norm();
   res.final_state = plant.state();

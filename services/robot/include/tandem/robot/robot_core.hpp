@@ -33,10 +33,15 @@ class RobotCore {
   const model::Vec3& last_tau() const { return tau_; }
   /// The law's output at the last tick computed (errors e_p, e_h, normal force; for recorders).
   const model::ControlOutput& last_output() const { return out_; }
+  /// The reference of the last tick computed (eq. 15 from the plan).
+  const model::ArmReference& last_reference() const { return ref_; }
   double wear() const { return wear_; }                ///< joint travel sum |dq| [rad]
   double workload() const { return workload_; }        ///< sum |tau| . |dq| [J]
   double tracking_error() const { return tracking_; }  ///< |x_d - x| (x, y) at the last tick [m]
   unsigned long long rejected() const { return rejected_; }
+  /// Ticks whose law output exceeded tau_max on some joint and was clipped; whether the last one was.
+  unsigned long long saturated() const { return saturated_; }
+  bool last_saturated() const { return last_saturated_; }
   sim::RobotMeter::Summary summary() const { return meter_.summary(); }
 
  private:
@@ -48,9 +53,12 @@ class RobotCore {
   long done_ = -1;
   model::Vec3 tau_ = model::Vec3::Zero();
   model::ControlOutput out_{};
+  model::ArmReference ref_{};
   model::Vec3 prev_q_ = model::Vec3::Zero();
   double wear_ = 0.0, workload_ = 0.0, tracking_ = 0.0;
   unsigned long long rejected_ = 0;
+  unsigned long long saturated_ = 0;
+  bool last_saturated_ = false;
 };
 
 }  // namespace tandem::robot

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Installs missing packages, then configures (once) and builds incrementally with at most 2 jobs.
-# Usage: scripts/build.sh [preset] [--tests]   (preset: default | asan; see CMakePresets.json; --tests: also
+# Usage: scripts/build.sh [preset] [--tests]   (preset: default | asan | tsan; see CMakePresets.json; --tests: also
 # install what the test suite needs, see scripts/install-deps.sh)
 set -euo pipefail
 cd "$(dirname "$0")/.."

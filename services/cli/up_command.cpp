@@ -1929,8 +1929,8 @@ int up_command(const std::vector<std::string>& args) {
           << name << ".braked_ticks=" << ws.braked_ticks() << "\n" << name << ".overruns=" << ws.overruns() << "\n"
           << name << ".load_pauses=" << ws.load_pauses() << "\n" << name << ".load_paused_ticks=" << ws.load_paused_ticks()
           << "\n";
-      auto list = [&](const char* key, const auto& seq) {
-        out << name << "." << key << "=";
+      auto list = [&out, &module = name](const char* key, const auto& seq) {  // (C++17: no binding captures)
+        out << module << "." << key << "=";
         for (size_t i = 0; i < seq.size(); ++i) out << (i ? "," : "") << static_cast<double>(seq[i]);
         out << "\n";
       };

@@ -48,7 +48,7 @@ std::string work_dir() {
 std::string write_deployment(const std::string& name, int domain, const std::string& case_name,
                              const std::string& timing = "lockstep", int standby = 0, const std::string& extra = "",
                              const std::string& transport = "shm", const std::string& scenario = "") {
-  const std::string path = work_dir() + "/" + name + ".yaml";
+  std::string path = work_dir() + "/" + name + ".yaml";
   std::ofstream(path) << "name: " << name << "\ndomain_id: " << domain << "\ntransport: " << transport << "\ntiming: " << timing
                       << "\ntimeout: 10\nmodules:\n  - name: m1\n    scenario: "
                       << (scenario.empty() ? kSrc + "/config/scenarios/paper.yaml" : scenario) << "\n    case: " << case_name << "\n    standby: " << standby
@@ -126,7 +126,7 @@ const tandem::sim::CaseResult& embedded_sosm() {
 // launcher, so the kills land in the first third of 15 000 ticks instead. And its SOSM case embedded.
 std::string kill_scenario() {
   static const std::string path = [] {
-    const std::string p = work_dir() + "/paper-15s.yaml";
+    std::string p = work_dir() + "/paper-15s.yaml";
     (void)std::system(("sed 's/^  duration: 5.0 /  duration: 15.0 /' " + kSrc + "/config/scenarios/paper.yaml > " + p).c_str());
     return p;
   }();
@@ -148,7 +148,7 @@ const tandem::sim::CaseResult& embedded_sosm_15s() {
 // x = -0.2), lockstep; `coordinator_keys` and `modules` are YAML lines of their own.
 std::string write_task_deployment(const std::string& name, int domain, int pairs, const std::string& coordinator_keys,
                                   const std::string& modules, const std::string& transport = "shm") {
-  const std::string path = work_dir() + "/" + name + ".yaml";
+  std::string path = work_dir() + "/" + name + ".yaml";
   std::ofstream f(path);
   f << "name: " << name << "\ndomain_id: " << domain << "\ntransport: " << transport << "\ntiming: lockstep\ntimeout: 20\n"
     << "coordinator:\n" << coordinator_keys << "  tasks:\n";
@@ -420,7 +420,7 @@ namespace {
 // A copy of the paper's scenario that lasts 9 s instead of 5, so that a task paused for a few seconds still
 // ends within the run.
 std::string long_scenario() {
-  const std::string path = work_dir() + "/paper-9s.yaml";
+  std::string path = work_dir() + "/paper-9s.yaml";
   (void)std::system(("sed 's/^  duration: 5.0 /  duration: 9.0 /' " + kSrc + "/config/scenarios/paper.yaml > " + path).c_str());
   return path;
 }

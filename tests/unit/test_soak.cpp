@@ -32,7 +32,7 @@ History quiet_history(double seconds) {
   for (int i = 1; i <= static_cast<int>(seconds * 10); ++i) {
     ModuleSample s;
     s.t = 0.1 * i;
-    s.tick = 100 * i;
+    s.tick = 100L * i;
     s.normal_min = 30.0;
     s.world = 1;
     h.modules["m1"].push_back(s);

@@ -190,6 +190,7 @@ std::string plot_rss(const History& h) {
   }
   for (auto& [k, s] : by) life[k] = s.xy.empty() ? 0 : s.xy.back().first - s.xy.front().first;
   std::vector<std::string> keys;
+  keys.reserve(by.size());
   for (const auto& [k, s] : by) keys.push_back(k);
   std::sort(keys.begin(), keys.end(), [&](const std::string& a, const std::string& b) { return life[a] > life[b]; });
   for (size_t i = 0; i < keys.size() && i < 14; ++i) p.series.push_back(by[keys[i]]);

@@ -23,8 +23,8 @@ constexpr double kPositive = 1e-12;  // lower bound standing for "strictly posit
 /// Walks one YAML mapping, remembering which keys were read so that the rest can be reported as unknown.
 class MapReader {
  public:
-  MapReader(YAML::Node node, std::string path, const std::string& file)
-      : node_(std::move(node)), path_(std::move(path)), file_(file) {
+  MapReader(const YAML::Node& node, std::string path, const std::string& file)
+      : node_(node), path_(std::move(path)), file_(file) {
     if (!node_.IsMap()) fail(node_, path_, "expected a mapping (key: value pairs)");
   }
 

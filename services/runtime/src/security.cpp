@@ -136,7 +136,7 @@ std::string permissions_xml(const std::vector<Identity>& ids, int domain_id, con
 
 std::string missing_key_file(const std::string& dir, const std::string& name) {
   for (const std::string& f : std::vector<std::string>{"ca.pem", "governance.p7s", "permissions.p7s", name + ".pem", name + ".key"}) {
-    const std::string p = dir + "/" + f;
+    std::string p = dir + "/" + f;
     if (::access(p.c_str(), R_OK) != 0) return p;
   }
   return "";

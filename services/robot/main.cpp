@@ -135,6 +135,19 @@ int main(int argc, char** argv) {
       std::this_thread::sleep_for(std::chrono::milliseconds(5));
     }
   }
+  // The robot takes part (its sensor reader, which the world waits for) only once the launcher hears it (the
+  // reader of its summary): a robot the launcher cannot hear (a pair that never authenticated, docs/security.md
+  // "Start-up") would serve an arm whose summary and status are lost. Past the timeout: exit 3, and the launcher
+  // restarts the module if it had not ticked yet.
+  for (const auto l0 = Clock::now(); !runtime::g_stop && summary.matched() < 1;) {
+    if (std::chrono::duration<double>(Clock::now() - l0).count() > opt.timeout) {
+      std::fprintf(stderr, "tandem-robot %s: the launcher was not found within %.1f s (summary readers 0/1)\n",
+                   robot_id.c_str(), opt.timeout);
+      status.set(runtime::Lifecycle::Error, "launcher not found");
+      return 3;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
   bus::Reader<msg::ArmSensors, msg::ArmSensorsPubSubType> sensors(
       part, bus::arm_topic(bus::kSensorsTopic, my_arm), opt.realtime ? bus::TopicKind::SensorsRealtime : bus::TopicKind::Sensors,
       &listener);

@@ -86,12 +86,14 @@ int main(int argc, char** argv) {
   const int readers_all = 1 + opt.observers;
   const int readers_min = std::min(readers_all, 2);
   int readers = readers_all;
+  // The launcher too (the reader of the world's summary): a world the launcher cannot hear (a pair that never
+  // authenticated, docs/security.md "Start-up") must not run a task whose summary and status would be lost.
   while (!runtime::g_stop && (sensors0.matched() < readers || sensors1.matched() < readers || torques0.matched() < 1 || torques1.matched() < 1 ||
-                              report.matched() < 1)) {
+                              report.matched() < 1 || summary.matched() < 1)) {
     if (std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() > opt.timeout) {
       std::fprintf(stderr, "tandem-world: peers not found within %.1f s (sensor readers %d+%d/2, torque writers %d/2, "
-                   "supervisor %d/1)\n", opt.timeout, sensors0.matched(), sensors1.matched(),
-                   torques0.matched() + torques1.matched(), report.matched());
+                   "supervisor %d/1, launcher %d/1)\n", opt.timeout, sensors0.matched(), sensors1.matched(),
+                   torques0.matched() + torques1.matched(), report.matched(), summary.matched());
       status.set(runtime::Lifecycle::Error, "peers not found");
       return 3;
     }

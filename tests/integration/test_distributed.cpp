@@ -546,7 +546,7 @@ TEST_CASE("a robot is restarted after a crash, and given up on after the intensi
                         << " restart_limit: 1, restart_window: 60}\n";
   const std::string up_log = work_dir() + "/restarts.log";
   const std::string kill = kBin + "/tandem kill " + deploy + " ";
-  const std::string cmd = kBin + "/tandem up " + deploy + " > " + up_log + " 2>&1 & up=$!; sleep 0.7; " + kill +
+  const std::string cmd = kBin + "/tandem up " + deploy + " > " + up_log + " 2>&1 & up=$!; " + after_first_tick(up_log, 0.3) + kill +
                           "m1/left; for i in $(seq 200); do grep -q \"(restart)\" " + up_log +
                           " && break; sleep 0.05; done; for i in $(seq 200); do grep -q \"m1/left released\" " + up_log +
                           " && break; sleep 0.05; done; " + kill + "m1/left@50; wait $up; echo up_rc=$?";

@@ -25,7 +25,9 @@ namespace bus = tandem::dds;
 namespace fdds = eprosima::fastdds::dds;
 using Clock = std::chrono::steady_clock;
 
-int main(int argc, char** argv) {
+namespace {
+
+int run(int argc, char** argv) {
   runtime::RoleOptions opt;
   runtime::RoleContext ctx;
   int code = 0;
@@ -219,4 +221,18 @@ int main(int argc, char** argv) {
   lock.unlock();
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   return (finished || runtime::g_stop) ? 0 : 4;
+}
+
+}  // namespace
+
+// An exception that escapes (a Fast DDS or allocation failure at set-up) is reported and exits 1, not aborted.
+int main(int argc, char** argv) {
+  try {
+    return run(argc, argv);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "tandem-%s: %s\n", "robot", e.what());
+  } catch (...) {
+    std::fprintf(stderr, "tandem-%s: unknown exception\n", "robot");
+  }
+  return 1;
 }

@@ -29,7 +29,9 @@
 using namespace tandem;
 namespace bus = tandem::dds;
 
-int main(int argc, char** argv) {
+namespace {
+
+int run(int argc, char** argv) {
   runtime::RoleOptions opt;
   runtime::RoleContext ctx;
   int code = 0;
@@ -292,4 +294,18 @@ int main(int argc, char** argv) {
               clock.overruns, core.load_pauses);
   std::this_thread::sleep_for(std::chrono::milliseconds(300));  // let the summary reach the launcher
   return never_answered && !runtime::g_stop ? 4 : 0;
+}
+
+}  // namespace
+
+// An exception that escapes (a Fast DDS or allocation failure at set-up) is reported and exits 1, not aborted.
+int main(int argc, char** argv) {
+  try {
+    return run(argc, argv);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "tandem-%s: %s\n", "world", e.what());
+  } catch (...) {
+    std::fprintf(stderr, "tandem-%s: unknown exception\n", "world");
+  }
+  return 1;
 }

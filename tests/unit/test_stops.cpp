@@ -14,6 +14,7 @@
 #include <random>
 #include <string>
 
+#include "tandem/sim/hosted_module.hpp"
 #include "tandem/model/grasp.hpp"
 #include "tandem/plan/plan.hpp"
 #include "tandem/robot/robot_core.hpp"
@@ -46,19 +47,6 @@ const ts::ModuleSetup& sosm_module() {
 
 constexpr int64_t kMs = 1000000;
 
-// The world's report as the supervisor hears it (WorldReport on the wire, converted by the processes).
-tandem::supervisor::ReportIn to_in(const tandem::world::ReportOut& r) {
-  tandem::supervisor::ReportIn in;
-  in.tick = r.tick;
-  in.braked = r.braked;
-  in.hold = r.hold;
-  in.braked_since = r.braked_since;
-  in.released_at = r.released_at;
-  in.normal_min = r.normal_min;
-  in.object_xy = r.object.head<2>();
-  in.failed = r.failed;
-  return in;
-}
 constexpr long kPeakTick = 2500;  // the paper task: 0.5 s hold, then 0.4 m in 4 s (quintic): peak speed at 2.5 s
 
 // One module in real time, every part a component, in the order the processes run: the world starts tick k,
@@ -118,7 +106,7 @@ struct Rig {
     w.begin_tick(k, now, out);
     const bool report = w.report_due(1L << 40);
     tandem::supervisor::ReportIn in;
-    if (report) in = to_in(w.take_report());
+    if (report) in = ts::supervisor_input(w.take_report());
     for (size_t i = 0; i < 2; ++i) {
       if (!sup[i] || !sup_alive[i]) continue;
       if (report) sup[i]->on_report(in, now);
@@ -339,7 +327,7 @@ TEST_CASE("a drop is a failure: the world brakes both arms for good, the supervi
     rig.w.begin_tick(k, now, rig.out);
     if (rig.w.report_due(1L << 40)) {
       const auto r = rig.w.take_report();
-      rig.sup[0]->on_report(to_in(r), now);
+      rig.sup[0]->on_report(ts::supervisor_input(r), now);
       if (r.failed && failed_at < 0) failed_at = k;
     }
     rig.sup[0]->update(now);

@@ -225,14 +225,4 @@ int run(int argc, char** argv) {
 
 }  // namespace
 
-// An exception that escapes (a Fast DDS or allocation failure at set-up) is reported and exits 1, not aborted.
-int main(int argc, char** argv) {
-  try {
-    return run(argc, argv);
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "tandem-%s: %s\n", "robot", e.what());
-  } catch (...) {
-    std::fprintf(stderr, "tandem-%s: unknown exception\n", "robot");
-  }
-  return 1;
-}
+int main(int argc, char** argv) { return runtime::run_guarded("robot", run, argc, argv); }

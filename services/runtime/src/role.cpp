@@ -1,3 +1,4 @@
+#include <exception>
 #include "tandem/runtime/role.hpp"
 
 #include <sched.h>
@@ -172,6 +173,17 @@ int RoleContext::arm_index(const std::string& id) const {
     if (id == arm_id(j)) return j;
   }
   return -1;
+}
+
+int run_guarded(const char* role, int (*body)(int, char**), int argc, char** argv) {
+  try {
+    return body(argc, argv);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "tandem-%s: %s\n", role, e.what());
+  } catch (...) {
+    std::fprintf(stderr, "tandem-%s: unknown exception\n", role);
+  }
+  return 1;
 }
 
 int raise_to_realtime_from_env() {

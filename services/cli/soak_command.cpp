@@ -593,6 +593,7 @@ class Soak {
         ::dup2(null, 1);
         ::dup2(null, 2);
       }
+      ::close_range(3, ~0U, 0);  // not the soak's DDS sockets
       ::execv(argv[0], argv.data());
       ::_exit(127);
     }

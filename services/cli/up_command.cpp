@@ -1068,7 +1068,7 @@ class Launcher {
   /// the launcher, `tandem status` and other tools).
   std::deque<int> free_ids_ = [] {
     std::deque<int> ids;
-    for (int i = 20; i < 120; ++i) ids.push_back(i);
+    for (int i = 20; i < static_cast<int>(bus::kMaxParticipantId); ++i) ids.push_back(i);
     return ids;
   }();
 

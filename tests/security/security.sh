@@ -89,6 +89,20 @@ grep -q "all [0-9]* process(es) heard on the domain" up4.log || { cat up4.log; f
 grep -q "did not come up" up4.log && echo "start-up repair: $(grep -m1 'did not come up' up4.log)"
 for i in $(seq 800); do grep -q "first tick at wall" up4.log && break; sleep 0.05; done
 grep -q "first tick at wall" up4.log || { cat up4.log; fail "the secured deployment did not start"; }
+# Secured participants take discovery and handshakes on one unicast port, no multicast (the Fast DDS 2.9.1
+# handshake race needs two receive threads: docs/security.md, "Start-up"). A plain participant listens on the
+# domain's multicast discovery port 7400 + 250 * domain; the secured world must not.
+world=$(sed -n 's/^  started m1\/world *pid \([0-9]*\).*/\1/p' up4.log | tail -1)
+[ -n "$world" ] || fail "no world pid in the launcher's output"
+ports=$(ss -uanp | grep "pid=$world," | awk '{print $4}' | sed 's/.*://' | sort -n | tr '\n' ' ')
+echo "secured world's UDP ports: $ports"
+case " $ports " in *" $((7400 + 250 * d3)) "*) fail "the secured world listens on the multicast discovery port";; esac
+metas=0
+for p in $ports; do
+  o=$((p - 7410 - 250 * d3))
+  if [ "$o" -ge 0 ] && [ "$o" -lt 240 ] && [ $((o % 2)) -eq 0 ]; then metas=$((metas + 1)); fi
+done
+[ "$metas" -eq 1 ] || fail "the secured world listens on $metas metatraffic unicast ports (expected 1): $ports"
 # Plain Fast DDS without credentials: reads nothing (a recorder of the sensor topics), hears no launcher.
 "$bin/tandem" record live-plain.yaml -o plain.mcap --topics ticks --duration 3 > rec.log 2>&1 || true
 grep -q "(0 per-tick samples)" rec.log || { cat rec.log; fail "a participant without credentials read sensor samples"; }

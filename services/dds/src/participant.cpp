@@ -5,12 +5,49 @@
 #include <fastdds/dds/domain/qos/DomainParticipantQos.hpp>
 #include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
 #include <fastdds/rtps/transport/shared_mem/SharedMemTransportDescriptor.h>
+#include <fastrtps/utils/IPLocator.h>
 
 #include <memory>
+#include <sstream>
 
 #include "tandem/dds/bus.hpp"
 
 namespace tandem::dds {
+
+namespace {
+
+// Fast DDS 2.9.1 matches a newly discovered secured participant's handshake endpoints through shared scratch
+// proxies without a lock (SecurityManager::match_builtin_endpoints). Two participants discovered at once on two
+// receive threads (multicast SPDP on one, unicast or shared-memory metatraffic on another) overwrite each other's
+// proxy and that pair never authenticates (docs/security.md, "Start-up"). Every call into that code comes from
+// the thread that received the SPDP or handshake message, so a secured participant takes all its discovery and
+// handshake traffic on one UDP unicast port: one receive thread, and the race cannot happen. No multicast:
+// it announces itself to the deployment's hosts (TANDEM_DDS_PEERS, set with the keys by runtime::use_security;
+// 127.0.0.1 without it) on the well-known ports of participant ids 0-119.
+void single_discovery_thread(fdds::DomainParticipantQos& qos, eprosima::fastdds::rtps::UDPv4TransportDescriptor& udp) {
+  namespace rtps = eprosima::fastrtps::rtps;
+  auto& builtin = qos.wire_protocol().builtin;
+  rtps::Locator_t meta;  // any address, port from the participant id
+  meta.kind = LOCATOR_KIND_UDPv4;
+  builtin.metatrafficUnicastLocatorList.clear();
+  builtin.metatrafficMulticastLocatorList.clear();
+  builtin.metatrafficUnicastLocatorList.push_back(meta);
+  builtin.initialPeersList.clear();
+  const char* env = std::getenv("TANDEM_DDS_PEERS");
+  std::istringstream peers(env != nullptr && *env != '\0' ? env : "127.0.0.1");
+  for (std::string address; std::getline(peers, address, ',');) {
+    if (address.empty()) continue;
+    rtps::Locator_t peer;  // port 0: every participant id's metatraffic port, up to maxInitialPeersRange
+    peer.kind = LOCATOR_KIND_UDPv4;
+    if (!eprosima::fastrtps::rtps::IPLocator::setIPv4(peer, address)) {
+      throw std::runtime_error("TANDEM_DDS_PEERS: '" + address + "' is not an IPv4 address");
+    }
+    builtin.initialPeersList.push_back(peer);
+  }
+  udp.maxInitialPeersRange = kMaxParticipantId;
+}
+
+}  // namespace
 
 Participant::Participant(int domain_id, const std::string& name, Transport transport) : transport_(transport) {
   // DDS-Security (below) keeps the deployment's transport: on one host over shared memory the per-tick topics are
@@ -35,14 +72,15 @@ Participant::Participant(int domain_id, const std::string& name, Transport trans
   // from the domain). The launcher hands out the id left longest ago.
   if (const char* id = std::getenv("TANDEM_PARTICIPANT_ID")) {
     const int n = std::atoi(id);
-    if (n >= 0 && n < 120) qos.wire_protocol().participant_id = n;
+    if (n >= 0 && n < static_cast<int>(kMaxParticipantId)) qos.wire_protocol().participant_id = n;
   }
   if (transport == Transport::SharedMemory) {
     // Data over shared memory; discovery still needs a UDP locator, so keep UDPv4 beside it.
     qos.transport().user_transports.push_back(
         std::make_shared<eprosima::fastdds::rtps::SharedMemTransportDescriptor>());
   }
-  qos.transport().user_transports.push_back(std::make_shared<eprosima::fastdds::rtps::UDPv4TransportDescriptor>());
+  auto udp = std::make_shared<eprosima::fastdds::rtps::UDPv4TransportDescriptor>();
+  qos.transport().user_transports.push_back(udp);
   // DDS-Security (docs/security.md): the deployment's keys (TANDEM_SECURITY_DIR, made by `tandem keys`) and this
   // process's identity (TANDEM_IDENTITY), set by runtime::use_security or handed down by the launcher.
   std::string security;
@@ -68,6 +106,9 @@ Participant::Participant(int domain_id, const std::string& name, Transport trans
     props.emplace_back("dds.sec.access.builtin.Access-Permissions.governance", d + "governance.p7s");
     props.emplace_back("dds.sec.access.builtin.Access-Permissions.permissions", d + "permissions.p7s");
     props.emplace_back("dds.sec.crypto.plugin", "builtin.AES-GCM-GMAC");
+    if (const char* server = std::getenv("ROS_DISCOVERY_SERVER"); server == nullptr || *server == '\0') {
+      single_discovery_thread(qos, *udp);
+    }
     security = std::string(" with DDS-Security identity '") + id + "' (keys in " + dir +
                ": missing, expired or not signed by its CA? make them with `tandem keys`)";
   }

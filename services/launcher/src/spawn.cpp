@@ -47,6 +47,9 @@ pid_t spawn(const std::string& who, const std::string& exe, const std::vector<st
   ::signal(SIGTERM, SIG_DFL);
   ::prctl(PR_SET_PDEATHSIG, SIGTERM);  // never outlive the parent
   if (::getppid() != parent) ::_exit(127);
+  // Nothing of the parent's but stdin/out/err: Fast DDS opens its sockets without close-on-exec, and a child
+  // that held the launcher's discovery and data ports would keep them bound after the launcher is gone.
+  ::close_range(3, ~0U, 0);
   ::execve(exe.c_str(), argv.data(), envp.data());
   static const char msg[] = "tandem: cannot exec a role process\n";
   (void)!::write(2, msg, sizeof msg - 1);

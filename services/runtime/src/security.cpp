@@ -184,6 +184,11 @@ std::string use_security(const Deployment& d, const std::string& name) {
   std::free(abs);
   ::setenv("TANDEM_SECURITY_DIR", dir.c_str(), 1);
   ::setenv("TANDEM_IDENTITY", name.c_str(), 1);
+  // Secured participants discover each other by unicast only (services/dds/src/participant.cpp): every host of
+  // the deployment, or this machine.
+  std::string peers;
+  for (const auto& h : d.hosts) peers += (peers.empty() ? "" : ",") + h.address;
+  ::setenv("TANDEM_DDS_PEERS", peers.empty() ? "127.0.0.1" : peers.c_str(), 1);
   return "";
 }
 

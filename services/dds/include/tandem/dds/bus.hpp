@@ -24,6 +24,10 @@ namespace fdds = eprosima::fastdds::dds;
 
 enum class Transport { SharedMemory, Udp };
 
+/// Participant ids in use are below this (TANDEM_PARTICIPANT_ID; a secured participant announces itself to the
+/// metatraffic ports of ids 0 to kMaxParticipantId - 1).
+constexpr unsigned kMaxParticipantId = 120;
+
 /// One DDS participant (one per process). Creates topics on demand and deletes everything it created.
 class Participant {
  public:

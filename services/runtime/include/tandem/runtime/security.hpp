@@ -57,7 +57,7 @@ std::string check_keys(const Deployment& d);
 std::string certificate_problem(const std::string& path);
 
 /// Makes the participants this process creates from now on (and the processes it starts) use DDS-Security
-/// with identity `name` and the deployment's keys (TANDEM_SECURITY_DIR, TANDEM_IDENTITY; read by
+/// with identity `name` and the deployment's keys (TANDEM_SECURITY_DIR, TANDEM_IDENTITY, and TANDEM_DDS_PEERS: the hosts to announce to; read by
 /// dds::Participant). Nothing for a deployment without `security:`. Returns "" or an error naming the missing
 /// or unusable file and the command that makes the keys.
 std::string use_security(const Deployment& d, const std::string& name);

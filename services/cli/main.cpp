@@ -11,6 +11,7 @@
 #include "remote_command.hpp"
 #include "report_command.hpp"
 #include "soak_command.hpp"
+#include "tandem/runtime/role.hpp"
 #include "up_command.hpp"
 
 namespace {
@@ -41,9 +42,7 @@ void usage(std::FILE* f) {
       f);
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
+int dispatch(int argc, char** argv) {
   std::vector<std::string> args(argv + 1, argv + argc);
   if (args.empty()) {
     usage(stderr);
@@ -90,3 +89,7 @@ int main(int argc, char** argv) {
   usage(stderr);
   return 2;
 }
+
+}  // namespace
+
+int main(int argc, char** argv) { return tandem::runtime::run_guarded("tandem", dispatch, argc, argv); }

@@ -225,4 +225,4 @@ int run(int argc, char** argv) {
 
 }  // namespace
 
-int main(int argc, char** argv) { return runtime::run_guarded("robot", run, argc, argv); }
+int main(int argc, char** argv) { return runtime::run_guarded("tandem-robot", run, argc, argv); }

@@ -298,4 +298,4 @@ int run(int argc, char** argv) {
 
 }  // namespace
 
-int main(int argc, char** argv) { return runtime::run_guarded("world", run, argc, argv); }
+int main(int argc, char** argv) { return runtime::run_guarded("tandem-world", run, argc, argv); }

@@ -157,3 +157,26 @@ TEST_CASE("certificates are checked with OpenSSL's X509 API: missing, not a cert
   for (const char* f : {"/junk.pem", "/it's.pem", "/k.pem", "/good.pem", "/old.pem", "/r.csr"}) std::remove((dir + f).c_str());
   ::rmdir(dir.c_str());
 }
+
+TEST_CASE("keys made for another domain are refused before any participant is made, naming both domains", "[security]") {
+  // The permissions grant one domain: a deployment whose domain_id changed after `tandem keys` would have every
+  // topic refused at run time, with nothing logged. check_keys and use_security say so instead.
+  Deployment d = load_deployment(std::string(TANDEM_SOURCE_DIR) + "/deploy/secure-one-module.yaml");
+  const std::string dir = "/tmp/tandem-domain-test-" + std::to_string(::getpid());
+  REQUIRE(::mkdir(dir.c_str(), 0700) == 0);
+  d.security_keys = dir;
+  const auto ids = identities(d);
+  std::ofstream(dir + "/permissions.p7s") << permissions_xml(ids, d.domain_id + 1, "2026-01-01T00:00:00",
+                                                             "2036-01-01T00:00:00");
+  const std::string wrong = check_keys(d);
+  CHECK(wrong.find("grants domain " + std::to_string(d.domain_id + 1)) != std::string::npos);
+  CHECK(wrong.find("domain_id is " + std::to_string(d.domain_id)) != std::string::npos);
+  CHECK(wrong.find("tandem keys") != std::string::npos);
+  // The right domain: the check passes on to the next file (the CA here, which this test did not make).
+  std::ofstream(dir + "/permissions.p7s") << permissions_xml(ids, d.domain_id, "2026-01-01T00:00:00",
+                                                             "2036-01-01T00:00:00");
+  CHECK(check_keys(d).find("grants domain") == std::string::npos);
+  CHECK(check_keys(d).find("is missing") != std::string::npos);
+  std::remove((dir + "/permissions.p7s").c_str());
+  ::rmdir(dir.c_str());
+}

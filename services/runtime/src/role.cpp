@@ -175,13 +175,13 @@ int RoleContext::arm_index(const std::string& id) const {
   return -1;
 }
 
-int run_guarded(const char* role, int (*body)(int, char**), int argc, char** argv) {
+int run_guarded(const char* program, int (*body)(int, char**), int argc, char** argv) {
   try {
     return body(argc, argv);
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "tandem-%s: %s\n", role, e.what());
+    std::fprintf(stderr, "%s: %s\n", program, e.what());
   } catch (...) {
-    std::fprintf(stderr, "tandem-%s: unknown exception\n", role);
+    std::fprintf(stderr, "%s: unknown exception\n", program);
   }
   return 1;
 }

@@ -7,6 +7,8 @@
 #include <climits>
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
+#include <iterator>
 #include <sstream>
 
 #include "tandem/dds/qos.hpp"
@@ -158,9 +160,29 @@ std::string certificate_problem(const std::string& path) {
   return "";
 }
 
+namespace {
+// The permissions grant one domain: keys made before domain_id changed would refuse every topic at run time.
+std::string domain_problem(const Deployment& d) {
+  const std::string perms = d.security_keys + "/permissions.p7s";
+  std::ifstream in{perms};
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string tag = "<domains><id>";
+  for (size_t at = text.find(tag); at != std::string::npos; at = text.find(tag, at + 1)) {
+    const size_t begin = at + tag.size();
+    const std::string id = text.substr(begin, text.find('<', begin) - begin);
+    if (id != std::to_string(d.domain_id)) {
+      return "security: " + perms + " grants domain " + id + ", but the deployment's domain_id is " +
+             std::to_string(d.domain_id);
+    }
+  }
+  return "";
+}
+}  // namespace
+
 std::string check_keys(const Deployment& d) {
   if (d.security_keys.empty()) return "";
   const std::string remake = "; make the keys with `tandem keys " + d.source + "`";
+  if (const std::string wrong = domain_problem(d); !wrong.empty()) return wrong + remake;
   for (const auto& id : identities(d)) {
     const std::string missing = missing_key_file(d.security_keys, id.name);
     if (!missing.empty()) return "security: " + missing + " is missing (identity '" + id.name + "')" + remake;
@@ -177,6 +199,9 @@ std::string use_security(const Deployment& d, const std::string& name) {
   if (!missing.empty()) {
     return "security: " + missing + " is missing (identity '" + name + "'); make the keys with `tandem keys " +
            d.source + "`";
+  }
+  if (const std::string wrong = domain_problem(d); !wrong.empty()) {
+    return wrong + "; make the keys with `tandem keys " + d.source + "`";
   }
   // Absolute: Fast DDS takes the files as file: URIs, and children may run elsewhere.
   char* abs = ::realpath(d.security_keys.c_str(), nullptr);

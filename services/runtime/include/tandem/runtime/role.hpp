@@ -68,9 +68,9 @@ void install_stop_handlers();
 /// Returns the number of threads raised (0 without the variable; -1 if the kernel refused).
 int raise_to_realtime_from_env();
 
-/// Runs a role process's body: an exception that escapes it (a Fast DDS or allocation failure at set-up) is
-/// reported as "tandem-<role>: <what>" and the process exits 1, instead of aborting.
-int run_guarded(const char* role, int (*body)(int, char**), int argc, char** argv);
+/// Runs a process's body: an exception that escapes it (a Fast DDS or allocation failure at set-up) is reported
+/// as "<program>: <what>" and the process exits 1, instead of aborting.
+int run_guarded(const char* program, int (*body)(int, char**), int argc, char** argv);
 
 // Ranks and wire checks live with the plan (services/plan); the role processes use them under these names.
 using plan::SupervisorRank;

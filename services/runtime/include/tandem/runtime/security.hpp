@@ -49,17 +49,19 @@ inline const std::string& keys_dir(const Deployment& d) { return d.security_keys
 /// The files a participant with identity `name` needs, in `dir`; the first missing one, or "" if all are there.
 std::string missing_key_file(const std::string& dir, const std::string& name);
 
-/// Every identity's files are in the keys' directory and its certificate is valid now (openssl x509
-/// -checkend). Returns "" or an error naming the file, what is wrong and the command that makes new keys.
+/// Every identity's files are in the keys' directory, its certificate is valid now (OpenSSL's X509 API), and the
+/// permissions grant the deployment's domain. Returns "" or an error naming the file, what is wrong and the
+/// command that makes new keys.
 std::string check_keys(const Deployment& d);
 /// Why the PEM certificate at `path` cannot be used now ("" if it can): "cannot be read", "is not a PEM
 /// certificate", "has expired", "is not valid yet".
 std::string certificate_problem(const std::string& path);
 
 /// Makes the participants this process creates from now on (and the processes it starts) use DDS-Security
-/// with identity `name` and the deployment's keys (TANDEM_SECURITY_DIR, TANDEM_IDENTITY, and TANDEM_DDS_PEERS: the hosts to announce to; read by
-/// dds::Participant). Nothing for a deployment without `security:`. Returns "" or an error naming the missing
-/// or unusable file and the command that makes the keys.
+/// with identity `name` and the deployment's keys (TANDEM_SECURITY_DIR, TANDEM_IDENTITY, and TANDEM_DDS_PEERS:
+/// the hosts to announce to; read by dds::Participant). Nothing for a deployment without `security:`. Returns ""
+/// or an error naming the missing or unusable file (or keys made for another domain) and the command that makes
+/// the keys.
 std::string use_security(const Deployment& d, const std::string& name);
 
 }  // namespace tandem::runtime

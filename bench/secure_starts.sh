@@ -7,7 +7,8 @@
 # median and max. Exit 1 if any start failed.
 #
 # Usage: bash bench/secure_starts.sh [R] [M]      default: R=50, M=1
-#   env: SECONDS_RUN (scenario duration, default 1), DOMAIN_BASE (default 150), TRANSPORT (shm | udp, default shm)
+#   env: SECONDS_RUN (scenario duration, default 1), DOMAIN_BASE (default 150), TRANSPORT (shm | udp, default shm),
+#        TIMING (lockstep | realtime, default lockstep)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bin=build/bin
@@ -18,18 +19,20 @@ mods="${2:-1}"
 [[ "$mods" =~ ^[0-9]+$ ]] && [ "$mods" -ge 1 ] && [ "$mods" -le 8 ] || { echo "secure_starts.sh: M must be an integer in [1, 8], got '$mods'" >&2; exit 2; }
 transport="${TRANSPORT:-shm}"
 [ "$transport" = shm ] || [ "$transport" = udp ] || { echo "secure_starts.sh: TRANSPORT must be shm or udp, got '$transport'" >&2; exit 2; }
+timing="${TIMING:-lockstep}"
+[ "$timing" = lockstep ] || [ "$timing" = realtime ] || { echo "secure_starts.sh: TIMING must be lockstep or realtime, got '$timing'" >&2; exit 2; }
 dur="${SECONDS_RUN:-1}"
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 echo "machine: $(nproc) cores, $(lscpu | sed -n 's/^Model name: *//p'), kernel $(uname -r)"
-echo "command: bash bench/secure_starts.sh $reps $mods  (duration ${dur} s, transport $transport, commit $(git rev-parse --short HEAD 2>/dev/null || echo '?'))"
+echo "command: bash bench/secure_starts.sh $reps $mods  (duration ${dur} s, transport $transport, timing $timing, commit $(git rev-parse --short HEAD 2>/dev/null || echo '?'))"
 sed "s/^  duration: .*/  duration: $dur/" config/scenarios/paper.yaml > "$work/scenario.yaml"
 dep="$work/secure.yaml"
 {
   echo "name: secure-starts"
   echo "domain_id: ${DOMAIN_BASE:-150}"
   echo "transport: $transport"
-  echo "timing: lockstep"
+  echo "timing: $timing"
   echo "timeout: 10"
   printf "security:\n  keys: keys\n"
   echo "modules:"

@@ -1878,9 +1878,11 @@ int up_command(const std::vector<std::string>& args) {
     if (out) out << name << ".end=" << (mr.end.empty() ? "ran" : mr.end.substr(0, mr.end.find(':'))) << "\n";
     for (const auto& [id, r] : robots) {
       if (id.rfind(name + "/", 0) != 0) continue;
-      std::printf("%-16s %8llu %12.4e %12.4e %12.4e %10.4f %10.2f %9llu\n", id.c_str(),
+      char min_force[32] = "-";  // a robot that computed no tick has no force to report
+      if (r.ticks() > 0) std::snprintf(min_force, sizeof min_force, "%.2f", r.min_normal_force());
+      std::printf("%-16s %8llu %12.4e %12.4e %12.4e %10.4f %10s %9llu\n", id.c_str(),
                   static_cast<unsigned long long>(r.ticks()), r.ep_sel_rms(), r.ep_pos_rms(), r.ep_ori_rms(),
-                  r.eh_rms(), r.min_normal_force(), static_cast<unsigned long long>(r.rejected()));
+                  r.eh_rms(), min_force, static_cast<unsigned long long>(r.rejected()));
       if (counted && r.ticks() > 0 && r.min_normal_force() < mr.h_sg) grasp_ok = false;
       if (out) {
         out << id << ".ep_pos_rms=" << r.ep_pos_rms() << "\n" << id << ".ep_ori_rms=" << r.ep_ori_rms() << "\n"

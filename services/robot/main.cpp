@@ -51,11 +51,9 @@ int run(int argc, char** argv) {
   bus::Participant part(opt.domain, "robot/" + my_arm, opt.transport);
   bus::Reader<msg::SupervisorPlan, msg::SupervisorPlanPubSubType> plans(
       part, bus::module_topic(bus::kSupervisorPlanTopic, opt.module), bus::TopicKind::Task);
-  // The torque writer: the world hears every robot of the arm and follows the strongest that answers.
+  // The torque writer: the world hears every robot of the arm and follows the strongest that answers. It is made
+  // only once this robot can serve (below): the world starts ticking when every arm's torque writer has matched.
   std::optional<bus::Writer<msg::TorqueCommand, msg::TorqueCommandPubSubType>> torque_writer;
-  torque_writer.emplace(part, bus::arm_topic(bus::kTorquesTopic, my_arm),
-                        opt.realtime ? bus::TopicKind::TorquesRealtime : bus::TopicKind::Torques, opt.strength);
-  auto& torques = *torque_writer;
   bus::Writer<msg::RobotSummary, msg::RobotSummaryPubSubType> summary(part, bus::kRobotSummaryTopic,
                                                                        bus::TopicKind::Summary);
   runtime::StatusPublisher status(part, robot_id, "robot", opt.module);
@@ -110,7 +108,7 @@ int run(int argc, char** argv) {
     }
     cmd.e_h(out.e_h);
     cmd.normal_force(out.normal_force);
-    torques.write(cmd);
+    torque_writer->write(cmd);
     interval_worst_us = std::max(interval_worst_us, std::chrono::duration<double, std::micro>(Clock::now() - last_input).count());
   };
   struct Listener : fdds::DataReaderListener {
@@ -118,25 +116,16 @@ int run(int argc, char** argv) {
     void on_data_available(fdds::DataReader* r) override { fn(r); }
   } listener;
   bool stopping = false;  // under mu: set once the robot leaves; the receiving thread computes nothing more
+  bool ready = false;     // under mu: the torque writer exists; until then samples are not answered
   listener.fn = [&](fdds::DataReader* r) {
     std::lock_guard<std::mutex> lock(mu);
-    if (stopping) return;
+    if (stopping || !ready) return;
     take_plans();
     fdds::SampleInfo info;
     while (r->take_next_sample(&s, &info) == ReturnCode_t::RETCODE_OK) {
       if (info.valid_data) on_sample(s);
     }
   };
-  // Lockstep with a recorder (--observers, set by the launcher): the first command waits until the recorder's
-  // reader of this arm's torques has matched too (the world is the other reader), so that the recording has
-  // this robot's every command. A recorder that is slow to match holds the robot for half the timeout at most.
-  if (!opt.realtime && opt.observers > 0) {
-    const auto w0 = Clock::now();
-    while (!runtime::g_stop && torques.matched() < 2 &&
-           std::chrono::duration<double>(Clock::now() - w0).count() < 0.5 * opt.timeout) {
-      std::this_thread::sleep_for(std::chrono::milliseconds(5));
-    }
-  }
   // The robot takes part (its sensor reader, which the world waits for) only once the launcher hears it (the
   // reader of its summary): a robot the launcher cannot hear (a pair that never authenticated, docs/security.md
   // "Start-up") would serve an arm whose summary and status are lost. Past the timeout: exit 3, and the launcher
@@ -153,6 +142,45 @@ int run(int argc, char** argv) {
   bus::Reader<msg::ArmSensors, msg::ArmSensorsPubSubType> sensors(
       part, bus::arm_topic(bus::kSensorsTopic, my_arm), opt.realtime ? bus::TopicKind::SensorsRealtime : bus::TopicKind::Sensors,
       &listener);
+  // Ready to serve only when this side of each inbound pair works too: the sensor reader has matched the world's
+  // writer and a plan has been heard. A secured pair can match on one side only (seen: the world's sensor writer
+  // matched a robot that never got a sample nor a plan, and the world ticked with that arm braked); the world
+  // waits for this robot's torque writer, so it starts only once the robot can serve. Past the timeout: exit 3,
+  // and the launcher restarts the module if it had not ticked yet (docs/security.md, "Start-up").
+  for (const auto r0 = Clock::now();;) {
+    if (runtime::g_stop) return 0;
+    {
+      std::lock_guard<std::mutex> lock(mu);
+      take_plans();
+      if (sensors.matched() >= 1 && core.has_plan()) break;
+    }
+    if (std::chrono::duration<double>(Clock::now() - r0).count() > opt.timeout) {
+      std::fprintf(stderr, "tandem-robot %s: not ready within %.1f s (world's sensor writer %s, plan %s)\n",
+                   robot_id.c_str(), opt.timeout, sensors.matched() >= 1 ? "matched" : "not matched",
+                   core.has_plan() ? "heard" : "not heard");
+      status.set(runtime::Lifecycle::Error, "peers not found");
+      return 3;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  torque_writer.emplace(part, bus::arm_topic(bus::kTorquesTopic, my_arm),
+                        opt.realtime ? bus::TopicKind::TorquesRealtime : bus::TopicKind::Torques, opt.strength);
+  auto& torques = *torque_writer;
+  // Lockstep with a recorder (--observers, set by the launcher): the first command waits until the recorder's
+  // reader of this arm's torques has matched too (the world is the other reader), so that the recording has
+  // this robot's every command. A recorder that is slow to match holds the robot for half the timeout at most.
+  if (!opt.realtime && opt.observers > 0) {
+    const auto w0 = Clock::now();
+    while (!runtime::g_stop && torques.matched() < 2 &&
+           std::chrono::duration<double>(Clock::now() - w0).count() < 0.5 * opt.timeout) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+  }
+  {
+    std::lock_guard<std::mutex> lock(mu);
+    ready = true;
+  }
+  listener.fn(sensors.get());  // a sample that came meanwhile (lockstep: tick 0 while the recorder was awaited)
 
   long reported_tick = -1;
   while (!runtime::g_stop) {

@@ -25,10 +25,10 @@ up_secured() {  # file summary log
   local rc=0
   "$bin/tandem" up "$1" --summary "$2" > "$3" 2>&1 || rc=$?
   echo "$1: start-up repairs $(sed -n 's/^start_repairs=//p' "$2" 2>/dev/null)"
+  # No retry: the world and the robots take part only once the launcher's summary reader has matched them, so a
+  # passing run has every robot's summary (a pair that never matched is repaired before the first tick).
   if [ "$rc" -eq 0 ] && [ "$(grep -c '\.ep_pos_rms=' "$2")" -lt 2 ]; then
-    # It passed, but the launcher never heard a robot's summary (the same finding, between the launcher and it).
-    echo "RETRY: $1 passed without every robot's summary reaching the launcher (the open finding)"
-    rc=0; "$bin/tandem" up "$1" --summary "$2" > "$3" 2>&1 || rc=$?
+    echo "$1 passed without every robot's summary reaching the launcher"; rc=1
   fi
   return "$rc"
 }

@@ -30,6 +30,7 @@ class RobotCore {
                                        const model::Vec3* applied = nullptr);
 
   long done() const { return done_; }                  ///< the last tick computed (-1: none)
+  bool has_plan() const { return follower_.has_plan(); }  ///< a plan has been adopted (the law can run)
   const model::Vec3& last_tau() const { return tau_; }
   /// The law's output at the last tick computed (errors e_p, e_h, normal force; for recorders).
   const model::ControlOutput& last_output() const { return out_; }

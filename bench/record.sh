@@ -63,7 +63,7 @@ for n in "${ns[@]}"; do
         sleep 1
         pids=$( (pgrep -P "$up" -f "tandem-(world|robot|supervisor)" || true) | tr '\n' ' ')
         rpid=$(pgrep -P "$up" -f "tandem record" || true)
-        snap() { for p in $pids $rpid; do [ -r /proc/$p/stat ] && echo "$p $(awk '{print $14 + $15}' /proc/$p/stat)"; done; }
+        snap() { for p in $pids $rpid; do [ -r /proc/$p/stat ] && echo "$p $(awk '{print $14 + $15}' /proc/$p/stat 2>/dev/null)"; done; return 0; }
         snap > "$work/t0"; w0=$(date +%s.%N)
         sleep 3
         snap > "$work/t1"; w1=$(date +%s.%N)

@@ -75,7 +75,7 @@ for n in "${ns[@]}"; do
     sleep 1
     # The role processes (the discovery server is not one of them), counted only if alive at both samples.
     pids=$( (pgrep -P "$up" -f "tandem-(world|robot|supervisor)" || true) | tr '\n' ' ')
-    snap() { for p in $pids; do [ -r /proc/$p/stat ] && echo "$p $(awk '{print $14 + $15}' /proc/$p/stat)"; done; }
+    snap() { for p in $pids; do [ -r /proc/$p/stat ] && echo "$p $(awk '{print $14 + $15}' /proc/$p/stat 2>/dev/null)"; done; return 0; }
     snap > "$work/t0"; w0=$(date +%s.%N)
     sleep 3
     snap > "$work/t1"; w1=$(date +%s.%N)

@@ -63,7 +63,8 @@ for n in "${ns[@]}"; do
       if [ -n "$first" ]; then
         sleep 1
         pids=$( (pgrep -P "$up" -f "tandem-(world|robot|supervisor)" || true) | tr '\n' ' ')
-        snap() { for p in $pids; do [ -r /proc/$p/stat ] && echo "$p $(awk '{print $14 + $15}' /proc/$p/stat)"; done; }
+        # A process gone meanwhile is left out (and must not end the bench under set -e).
+        snap() { for p in $pids; do [ -r /proc/$p/stat ] && echo "$p $(awk '{print $14 + $15}' /proc/$p/stat 2>/dev/null)"; done; return 0; }
         snap > "$work/t0"; w0=$(date +%s.%N)
         sleep 3
         snap > "$work/t1"; w1=$(date +%s.%N)

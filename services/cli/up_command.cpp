@@ -2001,9 +2001,10 @@ int up_command(const std::vector<std::string>& args) {
   if (killed || discovery_server > 0) {
     server_stop.stop();
     std::this_thread::sleep_for(std::chrono::milliseconds(2100));  // the last files are 2 s old (clean_stale_shm)
-    int removed = runtime::clean_stale_shm(launcher_started, static_cast<int>(d.domain_id));
+    // Every child is gone: what the launcher itself still holds (the ports it sent to) is left behind too.
+    int removed = runtime::clean_stale_shm(launcher_started, static_cast<int>(d.domain_id), true);
     // The Discovery Server is a participant of domain 0 (its shared-memory port stays when it stops).
-    if (discovery_server > 0) removed += runtime::clean_stale_shm(launcher_started, 0);
+    if (discovery_server > 0) removed += runtime::clean_stale_shm(launcher_started, 0, true);
     if (removed > 0) std::printf("removed %d shared-memory file(s) left by killed processes\n", removed);
   }
   if (d.coordinator && !L.coordinator_done_) failed = true;

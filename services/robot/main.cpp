@@ -9,6 +9,7 @@
 #include <array>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <functional>
 #include <mutex>
 #include <optional>
@@ -51,8 +52,9 @@ int run(int argc, char** argv) {
   bus::Participant part(opt.domain, "robot/" + my_arm, opt.transport);
   bus::Reader<msg::SupervisorPlan, msg::SupervisorPlanPubSubType> plans(
       part, bus::module_topic(bus::kSupervisorPlanTopic, opt.module), bus::TopicKind::Task);
-  // The torque writer: the world hears every robot of the arm and follows the strongest that answers. It is made
-  // only once this robot can serve (below): the world starts ticking when every arm's torque writer has matched.
+  // The torque writer: the world hears every robot of the arm and follows the strongest that answers. The world
+  // starts ticking when every arm has a torque writer matched, so with security it is made only once this robot
+  // can serve (below).
   std::optional<bus::Writer<msg::TorqueCommand, msg::TorqueCommandPubSubType>> torque_writer;
   bus::Writer<msg::RobotSummary, msg::RobotSummaryPubSubType> summary(part, bus::kRobotSummaryTopic,
                                                                        bus::TopicKind::Summary);
@@ -116,20 +118,46 @@ int run(int argc, char** argv) {
     void on_data_available(fdds::DataReader* r) override { fn(r); }
   } listener;
   bool stopping = false;  // under mu: set once the robot leaves; the receiving thread computes nothing more
-  bool ready = false;     // under mu: the torque writer exists; until then samples are not answered
+  bool ready = false;     // under mu: the torque writer exists; until then samples are dropped
   listener.fn = [&](fdds::DataReader* r) {
     std::lock_guard<std::mutex> lock(mu);
-    if (stopping || !ready) return;
-    take_plans();
+    if (!stopping && ready) take_plans();
     fdds::SampleInfo info;
     while (r->take_next_sample(&s, &info) == ReturnCode_t::RETCODE_OK) {
-      if (info.valid_data) on_sample(s);
+      // Always taken: a sample left unread here stops Fast DDS 2.9 from calling this listener again (seen: robots
+      // that never computed a tick). Before the robot is ready, or once it leaves, it is dropped (lockstep sends a
+      // tick's samples again every 50 ms; real time sends the next tick's).
+      if (info.valid_data && !stopping && ready) on_sample(s);
     }
   };
+  // Makes the torque writer; lockstep with a recorder (--observers, set by the launcher): the first command waits
+  // until the recorder's reader of this arm's torques has matched too (the world is the other reader), so that the
+  // recording has this robot's every command. A recorder that is slow to match holds the robot for half the
+  // timeout at most. Then samples are answered.
+  auto take_part = [&] {
+    torque_writer.emplace(part, bus::arm_topic(bus::kTorquesTopic, my_arm),
+                          opt.realtime ? bus::TopicKind::TorquesRealtime : bus::TopicKind::Torques, opt.strength);
+    if (!opt.realtime && opt.observers > 0) {
+      const auto w0 = Clock::now();
+      while (!runtime::g_stop && torque_writer->matched() < 2 &&
+             std::chrono::duration<double>(Clock::now() - w0).count() < 0.5 * opt.timeout) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(5));
+      }
+    }
+    std::lock_guard<std::mutex> lock(mu);
+    ready = true;
+  };
+  // Secured: ready only once this robot's own side of its inbound pairs works (below). Plain: at once, as a
+  // plain pair that matched on the world's side matches on this side too (a robot that joins a running module
+  // must not wait for anything it does not need).
+  const char* secured = std::getenv("TANDEM_SECURITY_DIR");
+  const bool check_ready = secured != nullptr && *secured != '\0';
+  if (!check_ready) take_part();
   // The robot takes part (its sensor reader, which the world waits for) only once the launcher hears it (the
   // reader of its summary): a robot the launcher cannot hear (a pair that never authenticated, docs/security.md
   // "Start-up") would serve an arm whose summary and status are lost. Past the timeout: exit 3, and the launcher
   // restarts the module if it had not ticked yet.
+  status.set(runtime::Lifecycle::Inactive, "waiting for the launcher");
   for (const auto l0 = Clock::now(); !runtime::g_stop && summary.matched() < 1;) {
     if (std::chrono::duration<double>(Clock::now() - l0).count() > opt.timeout) {
       std::fprintf(stderr, "tandem-robot %s: the launcher was not found within %.1f s (summary readers 0/1)\n",
@@ -142,17 +170,20 @@ int run(int argc, char** argv) {
   bus::Reader<msg::ArmSensors, msg::ArmSensorsPubSubType> sensors(
       part, bus::arm_topic(bus::kSensorsTopic, my_arm), opt.realtime ? bus::TopicKind::SensorsRealtime : bus::TopicKind::Sensors,
       &listener);
-  // Ready to serve only when this side of each inbound pair works too: the sensor reader has matched the world's
-  // writer and a plan has been heard. A secured pair can match on one side only (seen: the world's sensor writer
-  // matched a robot that never got a sample nor a plan, and the world ticked with that arm braked); the world
-  // waits for this robot's torque writer, so it starts only once the robot can serve. Past the timeout: exit 3,
-  // and the launcher restarts the module if it had not ticked yet (docs/security.md, "Start-up").
-  for (const auto r0 = Clock::now();;) {
+  // Secured: ready to serve only when this side of each inbound pair works too: the sensor reader has matched the
+  // world's writer and a plan has been heard. A secured pair can match on one side only (seen: the world's sensor
+  // writer matched a robot that never got a sample nor a plan, and the world ticked with that arm braked); the
+  // world waits for this robot's torque writer, so it starts only once the robot can serve. Past the timeout:
+  // exit 3, and the launcher restarts the module if it had not ticked yet (docs/security.md, "Start-up").
+  if (check_ready) status.set(runtime::Lifecycle::Inactive, "waiting for the world's samples and a plan");
+  for (const auto r0 = Clock::now(); check_ready;) {
     if (runtime::g_stop) return 0;
     {
       std::lock_guard<std::mutex> lock(mu);
       take_plans();
       if (sensors.matched() >= 1 && core.has_plan()) break;
+      const char* waiting = sensors.matched() < 1 ? (core.has_plan() ? "waiting for the world's samples" : "waiting for the world's samples and a plan") : "waiting for a plan";
+      if (status.msg().detail() != waiting) status.set(runtime::Lifecycle::Inactive, waiting);
     }
     if (std::chrono::duration<double>(Clock::now() - r0).count() > opt.timeout) {
       std::fprintf(stderr, "tandem-robot %s: not ready within %.1f s (world's sensor writer %s, plan %s)\n",
@@ -163,24 +194,8 @@ int run(int argc, char** argv) {
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
-  torque_writer.emplace(part, bus::arm_topic(bus::kTorquesTopic, my_arm),
-                        opt.realtime ? bus::TopicKind::TorquesRealtime : bus::TopicKind::Torques, opt.strength);
-  auto& torques = *torque_writer;
-  // Lockstep with a recorder (--observers, set by the launcher): the first command waits until the recorder's
-  // reader of this arm's torques has matched too (the world is the other reader), so that the recording has
-  // this robot's every command. A recorder that is slow to match holds the robot for half the timeout at most.
-  if (!opt.realtime && opt.observers > 0) {
-    const auto w0 = Clock::now();
-    while (!runtime::g_stop && torques.matched() < 2 &&
-           std::chrono::duration<double>(Clock::now() - w0).count() < 0.5 * opt.timeout) {
-      std::this_thread::sleep_for(std::chrono::milliseconds(5));
-    }
-  }
-  {
-    std::lock_guard<std::mutex> lock(mu);
-    ready = true;
-  }
-  listener.fn(sensors.get());  // a sample that came meanwhile (lockstep: tick 0 while the recorder was awaited)
+  if (check_ready) take_part();
+  status.set(runtime::Lifecycle::Inactive, "waiting for the first tick");
 
   long reported_tick = -1;
   while (!runtime::g_stop) {
@@ -215,9 +230,9 @@ int run(int argc, char** argv) {
   std::unique_lock<std::mutex> lock(mu);
   stopping = true;             // nothing more is computed or written by the receiving thread
   cmd.leaving(true);           // the last word: the world follows the next robot of the arm at once
-  torques.write(cmd);
+  torque_writer->write(cmd);
   lock.unlock();
-  torques.wait_for_acks(0.1);  // lockstep: the last command reaches the world
+  torque_writer->wait_for_acks(0.1);  // lockstep: the last command reaches the world
   std::this_thread::sleep_for(std::chrono::milliseconds(5));  // real time (best effort): give it a tick or two
   torque_writer.reset();       // give the arm up: the world follows the next strongest robot at once, then report
   lock.lock();

@@ -46,13 +46,16 @@ void used_by(const std::string& base, std::set<std::string>& used) {
   }
 }
 
-/// Every /dev/shm name some live process has mapped or open.
-std::set<std::string> in_use() {
+/// Every /dev/shm name some live process has mapped or open (but this one, with skip_self).
+std::set<std::string> in_use(bool skip_self) {
   std::set<std::string> used;
   DIR* proc = ::opendir("/proc");
   if (proc == nullptr) return used;
+  const std::string self = std::to_string(::getpid());
   while (dirent* e = ::readdir(proc)) {
-    if (std::isdigit(static_cast<unsigned char>(e->d_name[0]))) used_by(std::string("/proc/") + e->d_name, used);
+    if (!std::isdigit(static_cast<unsigned char>(e->d_name[0]))) continue;
+    if (skip_self && self == e->d_name) continue;
+    used_by(std::string("/proc/") + e->d_name, used);
   }
   ::closedir(proc);
   return used;
@@ -94,10 +97,10 @@ int port_of(const std::string& name) {
 }
 }  // namespace
 
-int clean_stale_shm(std::time_t since, int domain) {
+int clean_stale_shm(std::time_t since, int domain, bool ignore_self) {
   const std::set<std::string> files = fastdds_shm_files();
   if (files.empty()) return 0;
-  const std::set<std::string> used = in_use();
+  const std::set<std::string> used = in_use(ignore_self);
   const std::time_t now = std::time(nullptr);
   int removed = 0;
   for (const auto& name : files) {

@@ -21,7 +21,9 @@ std::set<std::string> shm_used_by_self();
 /// and semaphore) are reused by a new participant that gets the same participant id, so they are removed only
 /// with domain >= 0 and only in that domain's port range: call it so only when none of the domain's processes
 /// can start any more (the end of a run). Segments and data-sharing pools are unique to a participant and a
-/// writer, and are removed with any domain. Returns how many were removed.
-int clean_stale_shm(std::time_t since, int domain = -1);
+/// writer, and are removed with any domain. With ignore_self, what this process has open does not count: at the
+/// end of a run the launcher (or the soak) still holds the port files of the peers it sent to, which are dead by
+/// then and would otherwise stay. Returns how many were removed.
+int clean_stale_shm(std::time_t since, int domain = -1, bool ignore_self = false);
 
 }  // namespace tandem::runtime

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "tandem/soak/checker.hpp"
+#include "tandem/soak/report.hpp"
 #include "tandem/soak/schedule.hpp"
 #include "tandem/page/svg.hpp"
 
@@ -149,6 +150,20 @@ TEST_CASE("soak checker: a quiet run holds every invariant") {
   const Verdict v = check(quiet_history(60.0), Bounds{});
   CHECK(v.ok());
   for (const auto& r : v.invariants) CHECK(r.ok);
+}
+
+TEST_CASE("soak report: modules parked at start-up and during the run are listed, and 'None' only without any") {
+  History h = quiet_history(60.0);
+  const Bounds b{};
+  RunInfo info;
+  const std::string quiet = summary_text(info, h, b, check(h, b));
+  CHECK(quiet.find("None: the load always fitted") != std::string::npos);
+  h.events.push_back({0.4, Event::Type::Parked, "m3", "admission at start-up: 2 of 4 fit"});
+  h.events.push_back({35.0, Event::Type::Unparked, "m3", "calm: no module paused for load for 30 s"});
+  const std::string shed = summary_text(info, h, b, check(h, b));
+  CHECK(shed.find("- 0.4 s: m3 parked (admission at start-up: 2 of 4 fit)") != std::string::npos);
+  CHECK(shed.find("- 35.0 s: m3 back (calm") != std::string::npos);
+  CHECK(shed.find("None: the load always fitted") == std::string::npos);
 }
 
 TEST_CASE("soak checker: a slip is a violation at its time, after the fault before it") {

@@ -321,11 +321,12 @@ std::string summary_text(const RunInfo& info, const History& h, const Bounds& b,
   int parks = 0;
   for (const Event& e : h.events) {
     if (e.type != Event::Type::Parked && e.type != Event::Type::Unparked) continue;
-    parks += e.type == Event::Type::Parked ? 1 : 0;
+    ++parks;
     o << "- " << f2(e.t, "%.1f") << " s: " << e.subject << (e.type == Event::Type::Parked ? " parked (" : " back (") << e.text
       << ")\n";
   }
   if (parks == 0) o << "None: the load always fitted, or passed within the governor's window (docs/failure-model.md).\n";
+  // (A module parked at start-up shows as parked at the time the soak first read the launcher's log.)
   o << "\n## Memory (anonymous resident memory slope over the later half of each process's life, at most its last half "
        "hour, processes that lived " << b.rss_min_life_s
     << " s or more)\n\n";

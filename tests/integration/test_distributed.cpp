@@ -291,8 +291,11 @@ TEST_CASE("tandem status and tandem down work from another process over DDS", "[
   const std::string up_log = work_dir() + "/remote.log";
   // Start the deployment in the background; ask for its status, then stop it with `tandem down`.
   // Also: the scheduling class of the running world (FF = SCHED_FIFO, TS = normal).
-  const std::string cmd = kBin + "/tandem up " + deploy + " > " + up_log + " 2>&1 & up=$!; sleep 1; " + kBin +
-                          "/tandem status " + deploy + "; cls=$(ps -o cls= -p $(pgrep -f \"tandem-worl[d] .*--domain " +
+  // The status is asked until the world is active (it turns SCHED_FIFO then), for up to 15 s: a fixed second was
+  // not always enough on a loaded CI machine.
+  const std::string cmd = kBin + "/tandem up " + deploy + " > " + up_log + " 2>&1 & up=$!; sleep 1; for i in $(seq 30); do s=$(" +
+                          kBin + "/tandem status " + deploy + "); echo \"$s\" | grep -q \"m1/world *active\" && break; sleep 0.5; done; " +
+                          "echo \"$s\"; cls=$(ps -o cls= -p $(pgrep -f \"tandem-worl[d] .*--domain " +
                           std::to_string(domain) + " \")); echo world_cls=${cls// /}; " + kBin + "/tandem down " + deploy + "; wait $up; echo up_rc=$?";
   const Run r = run("bash -c '" + cmd + "'");
   std::ifstream log(up_log);

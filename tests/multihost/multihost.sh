@@ -170,7 +170,10 @@ for h in a b c; do agent "$h" cut.yaml "agent2-$h.log" --once; done
 ip netns exec "$p-a" timeout 120 "$bin/tandem" up cut.yaml --summary cut.summary > cut.log 2>&1 &
 up=$!; pids+=($up)
 wait_for "first tick at wall" agent2-a.log 30 || { cat cut.log agent2-*.log; fail "m1 did not start"; }
-sleep 1.5
+# m2 (wholly on b) must have a task when b is cut: that task is the one to be re-planned. (CI once cut b before
+# m2 had joined the coordinator; m1 then did every task and nothing was re-planned.)
+wait_for "coordinator: task t[0-9] -> m2 " agent2-a.log 30 || { cat cut.log agent2-*.log; fail "m2 got no task"; }
+sleep 0.5
 ip link set "${p}b1" down
 echo "cut host b's link at $(date +%T.%N)"
 rc=0; await "$up" 130 "the launcher" || rc=$?

@@ -142,6 +142,7 @@ int main(int argc, char** argv) {
       r.released_at = static_cast<long>(rep.released_at());
       r.normal_min = rep.normal_min();
       r.object_xy = model::Vec2(rep.object()[0], rep.object()[1]);
+      r.object_known = true;
       r.failed = rep.failed();
       core.on_report(r, now);
       last_report = std::chrono::steady_clock::now();

@@ -11,6 +11,7 @@
 
 #include <cmath>
 #include <memory>
+#include <optional>
 #include <random>
 #include <string>
 
@@ -390,4 +391,64 @@ TEST_CASE("a standby back from its own stall does not take over before the leade
   CHECK_FALSE(standby.active());
   CHECK(log.find("stood still for") != std::string::npos);
   CHECK(standby.plan().task_id() == 2);  // its replica has the leader's task of the meantime
+}
+
+TEST_CASE("a standby whose replica missed the leader's newest plan does not take over from the silent leader", "[stops]") {
+  // Found by a soak on a busy machine: a standby took over with a plan version behind the leader's, the references
+  // jumped 10-122 mm, and the object was dropped. Here the standby stands still from tick 2000 to 2500 while the
+  // leader starts task t2 and dies at 2300; the world's object follows the leader's plan (the robots hold it). On
+  // its return the plans of the meantime are delivered (a healthy replica) or were lost (a stale one).
+  const ts::ModuleSetup& m = sosm_module();
+  for (const bool lost : {false, true}) {
+    SupervisorCore leader(m, SupervisorOptions{"m1/supervisor", 100, true, 0.1}, 0);
+    SupervisorCore standby(m, SupervisorOptions{"m1/supervisor@50", 50, true, 0.1}, 0);
+    std::string log;
+    standby.set_log([&](const std::string& l) { log += l + "\n"; });
+    const long dies = 2300;
+    std::vector<tp::PlanData> backlog;
+    bool took_over = false;
+    for (long k = 0; k < 10000; k += 10) {
+      const int64_t now = k * kMs;
+      tandem::supervisor::ReportIn r;
+      r.tick = k;
+      r.normal_min = 29.0;
+      r.object_xy = leader.plan().sample(k).pose.head<2>();  // the object where the leader's plan has it
+      r.object_known = true;
+      std::optional<tp::PlanData> p;
+      if (k <= dies) {
+        leader.on_report(r, now);
+        if (k == 500) leader.on_assignment(1, "t1", {0.0, 0.8, 0.0, 1.0});
+        if (k == 2000) leader.on_assignment(2, "t2", {-0.1, 0.8, 0.0, 1.0});
+        leader.update(now);
+        p = leader.take_plan();
+      }
+      if (k >= 2000 && k < 2500) {  // the standby stands still
+        if (p) backlog.push_back(*p);
+        continue;
+      }
+      standby.on_report(r, now);
+      standby.update(now);
+      if (!lost) {
+        for (const auto& q : backlog) standby.on_plan(q, now);
+      }
+      backlog.clear();
+      if (p) standby.on_plan(*p, now);
+      if (standby.active()) {
+        took_over = true;
+        // Its references continue the object: no jump at the takeover.
+        CHECK((standby.plan().sample(k).pose.head<2>() - r.object_xy).norm() < SupervisorCore::kReplicaMatch);
+        break;
+      }
+    }
+    INFO(log);
+    if (!lost) {
+      CHECK(took_over);
+      CHECK_FALSE(standby.no_plan());
+    } else {
+      CHECK_FALSE(took_over);
+      CHECK(log.find("this replica is") != std::string::npos);
+      CHECK(log.find("not taking over") != std::string::npos);
+      CHECK(standby.no_plan());  // after kTakeOverAloneNs: the launcher restarts the module
+    }
+  }
 }

@@ -25,6 +25,7 @@ supervisor::ReportIn supervisor_input(const world::ReportOut& r) {
   in.released_at = r.released_at;
   in.normal_min = r.normal_min;
   in.object_xy = r.object.head<2>();
+  in.object_known = true;
   in.failed = r.failed;
   return in;
 }

@@ -136,6 +136,7 @@ void SupervisorCore::on_report(const ReportIn& r, int64_t now_ns) {
   braked_since_ = r.braked_since;
   released_at_ = r.released_at;
   object_xy_ = r.object_xy;
+  object_known_ = r.object_known;
   if (r.failed && !failed_) {
     failed_ = true;  // latched: the module takes no task, and its task is not done, until it is cleared
     log("the world reports the object dropped: the module is failed; its task is not done");
@@ -180,8 +181,27 @@ void SupervisorCore::update(int64_t now_ns) {
     alone_refused_ = true;
     log("never heard a leader, and the object is not where the initial plan has it: not taking over");
   }
-  const bool quiet = heard_stronger_ ? (now_ns - last_stronger_ > kTakeOverAfterNs && heard_tick_ - stronger_tick_ > kTakeOverTicks)
-                                     : (now_ns - t_start_ > kTakeOverAloneNs && alone_ok);
+  const bool leader_silent =
+      heard_stronger_ && now_ns - last_stronger_ > kTakeOverAfterNs && heard_tick_ - stronger_tick_ > kTakeOverTicks;
+  // A silent leader is replaced only by a replica that has its plan: the object is where the replica's plan has it.
+  const double replica_off =
+      object_known_ && heard_tick_ >= 0 ? (plan_.sample(heard_tick_).pose.head<2>() - object_xy_).norm() : 0.0;
+  const bool replica_ok = replica_off < kReplicaMatch;
+  if (!active_ && flowing && leader_silent && !replica_ok) {
+    if (stale_since_ < 0) {
+      stale_since_ = now_ns;
+      char line[200];
+      std::snprintf(line, sizeof line, "the leader is silent, but this replica is %.1f mm off the object at tick %ld "
+                    "(it missed the leader's newest plan): not taking over", replica_off * 1e3, heard_tick_);
+      log(line);
+    } else if (now_ns - stale_since_ > kTakeOverAloneNs && !alone_refused_) {
+      alone_refused_ = true;
+      log("no leader and no replica that has the module's plan: the module has lost its plan");
+    }
+  } else if (!leader_silent || replica_ok) {
+    stale_since_ = -1;
+  }
+  const bool quiet = heard_stronger_ ? (leader_silent && replica_ok) : (now_ns - t_start_ > kTakeOverAloneNs && alone_ok);
   if (!active_ && flowing && quiet) {
     active_ = true;
     rank_.epoch = max_epoch_ + 1;

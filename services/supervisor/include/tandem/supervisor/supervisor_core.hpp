@@ -33,6 +33,7 @@ struct ReportIn {
   long braked_since = -1, released_at = -1;
   double normal_min = 0.0;
   model::Vec2 object_xy = model::Vec2::Zero();
+  bool object_known = false;  ///< object_xy is the world's measurement (always on the wire; tests may leave it out)
   bool failed = false;  ///< the world reports the object dropped: the module is failed (TaskStateCode::Failed)
 };
 
@@ -62,6 +63,11 @@ class SupervisorCore {
   static constexpr long kTakeOverTicks = 20;
   static constexpr int64_t kTakeOverAloneNs = 6'000'000'000;
   static constexpr double kAloneMatch = 2e-3;  ///< [m] object vs the initial plan for a takeover with no leader heard
+  /// [m] Object vs this replica's plan at the world's tick, for a takeover from a silent leader: a replica further
+  /// off missed the leader's newest plan (a soak on a busy machine: a standby took over with a plan version behind,
+  /// the references jumped 10-122 mm and the object was dropped). It does not lead then; if that lasts
+  /// kTakeOverAloneNs the module has lost its plan (no_plan(): the launcher restarts the module).
+  static constexpr double kReplicaMatch = 5e-3;
   static constexpr long kOthersRecentTicks = 100;
   static constexpr int64_t kSuspectMaxNs = 200'000'000;
 
@@ -86,8 +92,9 @@ class SupervisorCore {
   bool active() const { return active_; }
   bool leaving() const { return leaving_; }       ///< the module left (drained, or the leader drained it)
   bool world_done() const { return world_done_; } ///< scenario mode: the world reported its last tick
-  /// A standby that never heard a leader and cannot lead (the object is not where its initial plan has it):
-  /// the module has lost its plan (its process exits, the launcher restarts the module).
+  /// A standby that cannot lead: it never heard a leader and the object is not where its initial plan has it, or
+  /// the leader is silent and this replica has been off the object for kTakeOverAloneNs. The module has lost its
+  /// plan (the process exits, the launcher restarts the module).
   bool no_plan() const { return alone_refused_; }
   long heard_tick() const { return heard_tick_; }
   plan::SupervisorRank rank() const { return rank_; }
@@ -125,6 +132,8 @@ class SupervisorCore {
   int64_t suspect_since_ = 0;
   int64_t last_update_ns_ = 0;  // the previous update(): a standby that stood still does not take over at once
   bool heard_stronger_ = false, stronger_now_ = false, alone_refused_ = false;
+  bool object_known_ = false;
+  int64_t stale_since_ = -1;  ///< the leader is silent and this replica is off the object since then (ns), or -1
   uint64_t max_epoch_ = 0;
   plan::SupervisorRank followed_{0, plan::kPrimaryStrength};
   std::optional<plan::PlanData> latest_plan_;

@@ -592,6 +592,7 @@ class Soak {
     std::vector<std::string> args{hog_exe_, "--cores", std::to_string(f.cores), "--busy", "100", "--idle", "0",
                                   "--seconds", std::to_string(f.duration_s)};
     std::vector<char*> argv;
+    argv.reserve(args.size() + 1);
     for (auto& a : args) argv.push_back(a.data());
     argv.push_back(nullptr);
     const pid_t pid = ::fork();

@@ -38,7 +38,9 @@
 using namespace tandem;
 namespace bus = tandem::dds;
 
-int main(int argc, char** argv) {
+namespace {
+
+int run(int argc, char** argv) {
   runtime::RoleOptions opt;
   runtime::RoleContext ctx;
   int code = 0;
@@ -175,3 +177,7 @@ int main(int argc, char** argv) {
   std::this_thread::sleep_for(std::chrono::milliseconds(100));
   return 0;
 }
+
+}  // namespace
+
+int main(int argc, char** argv) { return runtime::run_guarded("tandem-supervisor", run, argc, argv); }

@@ -17,6 +17,7 @@ pid_t spawn(const std::string& who, const std::string& exe, const std::vector<st
             const SpawnOptions& opt) {
   // Everything the child needs is built before fork: after fork only async-signal-safe calls.
   std::vector<char*> argv;
+  argv.reserve(args.size() + 2);
   argv.push_back(const_cast<char*>(exe.c_str()));
   for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
   argv.push_back(nullptr);
@@ -34,6 +35,7 @@ pid_t spawn(const std::string& who, const std::string& exe, const std::vector<st
   // (runtime::raise_to_realtime_from_env), so that its start-up never preempts the running modules.
   if (opt.rt_priority > 0) env_text.push_back("TANDEM_RT_PRIORITY=" + std::to_string(opt.rt_priority));
   std::vector<char*> envp;
+  envp.reserve(env_text.size() + 1);
   for (auto& e : env_text) envp.push_back(e.data());
   envp.push_back(nullptr);
   const pid_t parent = ::getpid();

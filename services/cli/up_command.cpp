@@ -1717,6 +1717,10 @@ int up_command(const std::vector<std::string>& args) {
         ++fit;
       }
     }
+    // With hosts: the estimate is of this machine, and the modules run on others too: admit them all (the governor
+    // still parks modules whose worlds keep pausing for load). Seen: a three-host test's second module started
+    // parked because all of them were counted against the launcher's machine.
+    if (!d.hosts.empty()) fit = order.size();
     L.governor_ = std::make_unique<launcher::Governor>(order);
     for (const std::string& m : L.governor_->admit(fit, L.seconds())) {
       start_parked.insert(m);

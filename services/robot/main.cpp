@@ -9,7 +9,6 @@
 #include <array>
 #include <chrono>
 #include <cstdio>
-#include <cstdlib>
 #include <functional>
 #include <mutex>
 #include <optional>
@@ -150,8 +149,7 @@ int run(int argc, char** argv) {
   // Secured: ready only once this robot's own side of its inbound pairs works (below). Plain: at once, as a
   // plain pair that matched on the world's side matches on this side too (a robot that joins a running module
   // must not wait for anything it does not need).
-  const char* secured = std::getenv("TANDEM_SECURITY_DIR");
-  const bool check_ready = secured != nullptr && *secured != '\0';
+  const bool check_ready = part.secured();
   if (!check_ready) take_part();
   // The robot takes part (its sensor reader, which the world waits for) only once the launcher hears it (the
   // reader of its summary): a robot the launcher cannot hear (a pair that never authenticated, docs/security.md
@@ -181,16 +179,17 @@ int run(int argc, char** argv) {
     {
       std::lock_guard<std::mutex> lock(mu);
       take_plans();
-      if (sensors.matched() >= 1 && core.has_plan()) break;
-      const char* waiting = sensors.matched() < 1 ? (core.has_plan() ? "waiting for the world's samples" : "waiting for the world's samples and a plan") : "waiting for a plan";
+      const bool matched = sensors.matched() >= 1, planned = core.has_plan();
+      if (matched && planned) break;
+      const char* waiting = !matched ? (planned ? "waiting for the world's samples" : "waiting for the world's samples and a plan")
+                                     : "waiting for a plan";
       if (status.msg().detail() != waiting) status.set(runtime::Lifecycle::Inactive, waiting);
-    }
-    if (std::chrono::duration<double>(Clock::now() - r0).count() > opt.timeout) {
-      std::fprintf(stderr, "tandem-robot %s: not ready within %.1f s (world's sensor writer %s, plan %s)\n",
-                   robot_id.c_str(), opt.timeout, sensors.matched() >= 1 ? "matched" : "not matched",
-                   core.has_plan() ? "heard" : "not heard");
-      status.set(runtime::Lifecycle::Error, "peers not found");
-      return 3;
+      if (std::chrono::duration<double>(Clock::now() - r0).count() > opt.timeout) {
+        std::fprintf(stderr, "tandem-robot %s: not ready within %.1f s (world's sensor writer %s, plan %s)\n",
+                     robot_id.c_str(), opt.timeout, matched ? "matched" : "not matched", planned ? "heard" : "not heard");
+        status.set(runtime::Lifecycle::Error, "peers not found");
+        return 3;
+      }
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }

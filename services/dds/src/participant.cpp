@@ -106,6 +106,7 @@ Participant::Participant(int domain_id, const std::string& name, Transport trans
     props.emplace_back("dds.sec.access.builtin.Access-Permissions.governance", d + "governance.p7s");
     props.emplace_back("dds.sec.access.builtin.Access-Permissions.permissions", d + "permissions.p7s");
     props.emplace_back("dds.sec.crypto.plugin", "builtin.AES-GCM-GMAC");
+    secured_ = true;
     if (const char* server = std::getenv("ROS_DISCOVERY_SERVER"); server == nullptr || *server == '\0') {
       single_discovery_thread(qos, *udp);
     }

@@ -43,12 +43,15 @@ class Participant {
   fdds::DomainParticipant* get() { return participant_; }
   /// Per-tick topics use data-sharing delivery unless the deployment asked for UDP only.
   bool data_sharing() const { return transport_ == Transport::SharedMemory; }
+  /// The participant joined with DDS-Security (TANDEM_SECURITY_DIR was set).
+  bool secured() const { return secured_; }
 
  private:
   fdds::DomainParticipant* participant_ = nullptr;
   fdds::Publisher* publisher_ = nullptr;
   fdds::Subscriber* subscriber_ = nullptr;
   Transport transport_ = Transport::SharedMemory;
+  bool secured_ = false;
 };
 
 template <class T, class PubSubType>

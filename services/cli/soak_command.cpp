@@ -197,12 +197,17 @@ class Soak {
     record_reports(t);
     record_status(t);
     record_coordinator(t);
-    while (next_fault_ < sched_.faults.size() && sched_.faults[next_fault_].at_s <= t && !stopping_) {
+    while (next_fault_ < sched_.faults.size() && sched_.faults[next_fault_].at_s + delay_ <= t && !stopping_) {
       // A fault with no target yet (every candidate is down, restarting or not yet heard) waits for one, up to
       // kTargetWaitS, instead of being skipped: a short run must not depend on luck to carry out each kind.
+      // The rest of the schedule waits with it (delay_): the faults behind it keep their spacing instead of
+      // firing in one burst when it goes (seen: a module unplug waited 15 s for a second module, and the nine
+      // faults queued behind it then killed all four robots of the one module at once).
       const Fault& f = sched_.faults[next_fault_];
-      if (f.kind != FaultKind::Hog && f.label.empty() && t - f.at_s < kTargetWaitS && candidates(f.target, t).empty()) break;
-      fire(sched_.faults[next_fault_++], t);
+      const double due = f.at_s + delay_;
+      if (f.kind != FaultKind::Hog && f.label.empty() && t - due < kTargetWaitS && candidates(f.target, t).empty()) break;
+      fire(sched_.faults[next_fault_++], t, due);
+      delay_ = std::max(delay_, t - f.at_s);
     }
     for (size_t i = 0; i < pending_.size();) {
       if (pending_[i].at <= t) {
@@ -292,7 +297,11 @@ class Soak {
     reports_.clear();
   }
 
-  History& history() { return h_; }
+  History& history() {
+    h_.schedule_delay_s = delay_;
+    h_.faults_not_due = sched_.faults.size() - next_fault_;
+    return h_;
+  }
   const Bounds& bounds() const { return bounds_; }
   Bounds& bounds() { return bounds_; }
   std::set<long long> pids_seen() const { return pids_seen_; }
@@ -504,11 +513,11 @@ class Soak {
 
   static constexpr double kTargetWaitS = 15.0;
 
-  void fire(const Fault& f, double t) {
+  void fire(const Fault& f, double t, double due) {
     FaultRecord r;
     r.fault = f;
     r.t = t;
-    if (t - f.at_s > 0.5) r.note = "waited " + std::to_string(std::lround(t - f.at_s)) + " s for a target";
+    if (t - due > 0.5) r.note = "waited " + std::to_string(std::lround(t - due)) + " s for a target";
     const size_t index = h_.faults.size();
     if (f.kind == FaultKind::Hog) {
       hog(f, r, index);
@@ -744,6 +753,7 @@ class Soak {
   unsigned long long next_seq_ =
       static_cast<unsigned long long>(std::chrono::system_clock::now().time_since_epoch().count() / 1000);
   size_t next_fault_ = 0;
+  double delay_ = 0.0;  ///< how far the schedule has moved back, waiting for targets [s]
   double last_rss_ = -10.0;
   double last_queue_back_ = -10.0;
   std::map<std::string, double> module_started_;  ///< module -> when its (latest) world turned active

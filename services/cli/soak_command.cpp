@@ -197,17 +197,32 @@ class Soak {
     record_reports(t);
     record_status(t);
     record_coordinator(t);
-    while (next_fault_ < sched_.faults.size() && sched_.faults[next_fault_].at_s + delay_ <= t && !stopping_) {
-      // A fault with no target yet (every candidate is down, restarting or not yet heard) waits for one, up to
-      // kTargetWaitS, instead of being skipped: a short run must not depend on luck to carry out each kind.
-      // The rest of the schedule waits with it (delay_): the faults behind it keep their spacing instead of
-      // firing in one burst when it goes (seen: a module unplug waited 15 s for a second module, and the nine
-      // faults queued behind it then killed all four robots of the one module at once).
-      const Fault& f = sched_.faults[next_fault_];
-      const double due = f.at_s + delay_;
-      if (f.kind != FaultKind::Hog && f.label.empty() && t - due < kTargetWaitS && candidates(f.target, t).empty()) break;
-      fire(sched_.faults[next_fault_++], t, due);
-      delay_ = std::max(delay_, t - f.at_s);
+    // A fault with no target when it is due (every candidate is down, restarting or not yet heard) is set aside
+    // and waits for one, up to kTargetWaitS, instead of being skipped: a short run must not depend on luck to
+    // carry out each kind. The schedule goes on meanwhile, and a waiting fault fires only kWaitedGapS after
+    // the last fault, one at a time: faults never fire in a burst (seen when the whole schedule queued behind
+    // one waiting fault: a module unplug waited 15 s for a second module while three were parked for load,
+    // and the nine faults behind it then hit the one running module at once, killing all four of its robots).
+    while (next_fault_ < sched_.faults.size() && sched_.faults[next_fault_].at_s <= t && !stopping_) {
+      const Fault& f = sched_.faults[next_fault_++];
+      if (f.kind != FaultKind::Hog && f.label.empty() && candidates(f.target, t).empty()) {
+        waiting_.push_back(&f);
+      } else {
+        fire(f, t);
+      }
+    }
+    for (auto it = waiting_.begin(); it != waiting_.end() && !stopping_;) {
+      const Fault& f = **it;
+      if (t - f.at_s >= kTargetWaitS) {
+        fire(f, t);  // recorded as skipped if there is still no target
+        it = waiting_.erase(it);
+      } else if (t - last_fired_ >= kWaitedGapS && !candidates(f.target, t).empty()) {
+        fire(f, t);
+        waiting_.erase(it);
+        break;  // one at a time
+      } else {
+        ++it;
+      }
     }
     for (size_t i = 0; i < pending_.size();) {
       if (pending_[i].at <= t) {
@@ -297,11 +312,7 @@ class Soak {
     reports_.clear();
   }
 
-  History& history() {
-    h_.schedule_delay_s = delay_;
-    h_.faults_not_due = sched_.faults.size() - next_fault_;
-    return h_;
-  }
+  History& history() { return h_; }
   const Bounds& bounds() const { return bounds_; }
   Bounds& bounds() { return bounds_; }
   std::set<long long> pids_seen() const { return pids_seen_; }
@@ -512,12 +523,14 @@ class Soak {
   }
 
   static constexpr double kTargetWaitS = 15.0;
+  static constexpr double kWaitedGapS = 1.0;  ///< a fault that waited fires at least this long after the last one
 
-  void fire(const Fault& f, double t, double due) {
+  void fire(const Fault& f, double t) {
     FaultRecord r;
     r.fault = f;
     r.t = t;
-    if (t - due > 0.5) r.note = "waited " + std::to_string(std::lround(t - due)) + " s for a target";
+    last_fired_ = t;
+    if (t - f.at_s > 0.5) r.note = "waited " + std::to_string(std::lround(t - f.at_s)) + " s for a target";
     const size_t index = h_.faults.size();
     if (f.kind == FaultKind::Hog) {
       hog(f, r, index);
@@ -753,7 +766,8 @@ class Soak {
   unsigned long long next_seq_ =
       static_cast<unsigned long long>(std::chrono::system_clock::now().time_since_epoch().count() / 1000);
   size_t next_fault_ = 0;
-  double delay_ = 0.0;  ///< how far the schedule has moved back, waiting for targets [s]
+  std::vector<const Fault*> waiting_;  ///< due faults that wait for a target, in schedule order
+  double last_fired_ = -1e9;           ///< when the last fault was carried out (or skipped)
   double last_rss_ = -10.0;
   double last_queue_back_ = -10.0;
   std::map<std::string, double> module_started_;  ///< module -> when its (latest) world turned active

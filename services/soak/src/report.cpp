@@ -290,12 +290,7 @@ std::string summary_text(const RunInfo& info, const History& h, const Bounds& b,
     << v.slip_events << ".\n";
   int carried = 0;
   for (const auto& [k, n] : v.faults_by_kind) carried += n;
-  o << "\n## Faults\n\n" << carried << " carried out, " << v.skipped << " skipped (no live target within 15 s of when due).";
-  if (h.schedule_delay_s > 0.5 || h.faults_not_due > 0) {
-    o << " The schedule moved back " << f2(h.schedule_delay_s, "%.1f") << " s in all while faults waited for a target (the"
-      << " faults behind one that waits wait with it); " << h.faults_not_due << " fault(s) were not due yet when the run ended.";
-  }
-  o << "\n\n";
+  o << "\n## Faults\n\n" << carried << " carried out, " << v.skipped << " skipped (no live target within 15 s of when due).\n\n";
   o << "| fault | count |\n|---|---:|\n";
   for (const auto& [k, n] : v.faults_by_kind) o << "| " << k << " | " << n << " |\n";
   o << "\n## Recovery times (measured from the recording)\n\n| recovery | n | p50 s | p99 s | max s |\n|---|---:|---:|---:|---:|\n";

@@ -85,8 +85,6 @@ struct History {
   std::vector<std::string> leftover_processes;               ///< still running after the run
   std::vector<std::string> leftover_shm;                     ///< /dev/shm files new since the start and left
   int launcher_exit = -1;
-  double schedule_delay_s = 0.0;  ///< how far the schedule moved back while faults waited for a target
-  size_t faults_not_due = 0;      ///< faults of the schedule that were not due yet when the run ended
 };
 
 }  // namespace tandem::soak

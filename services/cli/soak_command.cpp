@@ -41,6 +41,7 @@
 #include "tandem/sim/module_setup.hpp"
 #include "tandem/sim/scenario_yaml.hpp"
 #include "tandem/soak/checker.hpp"
+#include "tandem/soak/nemesis.hpp"
 #include "tandem/soak/report.hpp"
 #include "tandem/soak/schedule.hpp"
 
@@ -151,22 +152,20 @@ std::string derived_deployment(const std::string& file, const runtime::Deploymen
          out.c_str() + "\n";
 }
 
-struct Proc {
-  std::string role, module, serving;
-  long long pid = 0;
-  int state = 0;
-  double last_t = -1.0;
-};
+std::vector<std::string> module_names(const runtime::Deployment& d) {
+  std::vector<std::string> names;
+  names.reserve(d.modules.size());
+  for (const auto& m : d.modules) names.push_back(m.name);
+  return names;
+}
 
-struct Pending {
-  double at = 0.0;
-  std::function<void()> fn;
-};
-
-class Soak {
+/// The soak's host: records what the deployment reports, and carries out the nemesis's actions (signals by
+/// pid, tandem_hog children, live commands over DDS).
+class Soak : public NemesisActions {
  public:
   Soak(const runtime::Deployment& d, const Schedule& sched, std::string dir, std::string log_path, pid_t launcher)
-      : d_(d), sched_(sched), dir_(std::move(dir)), log_path_(std::move(log_path)), launcher_(launcher) {}
+      : d_(d), sched_(sched), dir_(std::move(dir)), log_path_(std::move(log_path)), launcher_(launcher),
+        nemesis_(sched, module_names(d), h_, *this) {}
 
   void setup(bus::Participant& part) {
     status_ = std::make_unique<bus::Reader<msg::ProcessStatus, msg::ProcessStatusPubSubType>>(part, bus::kStatusTopic,
@@ -197,42 +196,7 @@ class Soak {
     record_reports(t);
     record_status(t);
     record_coordinator(t);
-    // A fault with no target when it is due (every candidate is down, restarting or not yet heard) is set aside
-    // and waits for one, up to kTargetWaitS, instead of being skipped: a short run must not depend on luck to
-    // carry out each kind. The schedule goes on meanwhile, and a waiting fault fires only kWaitedGapS after
-    // the last fault, one at a time: faults never fire in a burst (seen when the whole schedule queued behind
-    // one waiting fault: a module unplug waited 15 s for a second module while three were parked for load,
-    // and the nine faults behind it then hit the one running module at once, killing all four of its robots).
-    while (next_fault_ < sched_.faults.size() && sched_.faults[next_fault_].at_s <= t && !stopping_) {
-      const Fault& f = sched_.faults[next_fault_++];
-      if (f.kind != FaultKind::Hog && f.label.empty() && candidates(f.target, t).empty()) {
-        waiting_.push_back(&f);
-      } else {
-        fire(f, t);
-      }
-    }
-    for (auto it = waiting_.begin(); it != waiting_.end() && !stopping_;) {
-      const Fault& f = **it;
-      if (t - f.at_s >= kTargetWaitS) {
-        fire(f, t);  // recorded as skipped if there is still no target
-        it = waiting_.erase(it);
-      } else if (t - last_fired_ >= kWaitedGapS && !candidates(f.target, t).empty()) {
-        fire(f, t);
-        waiting_.erase(it);
-        break;  // one at a time
-      } else {
-        ++it;
-      }
-    }
-    for (size_t i = 0; i < pending_.size();) {
-      if (pending_[i].at <= t) {
-        auto fn = std::move(pending_[i].fn);
-        pending_.erase(pending_.begin() + static_cast<long>(i));
-        fn();
-      } else {
-        ++i;
-      }
-    }
+    nemesis_.step(t);
     resend_requests(t);
     reap_hogs(t);
     if (t - last_rss_ >= 2.0 && !stopping_) sample_memory(t);  // over the run, not the shutdown
@@ -241,14 +205,7 @@ class Soak {
   /// Stops injecting: every stalled process continues, every hog stops.
   void calm() {
     stopping_ = true;
-    for (const auto& [pid, label] : stalled_) ::kill(static_cast<pid_t>(pid), SIGCONT);
-    stalled_.clear();
-    for (auto& hg : hogs_) {
-      ::kill(hg.pid, SIGTERM);
-      ::waitpid(hg.pid, nullptr, 0);
-      if (hg.record < h_.faults.size() && h_.faults[hg.record].end_t < 0) h_.faults[hg.record].end_t = now();
-    }
-    hogs_.clear();
+    nemesis_.calm(now());
   }
 
   void progress(double t, bool final_line = false) {
@@ -316,7 +273,7 @@ class Soak {
   const Bounds& bounds() const { return bounds_; }
   Bounds& bounds() { return bounds_; }
   std::set<long long> pids_seen() const { return pids_seen_; }
-  size_t processes_seen() const { return procs_.size(); }
+  size_t processes_seen() const { return nemesis_.processes().size(); }
 
  private:
   // ---- recording ----------------------------------------------------------------------------------------
@@ -360,7 +317,7 @@ class Soak {
         b.s.failed = b.s.failed || r.failed();
         if (r.serving() != b.serving) {
           b.serving = r.serving();
-          serving_[module] = r.serving();
+          nemesis_.on_owners(module, parse_owners(r.serving()));
           h_.events.push_back({t, Event::Type::Owners, module, r.serving()});
         }
         if (t >= b.end) flush(module, b);
@@ -385,7 +342,9 @@ class Soak {
       }
       const long long pid = s.pid();
       pids_seen_.insert(pid);
-      Proc& p = procs_[label];
+      const auto known = nemesis_.processes().find(label);
+      const ProcessView none;
+      const ProcessView& p = known == nemesis_.processes().end() ? none : known->second;
       auto& spans = h_.heard[label];
       if (spans.empty() || spans.back().pid != pid || t - spans.back().end > 0.3) {
         spans.push_back({t, t, pid});
@@ -394,17 +353,18 @@ class Soak {
       }
       if (p.pid != pid || p.state != s.state()) {
         h_.events.push_back({t, Event::Type::State, label, std::to_string(s.state()) + " " + std::to_string(pid)});
-        if (s.role() == "world" && s.state() == 2) module_started_[s.module_id()] = t;
       }
       if ((s.role() == "supervisor" || s.role() == "coordinator") && (s.serving() != p.serving || p.pid != pid)) {
         h_.events.push_back({t, Event::Type::Serving, label, s.serving()});
       }
-      p.role = s.role();
-      p.module = s.module_id();
-      p.pid = pid;
-      p.state = s.state();
-      p.serving = s.serving();
-      p.last_t = t;
+      ProcessView now;
+      now.role = s.role();
+      now.module = s.module_id();
+      now.pid = pid;
+      now.state = s.state();
+      now.serving = s.serving();
+      now.last_t = t;
+      nemesis_.on_status(label, now);
     }
   }
 
@@ -456,7 +416,7 @@ class Soak {
 
   void sample_memory(double t) {
     last_rss_ = t;
-    for (const auto& [label, p] : procs_) {
+    for (const auto& [label, p] : nemesis_.processes()) {
       if (p.state >= 3 || !pid_alive(p.pid)) continue;
       const double mib = rss_mib(p.pid);
       if (mib > 0) h_.rss.push_back({t, label, p.pid, mib});
@@ -465,154 +425,21 @@ class Soak {
     if (mib > 0) h_.rss.push_back({t, "launcher", launcher_, mib});
   }
 
-  // ---- the nemesis --------------------------------------------------------------------------------------
-  bool live(const Proc& p, double t) const {
-    return p.state <= 2 && t - p.last_t < 1.5 && pid_alive(p.pid) && stalled_.count(p.pid) == 0;
+  // ---- the nemesis's actions (NemesisActions) -----------------------------------------------------------
+  bool alive(long long pid) const override { return pid_alive(pid); }
+  void kill(long long pid) override {
+    if (pid > 0) ::kill(static_cast<pid_t>(pid), SIGKILL);
   }
-  std::set<std::string> owners_now() const {
-    std::set<std::string> o;
-    for (const auto& [m, text] : serving_) {
-      for (const auto& [arm, label] : parse_owners(text)) o.insert(label);
-    }
-    return o;
+  void stop(long long pid) override {
+    if (pid > 0) ::kill(static_cast<pid_t>(pid), SIGSTOP);
   }
-  /// Modules whose world runs now (and are not being taken out by the nemesis).
-  std::vector<std::string> modules_up(double t) const {
-    std::vector<std::string> out;
-    for (const auto& m : d_.modules) {
-      const auto it = procs_.find(m.name + "/world");
-      if (it != procs_.end() && it->second.state == 2 && live(it->second, t) && out_.count(m.name) == 0) out.push_back(m.name);
-    }
-    return out;
+  void resume(long long pid) override {
+    if (pid > 0) ::kill(static_cast<pid_t>(pid), SIGCONT);
   }
 
-  /// A module whose world turned active less than kSettleS ago is left alone (docs/soak.md).
-  bool settling(const std::string& module, double t) const {
-    const auto it = module_started_.find(module);
-    return it != module_started_.end() && t - it->second < kSettleS;
-  }
-
-  std::vector<std::string> candidates(Target target, double t) const {
-    std::vector<std::string> c;
-    const auto owners = owners_now();
-    if (target == Target::World || target == Target::Module) {
-      const auto up = modules_up(t);
-      if (up.size() < 2) return c;  // one module always runs
-      for (const auto& m : up) {
-        if (!settling(m, t)) c.push_back(target == Target::World ? m + "/world" : m);
-      }
-      return c;
-    }
-    for (const auto& [label, p] : procs_) {
-      if (!live(p, t) || out_.count(p.module) != 0 || settling(p.module, t)) continue;
-      if (target == Target::Robot && p.role == "robot" && owners.count(label)) c.push_back(label);
-      if (target == Target::Standby && p.role == "robot" && !owners.count(label) && p.state == 2) c.push_back(label);
-      if (target == Target::Supervisor && p.role == "supervisor" && p.serving == "primary") c.push_back(label);
-      if (target == Target::Coordinator && p.role == "coordinator" && p.serving == "primary") c.push_back(label);
-    }
-    return c;
-  }
-
-  int live_robots_of(const std::string& arm, double t) const {
-    int n = 0;
-    for (const auto& [label, p] : procs_) {
-      // Active only: a robot still starting (inactive) cannot take the arm over yet.
-      if (p.role == "robot" && p.state == 2 && live(p, t) && (label == arm || label.rfind(arm + "@", 0) == 0)) ++n;
-    }
-    return n;
-  }
-
-  static constexpr double kTargetWaitS = 15.0;
-  static constexpr double kWaitedGapS = 1.0;  ///< a fault that waited fires at least this long after the last one
-
-  void fire(const Fault& f, double t) {
-    FaultRecord r;
-    r.fault = f;
-    r.t = t;
-    last_fired_ = t;
-    if (t - f.at_s > 0.5) r.note = "waited " + std::to_string(std::lround(t - f.at_s)) + " s for a target";
-    const size_t index = h_.faults.size();
-    if (f.kind == FaultKind::Hog) {
-      hog(f, r, index);
-      h_.faults.push_back(r);
-      return;
-    }
-    std::string target = f.label;
-    if (target.empty()) {
-      const auto c = candidates(f.target, t);
-      if (c.empty()) {
-        r.skipped = true;
-        r.note = "no live " + std::string(name(f.target)) + " within " + std::to_string(std::lround(kTargetWaitS)) + " s";
-        h_.faults.push_back(r);
-        return;
-      }
-      target = c[f.pick % c.size()];
-    }
-    r.label = target;
-    const bool is_module = f.kind == FaultKind::Unplug && (f.target == Target::Module || target.find('/') == std::string::npos);
-    if (is_module) r.fault.target = Target::Module;
-    r.module = is_module ? target : (target.rfind("coordinator", 0) == 0 ? "" : target.substr(0, target.find('/')));
-    if (!is_module) {
-      const auto it = procs_.find(target);
-      if (it == procs_.end() || !pid_alive(it->second.pid)) {
-        r.skipped = true;
-        r.note = "no running process " + target;
-        h_.faults.push_back(r);
-        return;
-      }
-      r.pid = it->second.pid;
-      if (r.fault.target == Target::None) {  // a fixed fault naming a process: its role decides the kind
-        const std::string& role = it->second.role;
-        r.fault.target = role == "world"         ? Target::World
-                         : role == "supervisor"  ? Target::Supervisor
-                         : role == "coordinator" ? Target::Coordinator
-                         : owners_now().count(target) ? Target::Robot
-                                                      : Target::Standby;
-      }
-      if (it->second.role == "robot") r.had_standby = live_robots_of(target.substr(0, target.find('@')), t) > 1;
-    } else {
-      const auto it = procs_.find(target + "/world");
-      r.pid = it != procs_.end() ? it->second.pid : 0;
-    }
-    switch (f.kind) {
-      case FaultKind::Kill:
-        ::kill(static_cast<pid_t>(r.pid), SIGKILL);
-        if (f.target == Target::World || (target.size() > 6 && target.substr(target.size() - 6) == "/world")) {
-          out_.insert(r.module);
-          replug_module(r.module, index, t + f.duration_s, t + f.duration_s + 60.0);
-        }
-        break;
-      case FaultKind::Stall: {
-        const long long pid = r.pid;
-        ::kill(static_cast<pid_t>(pid), SIGSTOP);
-        stalled_[pid] = target;
-        pending_.push_back({t + f.duration_s, [this, pid, index] {
-                              if (stalled_.erase(pid)) ::kill(static_cast<pid_t>(pid), SIGCONT);
-                              h_.faults[index].end_t = now();
-                            }});
-        break;
-      }
-      case FaultKind::Unplug:
-        if (is_module) {
-          out_.insert(target);
-          request("unplug", "module " + target, "", nullptr);
-          replug_module(target, index, t + f.duration_s, t + f.duration_s + 90.0);
-        } else {
-          const std::string arm = target.substr(0, target.find('@'));
-          const bool primary = target.find('@') == std::string::npos;
-          request("unplug", "robot " + target, "", nullptr);
-          pending_.push_back({t + f.duration_s, [this, arm, primary, index] { replug_robot(arm, primary, index, now() + 30.0); }});
-        }
-        break;
-      case FaultKind::Hog:
-        break;
-    }
-    h_.faults.push_back(r);
-  }
-
-  void hog(const Fault& f, FaultRecord& r, size_t index) {
-    std::vector<std::string> args{hog_exe_, "--cores", std::to_string(f.cores), "--busy", "100", "--idle", "0",
-                                  "--seconds", std::to_string(f.duration_s)};
+  long long start_hog(int cores, double seconds) override {
+    std::vector<std::string> args{hog_exe_, "--cores", std::to_string(cores), "--busy", "100", "--idle", "0",
+                                  "--seconds", std::to_string(seconds)};
     std::vector<char*> argv;
     argv.reserve(args.size() + 1);
     for (auto& a : args) argv.push_back(a.data());
@@ -629,23 +456,26 @@ class Soak {
       ::execv(argv[0], argv.data());
       ::_exit(127);
     }
-    if (pid < 0) {
-      r.skipped = true;
-      r.note = "fork failed";
-      return;
-    }
-    r.pid = pid;
-    r.label = std::to_string(f.cores) + " core(s)";
-    hogs_.push_back({pid, index});
+    if (pid < 0) return -1;
+    hogs_.push_back(pid);
+    return pid;
+  }
+  void end_hog(long long pid) override {
+    ::kill(static_cast<pid_t>(pid), SIGTERM);
+    ::waitpid(static_cast<pid_t>(pid), nullptr, 0);
+    hogs_.erase(std::remove(hogs_.begin(), hogs_.end(), static_cast<pid_t>(pid)), hogs_.end());
   }
 
   void reap_hogs(double t) {
     for (auto it = hogs_.begin(); it != hogs_.end();) {
       int st = 0;
-      if (::waitpid(it->pid, &st, WNOHANG) == it->pid) {
-        if (WIFEXITED(st) && WEXITSTATUS(st) == 127) h_.faults[it->record].note = "the hog could not start (" + hog_exe_ + ")";
-        h_.faults[it->record].end_t = t;
+      if (::waitpid(*it, &st, WNOHANG) == *it) {
+        const pid_t pid = *it;
         it = hogs_.erase(it);
+        if (WIFEXITED(st) && WEXITSTATUS(st) == 127) {
+          std::fprintf(stderr, "tandem soak: the hog could not start (%s)\n", hog_exe_.c_str());
+        }
+        nemesis_.hog_ended(pid, WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st), t);
       } else {
         ++it;
       }
@@ -656,11 +486,10 @@ class Soak {
   struct Request {
     msg::ControlRequest req;
     double sent = 0.0, first = 0.0;
-    std::function<void(bool, const std::string&)> done;
+    Reply done;
   };
 
-  void request(const std::string& cmd, const std::string& target, const std::string& option,
-               std::function<void(bool, const std::string&)> done) {
+  void request(const std::string& cmd, const std::string& target, const std::string& option, Reply done) override {
     Request r;
     r.req.deployment(d_.name);
     r.req.command(cmd);
@@ -676,7 +505,7 @@ class Soak {
   void resend_requests(double t) {
     for (auto it = requests_.begin(); it != requests_.end();) {
       if (t - it->second.first > 30.0) {  // never answered
-        if (it->second.done) it->second.done(false, "no answer from the launcher within 30 s");
+        if (it->second.done) it->second.done(false, "no answer from the launcher within 30 s", t);
         it = requests_.erase(it);
         continue;
       }
@@ -697,42 +526,7 @@ class Soak {
     const std::string text = sp == std::string::npos ? "" : detail.substr(sp + 1);
     auto done = std::move(it->second.done);
     requests_.erase(it);
-    if (done) done(text.rfind("ok", 0) == 0, text);
-  }
-
-  /// Plugs `module` in again from `at` on, retrying every second until the launcher accepts (a draining module
-  /// is not yet out) or `give_up` passes.
-  void replug_module(const std::string& module, size_t index, double at, double give_up) {
-    pending_.push_back({at, [this, module, index, give_up] {
-                          request("plug", "module " + module, "", [this, module, index, give_up](bool ok, const std::string& why) {
-                            // "running already": an earlier attempt whose answer was lost plugged it in.
-                            if (ok || why.find("running already") != std::string::npos) {
-                              h_.faults[index].end_t = now();
-                              out_.erase(module);
-                            } else if (now() < give_up && !stopping_) {
-                              replug_module(module, index, now() + 1.0, give_up);
-                            } else {
-                              h_.faults[index].note = "could not plug " + module + " in again: " + why;
-                              out_.erase(module);
-                            }
-                          });
-                        }});
-  }
-
-  void replug_robot(const std::string& arm, bool primary, size_t index, double give_up) {
-    if (stopping_) return;
-    request("plug", "robot " + arm, primary ? "primary" : "standby",
-            [this, arm, primary, index, give_up](bool ok, const std::string& why) {
-              if (ok) {
-                h_.faults[index].end_t = now();
-              } else if (primary && why.find("primary already") != std::string::npos) {
-                replug_robot(arm, false, index, give_up);  // a restarted robot took the primary's place
-              } else if (now() < give_up && !stopping_) {
-                pending_.push_back({now() + 1.0, [this, arm, primary, index, give_up] { replug_robot(arm, primary, index, give_up); }});
-              } else {
-                h_.faults[index].note = "could not plug a robot into " + arm + " again: " + why;
-              }
-            });
+    if (done) done(text.rfind("ok", 0) == 0, text, now());
   }
 
   const runtime::Deployment& d_;
@@ -749,31 +543,16 @@ class Soak {
   std::unique_ptr<bus::Writer<msg::ControlRequest, msg::ControlRequestPubSubType>> control_;
   std::map<std::string, std::unique_ptr<bus::Reader<msg::WorldReport, msg::WorldReportPubSubType>>> reports_;
   std::map<std::string, Bucket> buckets_;
-  std::map<std::string, std::string> serving_;  ///< module -> its world's serving text now
   std::vector<bool> done_seen_;                 ///< per task of the deployment: heard done
-  std::map<std::string, Proc> procs_;
   std::set<long long> pids_seen_;
   std::set<std::pair<std::string, std::string>> running_;
-  std::set<std::string> out_;                   ///< modules the nemesis took out and will plug in again
-  std::map<long long, std::string> stalled_;
-  struct Hog {
-    pid_t pid;
-    size_t record;
-  };
-  std::vector<Hog> hogs_;
-  std::vector<Pending> pending_;
+  std::vector<pid_t> hogs_;                     ///< tandem_hog children not yet reaped
   std::map<unsigned long long, Request> requests_;
   unsigned long long next_seq_ =
       static_cast<unsigned long long>(std::chrono::system_clock::now().time_since_epoch().count() / 1000);
-  size_t next_fault_ = 0;
-  std::vector<const Fault*> waiting_;  ///< due faults that wait for a target, in schedule order
-  double last_fired_ = -1e9;           ///< when the last fault was carried out (or skipped)
   double last_rss_ = -10.0;
   double last_queue_back_ = -10.0;
-  std::map<std::string, double> module_started_;  ///< module -> when its (latest) world turned active
-  /// Faults leave a module alone for its first seconds (start brakes, first plan): a supervisor takeover 1.1 s
-  /// into a plugged module's life slipped its object once in a CI soak (docs/soak.md, "not fixed yet").
-  static constexpr double kSettleS = 3.0;
+  Nemesis nemesis_;  // after h_: it writes its fault records there
   bool stopping_ = false;
 };
 

@@ -1,0 +1,123 @@
+// The soak's fault injector (Jepsen's nemesis) as a component: it carries out a schedule against the processes
+// and modules it is told about. Events in (process status, arm owners, worlds turning active, replies to live
+// commands, hogs that ended, the time), actions out through NemesisActions (signals, hog processes, live
+// commands). No DDS, no clock and no signal inside: `tandem soak` wires it to the deployment, unit tests drive it
+// with made-up processes (tests/unit/test_soak.cpp). docs/soak.md, "The nemesis".
+//
+// Its rules (a target is chosen when the fault fires, so the same seed hits the processes alive then):
+// - a fault picks its target among the live candidates when it fires (pick % count), never a process stalled by
+//   it, nor one of a module that it took out or whose world turned active less than kSettleS ago;
+// - module-level faults (kill world, unplug module) only fire while at least two modules run;
+// - a fault with no target when due is set aside and waits for one, up to kTargetWaitS, then it is recorded as
+//   skipped; the schedule goes on meanwhile, and a fault that waited fires at least kWaitedGapS after the last
+//   fault, one at a time: faults never fire in a burst;
+// - what it took out comes back: a stalled process continues after the fault's duration, a killed world's
+//   module and an unplugged module or robot are plugged in again (retried until the launcher accepts).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "tandem/soak/history.hpp"
+#include "tandem/soak/schedule.hpp"
+
+namespace tandem::soak {
+
+/// What the nemesis knows of one process (from its status over DDS).
+struct ProcessView {
+  std::string role;     ///< world | supervisor | robot | coordinator
+  std::string module;   ///< "" for the coordinator
+  std::string serving;  ///< supervisor, coordinator: "primary" | "standby"
+  long long pid = 0;
+  int state = 0;        ///< lifecycle: 2 active, 3 finalized, 4 error
+  double last_t = -1.0; ///< when its status was last heard [s]
+};
+
+/// Reply to a live command: accepted or not, the launcher's text, and when it arrived [s].
+using Reply = std::function<void(bool ok, const std::string& text, double t)>;
+
+/// How the nemesis's actions are carried out (tandem soak: kill(2), a tandem_hog child, a ControlRequest).
+class NemesisActions {
+ public:
+  virtual ~NemesisActions() = default;
+  virtual bool alive(long long pid) const = 0;  ///< the process runs (not a zombie)
+  virtual void kill(long long pid) = 0;         ///< SIGKILL
+  virtual void stop(long long pid) = 0;         ///< SIGSTOP
+  virtual void resume(long long pid) = 0;       ///< SIGCONT
+  /// Starts a CPU hog on `cores` cores for `seconds`; its pid, or -1 if it could not be started. The host
+  /// reports its end with Nemesis::hog_ended.
+  virtual long long start_hog(int cores, double seconds) = 0;
+  virtual void end_hog(long long pid) = 0;      ///< stops it now and reaps it
+  /// Sends a live command as `tandem plug/unplug` would; `done` (may be empty) gets the launcher's answer, or
+  /// (false, why) if there is none within the host's limit.
+  virtual void request(const std::string& command, const std::string& target, const std::string& option, Reply done) = 0;
+};
+
+class Nemesis {
+ public:
+  static constexpr double kTargetWaitS = 15.0;  ///< a fault with no target waits this long, then is skipped
+  static constexpr double kWaitedGapS = 1.0;    ///< a fault that waited fires at least this long after the last
+  static constexpr double kSettleS = 3.0;       ///< a module is left alone this long after its world turns active
+  static constexpr double kSilentS = 1.5;       ///< a process not heard this long is not a candidate
+
+  /// `modules`: the deployment's modules in order; fault records go to `history.faults`.
+  Nemesis(const Schedule& schedule, std::vector<std::string> modules, History& history, NemesisActions& actions);
+
+  // ---- events in ----
+  /// A process's status, heard at p.last_t (a world that turns active starts its module's settling time).
+  void on_status(const std::string& label, const ProcessView& p);
+  /// The robot each arm of `module` follows now (arm -> process label, from its world).
+  void on_owners(const std::string& module, std::map<std::string, std::string> owners);
+  /// Carries out what is due at `t`: scheduled faults, faults that waited, and timed follow-ups (continue a
+  /// stalled process, plug a module or robot in again).
+  void step(double t);
+  /// A hog ended (exit code 127: it could not start).
+  void hog_ended(long long pid, int exit_code, double t);
+  /// Stops injecting: every stalled process continues, every hog stops.
+  void calm(double t);
+
+  // ---- for the host's report and progress ----
+  const std::map<std::string, ProcessView>& processes() const { return procs_; }
+  size_t waiting() const { return waiting_.size(); }
+  /// Targets a fault of this kind could hit now (process labels; modules for unplug module).
+  std::vector<std::string> candidates(Target target, double t) const;
+
+ private:
+  bool live(const ProcessView& p, double t) const;
+  std::set<std::string> owners_now() const;
+  std::vector<std::string> modules_up(double t) const;
+  bool settling(const std::string& module, double t) const;
+  int live_robots_of(const std::string& arm, double t) const;
+  void fire(const Fault& f, double t);
+  void hog(const Fault& f, FaultRecord& r, size_t index);
+  void later(double at, std::function<void(double)> fn) { pending_.push_back({at, std::move(fn)}); }
+  void replug_module(const std::string& module, size_t index, double at, double give_up);
+  void replug_robot(const std::string& arm, bool primary, size_t index, double give_up);
+
+  struct Pending {
+    double at = 0.0;
+    std::function<void(double)> fn;
+  };
+
+  const Schedule& sched_;
+  std::vector<std::string> modules_;
+  History& h_;
+  NemesisActions& act_;
+  std::map<std::string, ProcessView> procs_;
+  std::map<std::string, std::map<std::string, std::string>> owners_;  ///< module -> arm -> label
+  std::map<std::string, double> module_started_;  ///< module -> when its (latest) world turned active
+  std::set<std::string> out_;                     ///< modules taken out, to be plugged in again
+  std::map<long long, std::string> stalled_;      ///< pid -> label
+  std::map<long long, size_t> hogs_;              ///< pid -> its fault record
+  std::vector<Pending> pending_;
+  size_t next_fault_ = 0;
+  std::vector<const Fault*> waiting_;  ///< due faults that wait for a target, in schedule order
+  double last_fired_ = -1e9;           ///< when the last fault was carried out (or skipped)
+  bool stopping_ = false;
+};
+
+}  // namespace tandem::soak

@@ -1,0 +1,269 @@
+// The soak's nemesis (tandem::soak::Nemesis) driven with made-up processes and a recording actions double: no
+// DDS, no signals, no clock. Each rule of docs/soak.md, "The nemesis", is made to act and to hold back.
+#include <catch2/catch.hpp>
+
+#include <map>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "tandem/soak/nemesis.hpp"
+
+using namespace tandem::soak;
+
+namespace {
+
+/// Records what the nemesis asks for; pids in `dead` are not alive.
+struct Recorder : NemesisActions {
+  struct Call {
+    std::string what;
+    long long pid = 0;
+    std::string target, option;
+  };
+  std::vector<Call> calls;
+  std::vector<std::pair<std::string, Reply>> replies;  ///< requests waiting for an answer
+  std::set<long long> dead;
+  long long next_hog = 9000;
+
+  bool alive(long long pid) const override { return pid > 0 && dead.count(pid) == 0; }
+  void kill(long long pid) override {
+    calls.push_back({"kill", pid, "", ""});
+    dead.insert(pid);
+  }
+  void stop(long long pid) override { calls.push_back({"stop", pid, "", ""}); }
+  void resume(long long pid) override { calls.push_back({"resume", pid, "", ""}); }
+  long long start_hog(int cores, double) override {
+    calls.push_back({"hog", next_hog, std::to_string(cores), ""});
+    return next_hog++;
+  }
+  void end_hog(long long pid) override { calls.push_back({"end_hog", pid, "", ""}); }
+  void request(const std::string& command, const std::string& target, const std::string& option, Reply done) override {
+    calls.push_back({command, 0, target, option});
+    if (done) replies.emplace_back(command + " " + target, std::move(done));
+  }
+  std::vector<Call> of(const std::string& what) const {
+    std::vector<Call> out;
+    for (const auto& c : calls) {
+      if (c.what == what) out.push_back(c);
+    }
+    return out;
+  }
+};
+
+/// A module's processes: world, primary supervisor, two arms with a primary and a standby each; pids from base.
+void add_module(Nemesis& n, const std::string& m, long long base, double t) {
+  auto put = [&](const std::string& label, const std::string& role, const std::string& serving, long long pid) {
+    ProcessView p;
+    p.role = role;
+    p.module = m;
+    p.serving = serving;
+    p.pid = pid;
+    p.state = 2;
+    p.last_t = t;
+    n.on_status(label, p);
+  };
+  put(m + "/world", "world", "", base);
+  put(m + "/supervisor", "supervisor", "primary", base + 1);
+  put(m + "/left", "robot", "100", base + 2);
+  put(m + "/left@50", "robot", "50", base + 3);
+  put(m + "/right", "robot", "100", base + 4);
+  put(m + "/right@50", "robot", "50", base + 5);
+  n.on_owners(m, {{"left", m + "/left"}, {"right", m + "/right"}});
+}
+
+/// Keeps every process of `labels` heard at t (as their status every 100 ms would).
+void heard(Nemesis& n, double t) {
+  const auto procs = n.processes();
+  for (auto [label, p] : procs) {
+    p.last_t = t;
+    n.on_status(label, p);
+  }
+}
+
+Fault fault(double at, FaultKind k, Target target, double duration = 1.0, uint64_t pick = 0) {
+  Fault f;
+  f.at_s = at;
+  f.kind = k;
+  f.target = target;
+  f.duration_s = duration;
+  f.pick = pick;
+  return f;
+}
+
+/// Runs the nemesis from `from` to `to` in 10 ms passes, processes heard throughout.
+void run(Nemesis& n, double from, double to) {
+  for (double t = from; t <= to + 1e-9; t += 0.01) {
+    heard(n, t);
+    n.step(t);
+  }
+}
+
+}  // namespace
+
+TEST_CASE("nemesis: faults fire at their time, a waiting one never releases a burst") {
+  // One module up (three parked for load): a module unplug has no target (one module always runs) and waits;
+  // the kills behind it still fire at their own times, not all at once when the unplug gives up.
+  Schedule s;
+  s.duration_s = 60;
+  s.faults = {fault(5.0, FaultKind::Unplug, Target::Module), fault(6.0, FaultKind::Kill, Target::Robot),
+              fault(7.0, FaultKind::Kill, Target::Standby), fault(9.0, FaultKind::Kill, Target::Robot)};
+  History h;
+  Recorder act;
+  Nemesis n(s, {"m1", "m2"}, h, act);
+  add_module(n, "m1", 100, 0.0);
+  run(n, 0.0, 25.0);
+  REQUIRE(h.faults.size() == 4);
+  // The kills: at 6, 7 and 9 s (within one pass), each a different process.
+  std::vector<double> kill_times;
+  for (const auto& r : h.faults) {
+    if (r.fault.kind == FaultKind::Kill) kill_times.push_back(r.t);
+  }
+  REQUIRE(kill_times.size() == 3);
+  CHECK(kill_times[0] == Approx(6.0).margin(0.011));
+  CHECK(kill_times[1] == Approx(7.0).margin(0.011));
+  CHECK(kill_times[2] == Approx(9.0).margin(0.011));
+  CHECK(act.of("kill").size() == 3);
+  // The unplug waited 15 s and was skipped: no second module came.
+  const FaultRecord& unplug = h.faults.back();
+  CHECK(unplug.fault.kind == FaultKind::Unplug);
+  CHECK(unplug.skipped);
+  CHECK(unplug.t == Approx(20.0).margin(0.011));
+  CHECK(act.of("unplug").empty());
+}
+
+TEST_CASE("nemesis: a fault that waited fires once a target comes, at least 1 s after the last fault, one at a time") {
+  Schedule s;
+  s.duration_s = 60;
+  s.faults = {fault(5.0, FaultKind::Unplug, Target::Module, 2.0), fault(8.0, FaultKind::Stall, Target::Supervisor, 0.5),
+              fault(8.2, FaultKind::Stall, Target::Robot, 0.5)};
+  History h;
+  Recorder act;
+  Nemesis n(s, {"m1", "m2"}, h, act);
+  add_module(n, "m1", 100, 0.0);
+  run(n, 0.0, 7.0);
+  CHECK(h.faults.empty());  // the unplug waits for a second module
+  CHECK(n.waiting() == 1);
+  add_module(n, "m2", 200, 7.5);  // m2's world turns active at 7.5 s: m1 may go now, m2 settles for 3 s
+  run(n, 7.5, 7.6);
+  REQUIRE(h.faults.size() == 1);
+  CHECK(h.faults[0].label == "m1");
+  CHECK(h.faults[0].t == Approx(7.5).margin(0.011));
+  CHECK(h.faults[0].note == "waited 3 s for a target");
+  REQUIRE(act.of("unplug").size() == 1);
+  CHECK(act.of("unplug")[0].target == "module m1");
+  // The stalls find no target at 8.0 and 8.2 s (m1 is out, m2 settles) and wait; m2 is a target from 10.5 s,
+  // and they go one at a time, 1 s apart.
+  run(n, 7.6, 12.0);
+  REQUIRE(h.faults.size() == 3);
+  CHECK(h.faults[1].label == "m2/supervisor");
+  CHECK(h.faults[1].t == Approx(10.5).margin(0.015));
+  CHECK(h.faults[2].label == "m2/left");
+  CHECK(h.faults[2].t == Approx(11.5).margin(0.025));
+  CHECK(h.faults[2].t - h.faults[1].t >= Nemesis::kWaitedGapS - 1e-9);
+  CHECK(n.waiting() == 0);
+}
+
+TEST_CASE("nemesis: one module always runs, and a settling module is left alone") {
+  Schedule s;
+  s.duration_s = 60;
+  s.faults = {fault(1.0, FaultKind::Kill, Target::World, 2.0), fault(2.0, FaultKind::Kill, Target::Robot)};
+  History h;
+  Recorder act;
+  Nemesis n(s, {"m1"}, h, act);
+  add_module(n, "m1", 100, 0.0);
+  CHECK(n.candidates(Target::World, 0.5).empty());  // the only module
+  CHECK(n.candidates(Target::Robot, 0.5).empty());  // settling: its world turned active at 0 s
+  heard(n, 3.5);
+  CHECK(n.candidates(Target::Robot, 3.5).size() == 2);
+  CHECK(n.candidates(Target::Standby, 3.5).size() == 2);
+  CHECK(n.candidates(Target::Robot, 5.1).empty());  // not heard for 1.6 s
+  run(n, 0.0, 4.0);
+  // The robot kill waited for the settling time and fired at 3 s; the world kill still waits.
+  REQUIRE(h.faults.size() == 1);
+  CHECK(h.faults[0].t == Approx(3.0).margin(0.011));
+  CHECK(h.faults[0].had_standby);
+  CHECK(act.of("kill").size() == 1);
+}
+
+TEST_CASE("nemesis: a stall continues after its duration, a killed world's module is plugged in again") {
+  Schedule s;
+  s.duration_s = 60;
+  s.faults = {fault(4.0, FaultKind::Stall, Target::Robot, 1.5, 1), fault(6.0, FaultKind::Kill, Target::World, 2.0)};
+  History h;
+  Recorder act;
+  Nemesis n(s, {"m1", "m2"}, h, act);
+  add_module(n, "m1", 100, 0.0);
+  add_module(n, "m2", 200, 0.0);
+  run(n, 0.0, 4.5);
+  REQUIRE(act.of("stop").size() == 1);
+  const long long stalled = act.of("stop")[0].pid;
+  // A stalled process is nobody's candidate.
+  for (const auto& label : n.candidates(Target::Robot, 4.5)) CHECK(n.processes().at(label).pid != stalled);
+  run(n, 4.5, 5.6);
+  REQUIRE(act.of("resume").size() == 1);
+  CHECK(act.of("resume")[0].pid == stalled);
+  CHECK(h.faults[0].end_t == Approx(5.5).margin(0.011));
+  run(n, 5.6, 8.5);
+  REQUIRE(act.of("kill").size() == 1);
+  const std::string module = h.faults[1].module;
+  CHECK(h.faults[1].fault.target == Target::World);
+  CHECK(n.candidates(Target::World, 8.5).empty());  // the other module alone is up: no module fault
+  REQUIRE(act.of("plug").size() == 1);              // at 6 + 2 s
+  CHECK(act.of("plug")[0].target == "module " + module);
+  // Refused (still draining): retried a second later; accepted: the fault's end is the answer's time.
+  REQUIRE(act.replies.size() == 1);
+  auto refused = std::move(act.replies[0].second);
+  act.replies.clear();
+  refused(false, "module is draining", 8.6);
+  run(n, 8.6, 9.7);
+  REQUIRE(act.of("plug").size() == 2);
+  REQUIRE(act.replies.size() == 1);
+  act.replies[0].second(true, "ok", 9.8);
+  CHECK(h.faults[1].end_t == Approx(9.8));
+}
+
+TEST_CASE("nemesis: an unplugged robot is plugged in again as a standby if a restarted robot took the primary's place") {
+  Schedule s;
+  s.duration_s = 60;
+  s.faults = {fault(4.0, FaultKind::Unplug, Target::Robot, 1.0, 0)};
+  History h;
+  Recorder act;
+  Nemesis n(s, {"m1"}, h, act);
+  add_module(n, "m1", 100, 0.0);
+  run(n, 0.0, 5.1);
+  REQUIRE(act.of("unplug").size() == 1);
+  CHECK(act.of("unplug")[0].target == "robot m1/left");
+  REQUIRE(act.of("plug").size() == 1);
+  CHECK(act.of("plug")[0].target == "robot m1/left");
+  CHECK(act.of("plug")[0].option == "primary");
+  REQUIRE(act.replies.size() == 1);
+  auto reply = std::move(act.replies[0].second);
+  act.replies.clear();
+  reply(false, "m1/left has its primary already", 5.2);
+  REQUIRE(act.of("plug").size() == 2);
+  CHECK(act.of("plug")[1].option == "standby");
+  act.replies[0].second(true, "ok", 5.3);
+  CHECK(h.faults[0].end_t == Approx(5.3));
+}
+
+TEST_CASE("nemesis: calm continues every stalled process and stops every hog") {
+  Schedule s;
+  s.duration_s = 60;
+  s.faults = {fault(4.0, FaultKind::Stall, Target::Standby, 30.0), fault(4.5, FaultKind::Hog, Target::None, 30.0)};
+  s.faults[1].cores = 2;
+  History h;
+  Recorder act;
+  Nemesis n(s, {"m1"}, h, act);
+  add_module(n, "m1", 100, 0.0);
+  run(n, 0.0, 5.0);
+  REQUIRE(act.of("stop").size() == 1);
+  REQUIRE(act.of("hog").size() == 1);
+  CHECK(act.of("hog")[0].target == "2");
+  n.calm(6.0);
+  CHECK(act.of("resume").size() == 1);
+  CHECK(act.of("end_hog").size() == 1);
+  CHECK(h.faults[1].end_t == Approx(6.0));
+  run(n, 6.0, 40.0);  // nothing more once calm
+  CHECK(act.of("resume").size() == 1);
+  CHECK(h.faults.size() == 2);
+}

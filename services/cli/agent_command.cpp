@@ -456,7 +456,7 @@ int agent_command(const std::vector<std::string>& args) {
     if (agent.take_killed()) runtime::clean_stale_shm(started, static_cast<int>(d.domain_id));
     if (Clock::now() - published >= std::chrono::milliseconds(100)) {
       agent.publish(state);
-      own.msg().serving("runs " + std::to_string(agent.running()) + " process(es)");
+      own.msg().detail("runs " + std::to_string(agent.running()) + " process(es)");
       own.publish();
       published = Clock::now();
     }

@@ -7,12 +7,14 @@
 namespace tandem::cli {
 
 namespace {
-// Whether robot `id` is the one its arm follows, from the world's "left=m1/left@50,right=m1/right".
+// Whether robot `id` is the one its arm follows (the world's owners).
 const char* standing(const std::map<std::string, msg::ProcessStatus>& all, const msg::ProcessStatus& robot) {
   const auto w = all.find(robot.module_id() + "/world");
-  if (w == all.end() || w->second.serving().empty() || robot.state() >= 3) return "";
-  const std::string serving = "," + w->second.serving() + ",";
-  return serving.find("=" + robot.process_id() + ",") != std::string::npos ? "  SERVING" : "  standby";
+  if (w == all.end() || w->second.owners().empty() || robot.state() >= 3) return "";
+  for (const auto& o : w->second.owners()) {
+    if (o.state() == msg::ARM_SERVED && o.robot() == robot.process_id()) return "  SERVING";
+  }
+  return "  standby";
 }
 // Multi-host: " on <host>" (the pids are per host).
 std::string where(const msg::ProcessStatus& s) { return s.host().empty() ? "" : " on " + s.host(); }
@@ -29,15 +31,8 @@ std::vector<std::string> LiveView::missing() const {
   std::vector<std::string> out;
   for (const auto& [id, s] : processes_) {
     if (s.role() != "launcher") continue;
-    // The launcher's `serving` lists the labels of the processes it runs, comma-separated.
-    size_t from = 0;
-    const std::string& list = s.serving();
-    while (from < list.size()) {
-      size_t to = list.find(',', from);
-      if (to == std::string::npos) to = list.size();
-      const std::string label = list.substr(from, to - from);
+    for (const auto& label : s.runs()) {  // the labels of the processes it runs
       if (!label.empty() && processes_.count(label) == 0) out.push_back(label);
-      from = to + 1;
     }
   }
   return out;
@@ -51,7 +46,7 @@ void LiveView::print(std::FILE* f) const {
       if (s.progress() >= 0.0) std::snprintf(progress, sizeof progress, "task %5.1f%%", 100.0 * s.progress());
       std::fprintf(f, "  %-18s %-11s tick %6llu  %s  grasp margin %7.2f N  late %llu%s  arms %s%s%s\n", id.c_str(),
                    state, static_cast<unsigned long long>(s.tick()), progress, s.grasp_margin(),
-                   static_cast<unsigned long long>(s.late()), where(s).c_str(), s.serving().c_str(),
+                   static_cast<unsigned long long>(s.late()), where(s).c_str(), runtime::owners_text(s.owners()).c_str(),
                    s.detail().empty() ? "" : "  ",
                    s.detail().c_str());
     } else if (s.role() == "robot") {
@@ -61,12 +56,12 @@ void LiveView::print(std::FILE* f) const {
                    static_cast<unsigned long long>(s.late()), static_cast<long long>(s.pid()),
                    where(s).c_str(), standing(processes_, s), s.detail().empty() ? "" : "  ", s.detail().c_str());
     } else if (s.role() == "launcher") {
-      const size_t n = s.serving().empty() ? 0 : 1 + static_cast<size_t>(std::count(s.serving().begin(), s.serving().end(), ','));
+      const size_t n = s.runs().size();
       std::fprintf(f, "  %-18s %-11s pid %lld  runs %zu process(es)%s%s\n", id.c_str(), state,
                    static_cast<long long>(s.pid()), n, s.detail().empty() ? "" : "  ", s.detail().c_str());
     } else {
       std::fprintf(f, "  %-18s %-11s pid %lld%s%s%s%s%s\n", id.c_str(), state, static_cast<long long>(s.pid()),
-                   where(s).c_str(), s.serving().empty() ? "" : "  ", s.serving().c_str(), s.detail().empty() ? "" : "  ",
+                   where(s).c_str(), s.serving() == msg::ROLE_NONE ? "" : "  ", runtime::role_name(s.serving()), s.detail().empty() ? "" : "  ",
                    s.detail().c_str());
     }
   }

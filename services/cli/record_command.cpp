@@ -51,6 +51,16 @@ void copy_to(const Seq& from, google::protobuf::RepeatedField<double>* to) {
   for (const auto v : from) to->Add(static_cast<double>(v));
 }
 
+void copy_owners(const std::vector<msg::ArmOwner>& from, google::protobuf::RepeatedPtrField<pb::ArmOwner>* to) {
+  for (const auto& o : from) {
+    pb::ArmOwner* p = to->Add();
+    p->set_arm(o.arm());
+    p->set_state(static_cast<pb::ArmState>(o.state()));
+    p->set_robot(o.robot());
+    p->set_strength(o.strength());
+  }
+}
+
 // DDS -> Protobuf, field for field (idl/tandem.idl and idl/tandem_record.proto).
 void convert(const msg::ArmSensors& s, pb::ArmSensors& o) {
   o.set_tick(s.tick());
@@ -88,7 +98,7 @@ pb::WorldReport convert(const msg::WorldReport& r) {
   o.set_late(r.late());
   o.set_failovers(r.failovers());
   o.set_load_paused(r.load_paused());
-  o.set_serving(r.serving());
+  copy_owners(r.owners(), o.mutable_owners());
   o.set_failed(r.failed());
   o.set_failure(r.failure());
   return o;
@@ -110,7 +120,10 @@ pb::ProcessStatus convert(const msg::ProcessStatus& s) {
   o.set_late(s.late());
   o.set_wear(s.wear());
   o.set_workload(s.workload());
-  o.set_serving(s.serving());
+  o.set_serving(static_cast<pb::ServingRole>(s.serving()));
+  o.set_strength(s.strength());
+  copy_owners(s.owners(), o.mutable_owners());
+  for (const auto& label : s.runs()) o.add_runs(label);
   o.set_host(s.host());
   return o;
 }
@@ -197,28 +210,6 @@ pb::ControlRequest convert(const msg::ControlRequest& r) {
   return o;
 }
 
-/// "left=m1/left@50,right=m1/right" -> arm -> strength of its robot (100 for the primary, 0 braked/none).
-std::map<std::string, int> serving_strengths(const std::string& serving) {
-  std::map<std::string, int> out;
-  std::stringstream ss(serving);
-  std::string item;
-  while (std::getline(ss, item, ',')) {
-    const auto eq = item.find('=');
-    if (eq == std::string::npos) continue;
-    const std::string arm = item.substr(0, eq), who = item.substr(eq + 1);
-    const auto at = who.find('@');
-    int s = 0;
-    if (who.empty() || who.rfind("braked", 0) == 0) {  // "braked", "braked(load)": no robot serves it
-      s = 0;
-    } else if (at == std::string::npos) {
-      s = 100;
-    } else {
-      s = std::atoi(who.c_str() + at + 1);
-    }
-    out[arm] = s;
-  }
-  return out;
-}
 
 const char* kStateNames[] = {"unconfigured", "inactive", "active", "finalized", "error"};
 const char* state_name(unsigned s) { return s < 5 ? kStateNames[s] : "?"; }
@@ -529,20 +520,21 @@ class Recorder {
       if (wr.load_paused() != prev.load_paused) {
         event(wr.load_paused() ? "load_pause" : "load_resume", module, module, "", wr.tick(), now);
       }
-      if (wr.serving() != prev.serving) {
-        const auto before = serving_strengths(prev.serving), after = serving_strengths(wr.serving());
-        for (const auto& [arm, s] : after) {
-          const auto b = before.find(arm);
-          if (b == before.end() || b->second == s || b->second == 0 || s == 0) continue;
-          event(s < b->second ? "failover" : "takeover", module, module + "/" + arm, prev.serving + " -> " + wr.serving(),
-                wr.tick(), now);
-        }
+      // A change of the robot an arm follows: to a weaker one is a failover, to a stronger one a takeover
+      // (braked or stopping in between is neither: the brake and release events tell those).
+      for (const auto& o : wr.owners()) {
+        const auto b = prev.strength.find(o.arm());
+        const int s = o.state() == msg::ARM_SERVED ? o.strength() : 0;
+        if (b == prev.strength.end() || b->second == s || b->second == 0 || s == 0) continue;
+        event(s < b->second ? "failover" : "takeover", module, module + "/" + o.arm(),
+              prev.owners + " -> " + runtime::owners_text(wr.owners()), wr.tick(), now);
       }
     }
     prev.seen = true;
     prev.braked = {wr.braked()[0], wr.braked()[1]};
     prev.load_paused = wr.load_paused();
-    prev.serving = wr.serving();
+    prev.owners = runtime::owners_text(wr.owners());
+    for (const auto& o : wr.owners()) prev.strength[o.arm()] = o.state() == msg::ARM_SERVED ? o.strength() : 0;
   }
 
   const runtime::Deployment& d_;
@@ -570,7 +562,8 @@ class Recorder {
     bool seen = false;
     std::array<bool, 2> braked{};
     bool load_paused = false;
-    std::string serving;
+    std::string owners;                 ///< as text, for the event's detail
+    std::map<std::string, int> strength;  ///< arm -> strength of the robot it follows (0: none)
   };
   std::map<std::string, WorldPrev> world_prev_;
   int launcher_state_ = -1;

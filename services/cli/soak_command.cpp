@@ -38,6 +38,7 @@
 #include "tandem/dds/bus.hpp"
 #include "tandem/runtime/deployment.hpp"
 #include "tandem/runtime/shm_clean.hpp"
+#include "tandem/runtime/status.hpp"
 #include "tandem/sim/module_setup.hpp"
 #include "tandem/sim/scenario_yaml.hpp"
 #include "tandem/soak/checker.hpp"
@@ -315,10 +316,12 @@ class Soak : public NemesisActions {
         b.s.hold = b.s.hold || r.hold();
         b.s.load_paused = b.s.load_paused || r.load_paused();
         b.s.failed = b.s.failed || r.failed();
-        if (r.serving() != b.serving) {
-          b.serving = r.serving();
-          nemesis_.on_owners(module, parse_owners(r.serving()));
-          h_.events.push_back({t, Event::Type::Owners, module, r.serving()});
+        if (const std::string text = runtime::owners_text(r.owners()); text != b.serving) {
+          b.serving = text;
+          std::map<std::string, std::string> owners;
+          for (const auto& o : r.owners()) owners[o.arm()] = o.state() == msg::ARM_SERVED ? o.robot() : "";
+          nemesis_.on_owners(module, owners);
+          h_.events.push_back({t, Event::Type::Owners, module, text, owners});
         }
         if (t >= b.end) flush(module, b);
       }
@@ -354,15 +357,16 @@ class Soak : public NemesisActions {
       if (p.pid != pid || p.state != s.state()) {
         h_.events.push_back({t, Event::Type::State, label, std::to_string(s.state()) + " " + std::to_string(pid)});
       }
-      if ((s.role() == "supervisor" || s.role() == "coordinator") && (s.serving() != p.serving || p.pid != pid)) {
-        h_.events.push_back({t, Event::Type::Serving, label, s.serving()});
+      const std::string serving = runtime::role_name(s.serving());
+      if ((s.role() == "supervisor" || s.role() == "coordinator") && (serving != p.serving || p.pid != pid)) {
+        h_.events.push_back({t, Event::Type::Serving, label, serving});
       }
       ProcessView now;
       now.role = s.role();
       now.module = s.module_id();
       now.pid = pid;
       now.state = s.state();
-      now.serving = s.serving();
+      now.serving = serving;
       now.last_t = t;
       nemesis_.on_status(label, now);
     }

@@ -1774,7 +1774,7 @@ int up_command(const std::vector<std::string>& args) {
     // was still starting, both came back with --resume and no state, and no task was done again.
     if (advanced && d.coordinator) coord_state_out.write(last_coord);
   };
-  std::string running_labels;
+  std::vector<std::string> running_labels;
   auto launcher_published = Clock::now();
   auto heartbeat_sent = Clock::now();
   while (L.busy()) {
@@ -1791,15 +1791,16 @@ int up_command(const std::vector<std::string>& args) {
     L.escalate();
     {
       // The launcher's status lists what it runs, so that `tandem status` knows whom to wait for.
-      std::string labels;
+      std::vector<std::string> labels;
+      labels.reserve(L.children_.size());
       for (const auto& c : L.children_) {
-        if (c.running) labels += (labels.empty() ? "" : ",") + c.label;
+        if (c.running) labels.push_back(c.label);
       }
       // Also every 100 ms, like every other process: a late joiner that has matched hears the launcher within
       // 100 ms whatever its vendor's repair handshake (docs/interop.md).
       if (labels != running_labels || Clock::now() - launcher_published > std::chrono::milliseconds(100)) {
         running_labels = labels;
-        launcher_status.msg().serving(labels);
+        launcher_status.msg().runs(labels);
         launcher_status.publish();
         launcher_published = Clock::now();
       }

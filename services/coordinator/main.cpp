@@ -199,7 +199,7 @@ int main(int argc, char** argv) {
                                                                          bus::TopicKind::Task);
   runtime::StatusPublisher status(part, opt.id, "coordinator", "");
   status.msg().deployment(d.name);
-  status.msg().serving(opt.standby ? "standby" : "primary");
+  status.msg().serving(opt.standby ? msg::ROLE_STANDBY : msg::ROLE_PRIMARY);
   status.set(runtime::Lifecycle::Active, "task queue of " + std::to_string(d.tasks.size()));
 
   std::vector<std::string> names;
@@ -269,7 +269,7 @@ int main(int argc, char** argv) {
       if (ps.role() == "robot") wear[ps.process_id()] = ps.wear();
       if (ps.role() == "coordinator" &&
           lead.on_peer(ps.process_id(), ps.state() == static_cast<uint8_t>(runtime::Lifecycle::Active),
-                       ps.serving() == "primary", t)) {
+                       ps.serving() == msg::ROLE_PRIMARY, t)) {
         std::fprintf(stderr, "tandem-coordinator %s: %s took over while this one was stalled; leaving so that only "
                      "one coordinator leads (restarted as a standby by the policy)\n", opt.id.c_str(),
                      ps.process_id().c_str());
@@ -327,7 +327,7 @@ int main(int argc, char** argv) {
           " running, " + std::to_string(queue.pending_count()) + " pending");
       const TaskQueue::Reconciled r = queue.reconcile(t);
       for (const auto& e : r.events) say(queue.describe(e));
-      status.msg().serving("primary");
+      status.msg().serving(msg::ROLE_PRIMARY);
       publish_state(t);  // what is in flight, before any assignment
       for (const auto& a : r.resend) {
         send(a);

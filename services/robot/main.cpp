@@ -59,7 +59,7 @@ int run(int argc, char** argv) {
                                                                        bus::TopicKind::Summary);
   runtime::StatusPublisher status(part, robot_id, "robot", opt.module);
   status.msg().deployment(opt.deployment);
-  status.msg().serving(std::to_string(opt.strength));
+  status.msg().strength(opt.strength);
   status.set(runtime::Lifecycle::Inactive, "waiting for the plan and the first tick");
 
   // The core is shared by the receiving thread (which computes) and the main thread (status, exit).
@@ -71,11 +71,15 @@ int run(int argc, char** argv) {
   auto last_input = Clock::now();
   msg::SupervisorPlan plan_in;
   std::string why;
+  auto mono_ns = [] {
+    return static_cast<int64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now().time_since_epoch()).count());
+  };
+  bool cut_off = false;  // the module's leader fell silent for this robot (RobotCore::cut_off): exit 6
   auto take_plans = [&] {  // under mu
     while (plans.take(plan_in)) {
       if (plan_in.module_id() != opt.module) continue;
       why.clear();
-      const plan::PlanFollower::Offer o = core.offer_plan(runtime::from_wire(plan_in), &why);
+      const plan::PlanFollower::Offer o = core.offer_plan(runtime::from_wire(plan_in), &why, mono_ns());
       if (o == plan::PlanFollower::Offer::Rejected) {
         std::fprintf(stderr, "tandem-robot %s: plan from '%s' rejected: %s\n", robot_id.c_str(),
                      plan_in.supervisor_id().c_str(), why.c_str());
@@ -220,6 +224,14 @@ int run(int argc, char** argv) {
       interval_worst_us = 0.0;
       status.publish();
     }
+    if (core.cut_off(mono_ns())) {
+      std::fprintf(stderr, "tandem-robot %s: no plan from the module's leader (epoch %llu, strength %d) for %.1f s at tick "
+                   "%ld: cut off from it; leaving its arm and exiting, to come back with a fresh participant\n",
+                   robot_id.c_str(), static_cast<unsigned long long>(core.plan_rank().epoch), core.plan_rank().strength,
+                   static_cast<double>(robot::RobotCore::kLeaderSilenceNs) * 1e-9, core.done());
+      cut_off = true;
+      break;
+    }
     if (std::chrono::duration<double>(now - last_input).count() > opt.timeout) {
       std::fprintf(stderr, "tandem-robot %s: no input for %.1f s after tick %ld; stopping\n", my_arm.c_str(),
                    opt.timeout, core.done());
@@ -258,11 +270,11 @@ int run(int argc, char** argv) {
     status.set(runtime::Lifecycle::Finalized, "task done");
   } else {
     status.set(runtime::g_stop ? runtime::Lifecycle::Finalized : runtime::Lifecycle::Error,
-               runtime::g_stop ? "stopped" : "no input");
+               runtime::g_stop ? "stopped" : cut_off ? "cut off from the module's leader" : "no input");
   }
   lock.unlock();
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
-  return (finished || runtime::g_stop) ? 0 : 4;
+  return (finished || runtime::g_stop) ? 0 : cut_off ? 6 : 4;
 }
 
 }  // namespace

@@ -76,7 +76,7 @@ int run(int argc, char** argv) {
     std::printf("tandem-supervisor %s: %s\n", self_id.c_str(), line.c_str());
     std::fflush(stdout);
   });
-  status.msg().serving(core.active() ? "primary" : "standby");
+  status.msg().serving(core.active() ? msg::ROLE_PRIMARY : msg::ROLE_STANDBY);
   status.set(runtime::Lifecycle::Active, opt.continuous ? "waiting for a task" : "planning");
   if (runtime::raise_to_realtime_from_env() < 0) std::fprintf(stderr, "tandem: could not raise to SCHED_FIFO once active\n");
 
@@ -107,7 +107,7 @@ int run(int argc, char** argv) {
     }
     if (core.active() != was_active) {
       was_active = core.active();
-      status.msg().serving(was_active ? "primary" : "standby");
+      status.msg().serving(was_active ? msg::ROLE_PRIMARY : msg::ROLE_STANDBY);
       status.publish();
     }
     if (auto d = core.take_detail()) {

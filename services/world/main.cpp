@@ -129,14 +129,14 @@ int run(int argc, char** argv) {
   world::TickClock clock(std::llround(m.period * 1e9), now_ns());
   auto publish_status_if_changed = [&] {
     if (!core.serving_changed()) return;
-    status.msg().serving(core.serving_text());
+    status.msg().owners(world_wire::owners(core));
     status.msg().detail(core.failed()            ? "failed: object dropped (" + core.failure() + ")"
                         : core.paused_for_load() ? "paused for load (overload: commands late)"
                         : core.stopping(0) || core.stopping(1) ? "stopping: an arm has no live controller"
                         : core.braked(0) || core.braked(1) ? "arm braked: no live controller" : "");
     status.publish();
   };
-  status.msg().serving(core.serving_text());
+  status.msg().owners(world_wire::owners(core));
   status.set(runtime::Lifecycle::Active, opt.realtime ? "real time" : "lockstep");
   if (runtime::raise_to_realtime_from_env() < 0) std::fprintf(stderr, "tandem: could not raise to SCHED_FIFO once active\n");
   long k = 0;

@@ -44,7 +44,24 @@ void fill_report_counters(const world::WorldCore& core, bool realtime, msg::Worl
   rep.late(realtime ? core.late : core.timeouts);
   rep.failovers(core.failovers);
   rep.load_paused(core.paused_for_load());
-  rep.serving(core.serving_text());
+  rep.owners(owners(core));
+}
+
+std::vector<msg::ArmOwner> owners(const world::WorldCore& core) {
+  using State = world::WorldCore::Owner::State;
+  std::vector<msg::ArmOwner> out(2);
+  for (int j = 0; j < 2; ++j) {
+    const auto o = core.owner(j);
+    msg::ArmOwner& w = out[static_cast<size_t>(j)];
+    w.arm(core.arm_name(j));
+    w.state(o.state == State::Served     ? msg::ARM_SERVED
+            : o.state == State::Stopping ? msg::ARM_STOPPING
+            : o.state == State::Braked   ? msg::ARM_BRAKED
+                                         : msg::ARM_BRAKED_LOAD);
+    w.robot(o.robot);
+    w.strength(o.strength);
+  }
+  return out;
 }
 
 }  // namespace tandem::world_wire

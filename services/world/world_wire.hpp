@@ -5,6 +5,7 @@
 #include <tandemPubSubTypes.h>
 
 #include <string>
+#include <vector>
 
 #include "tandem/runtime/histogram.hpp"
 #include "tandem/world/world_core.hpp"
@@ -18,5 +19,8 @@ void fill_summary(const world::WorldCore& core, const std::string& module, long 
 /// The observers' part of a WorldReport: running counters (slips, contact losses, late ticks, failovers),
 /// the load pause and who serves each arm.
 void fill_report_counters(const world::WorldCore& core, bool realtime, msg::WorldReport& rep);
+
+/// Who each arm follows now, as WorldReport.owners and the world's ProcessStatus.owners carry it.
+std::vector<msg::ArmOwner> owners(const world::WorldCore& core);
 
 }  // namespace tandem::world_wire

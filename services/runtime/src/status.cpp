@@ -2,6 +2,26 @@
 
 namespace tandem::runtime {
 
+const char* role_name(msg::ServingRole role) {
+  return role == msg::ROLE_PRIMARY ? "primary" : role == msg::ROLE_STANDBY ? "standby" : "";
+}
+
+std::string owner_text(const msg::ArmOwner& o) {
+  switch (o.state()) {
+    case msg::ARM_SERVED: return o.robot();
+    case msg::ARM_STOPPING: return "stopping";
+    case msg::ARM_BRAKED: return "braked";
+    case msg::ARM_BRAKED_LOAD: return "braked(load)";
+  }
+  return "?";
+}
+
+std::string owners_text(const std::vector<msg::ArmOwner>& owners) {
+  std::string out;
+  for (const auto& o : owners) out += (out.empty() ? "" : ",") + o.arm() + "=" + owner_text(o);
+  return out;
+}
+
 const char* lifecycle_name(uint8_t state) {
   switch (state) {
     case 0: return "unconfigured";

@@ -249,9 +249,8 @@ class Judge {
   double arm_served_without(const std::string& module, const std::string& robot, const std::string& label, double t) const {
     for (const Event& e : h_.events) {
       if (e.t < t || e.type != Event::Type::Owners || e.subject != module) continue;
-      const auto owners = parse_owners(e.text);
-      const auto it = owners.find(robot);
-      if (it != owners.end() && it->second != label && it->second != "braked" && !it->second.empty()) return e.t;
+      const auto it = e.owners.find(robot);
+      if (it != e.owners.end() && it->second != label && !it->second.empty()) return e.t;
     }
     return -1.0;
   }
@@ -261,9 +260,8 @@ class Judge {
     for (const Event& e : h_.events) {
       if (e.t > t) break;
       if (e.type != Event::Type::Owners || e.subject != module) continue;
-      const auto owners = parse_owners(e.text);
-      const auto it = owners.find(robot);
-      if (it != owners.end()) owner = it->second;
+      const auto it = e.owners.find(robot);
+      if (it != e.owners.end()) owner = it->second;
     }
     return owner == label;
   }
@@ -541,17 +539,6 @@ class Judge {
 };
 
 }  // namespace
-
-std::map<std::string, std::string> parse_owners(const std::string& serving) {
-  std::map<std::string, std::string> out;
-  std::istringstream in(serving);
-  std::string item;
-  while (std::getline(in, item, ',')) {
-    const auto eq = item.find('=');
-    if (eq != std::string::npos) out[item.substr(0, eq)] = item.substr(eq + 1);
-  }
-  return out;
-}
 
 double slope(const std::vector<std::pair<double, double>>& xy) {
   if (xy.size() < 2) return 0.0;

@@ -42,11 +42,32 @@ std::string WorldCore::robot_name(int j, int32_t strength) const {
   return strength == plan::kPrimaryStrength ? arm : arm + "@" + std::to_string(strength);
 }
 
+WorldCore::Owner WorldCore::owner(int j) const {
+  const ArmLink& L = link_[static_cast<size_t>(j)];
+  Owner o;
+  if (L.braked) {
+    o.state = load_paused_ ? Owner::State::BrakedLoad : Owner::State::Braked;
+  } else if (L.stopping) {
+    o.state = Owner::State::Stopping;
+  } else {
+    o.state = Owner::State::Served;
+    o.robot = L.owner;
+    o.strength = L.strength;
+  }
+  return o;
+}
+
+const std::string& WorldCore::arm_name(int j) const { return o_.arm_names[static_cast<size_t>(j)]; }
+
 std::string WorldCore::serving_text() const {
   std::string out;
-  for (size_t j = 0; j < 2; ++j) {
-    out += (j ? "," : "") + o_.arm_names[j] + "=" +
-           (link_[j].braked ? (load_paused_ ? "braked(load)" : "braked") : link_[j].stopping ? "stopping" : link_[j].owner);
+  for (int j = 0; j < 2; ++j) {
+    const Owner o = owner(j);
+    out += (j ? "," : "") + arm_name(j) + "=" +
+           (o.state == Owner::State::BrakedLoad ? "braked(load)"
+            : o.state == Owner::State::Braked   ? "braked"
+            : o.state == Owner::State::Stopping ? "stopping"
+                                                : o.robot);
   }
   return out;
 }

@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include <string>
+#include <vector>
 
 #include "tandem/dds/bus.hpp"
 
@@ -16,6 +17,12 @@ namespace tandem::runtime {
 
 enum class Lifecycle : uint8_t { Unconfigured = 0, Inactive = 1, Active = 2, Finalized = 3, Error = 4 };
 const char* lifecycle_name(uint8_t state);
+/// "primary", "standby" or "" (ProcessStatus.serving).
+const char* role_name(msg::ServingRole role);
+/// Who an arm follows, for people: its robot's label, or "stopping", "braked", "braked(load)".
+std::string owner_text(const msg::ArmOwner& o);
+/// Every arm: "left=m1/left@50,right=braked" (status lines, recorder events).
+std::string owners_text(const std::vector<msg::ArmOwner>& owners);
 
 class StatusPublisher {
  public:

@@ -67,8 +67,6 @@ struct Verdict {
 
 Verdict check(const History& h, const Bounds& b);
 
-/// "left=m1/left@50,right=braked" -> {left: m1/left@50, right: braked}
-std::map<std::string, std::string> parse_owners(const std::string& serving);
 /// Least-squares slope of y over x (0 with fewer than 2 points).
 double slope(const std::vector<std::pair<double, double>>& xy);
 /// Percentile (0..1) of values, linear between order statistics; 0 for none.

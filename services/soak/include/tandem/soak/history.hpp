@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "tandem/soak/schedule.hpp"
@@ -35,7 +36,7 @@ struct Span {
 struct Event {
   double t = 0.0;
   enum class Type {
-    Owners,        ///< subject: module; text: the world's serving text ("left=m1/left@50,right=m1/right")
+    Owners,        ///< subject: module; owners: arm -> robot; text: the same for people ("left=m1/left@50,right=braked")
     State,         ///< subject: process label; text: "<state> <pid>" (state 0..4 as ProcessStatus)
     Serving,       ///< subject: process label (supervisor, coordinator); text: "primary" | "standby"
     TaskAssigned,  ///< subject: task name; text: module
@@ -46,6 +47,11 @@ struct Event {
     Unparked,      ///< ... and brought it back; subject: module; text: why
   } type = Type::State;
   std::string subject, text;
+  std::map<std::string, std::string> owners;  ///< Owners: arm -> the robot's label it follows ("" while none)
+
+  Event() = default;
+  Event(double at, Type what, std::string subj, std::string txt, std::map<std::string, std::string> arm_owners = {})
+      : t(at), type(what), subject(std::move(subj)), text(std::move(txt)), owners(std::move(arm_owners)) {}
 };
 
 /// What the nemesis did.

@@ -214,7 +214,15 @@ class WorldCore {
   void step();
 
   const model::ModulePlant& plant() const { return plant_; }
-  std::string serving_text() const;  ///< "left=m1/left@50,right=braked"
+  /// Who arm j follows now: the robot it follows (label and strength), or why none (stopping, braked).
+  struct Owner {
+    enum class State { Served, Stopping, Braked, BrakedLoad } state = State::Braked;
+    std::string robot;     ///< Served: the robot's process label
+    int32_t strength = 0;  ///< Served: its strength
+  };
+  Owner owner(int j) const;
+  const std::string& arm_name(int j) const;
+  std::string serving_text() const;  ///< for people: "left=m1/left@50,right=braked"
   bool braked(int j) const { return link_[static_cast<size_t>(j)].braked; }
   /// The arm has no live controller and the world drives it to rest along the plan (then brakes it).
   bool stopping(int j) const { return link_[static_cast<size_t>(j)].stopping; }

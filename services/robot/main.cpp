@@ -71,15 +71,12 @@ int run(int argc, char** argv) {
   auto last_input = Clock::now();
   msg::SupervisorPlan plan_in;
   std::string why;
-  auto mono_ns = [] {
-    return static_cast<int64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now().time_since_epoch()).count());
-  };
   bool cut_off = false;  // the module's leader fell silent for this robot (RobotCore::cut_off): exit 6
   auto take_plans = [&] {  // under mu
     while (plans.take(plan_in)) {
       if (plan_in.module_id() != opt.module) continue;
       why.clear();
-      const plan::PlanFollower::Offer o = core.offer_plan(runtime::from_wire(plan_in), &why, mono_ns());
+      const plan::PlanFollower::Offer o = core.offer_plan(runtime::from_wire(plan_in), &why);
       if (o == plan::PlanFollower::Offer::Rejected) {
         std::fprintf(stderr, "tandem-robot %s: plan from '%s' rejected: %s\n", robot_id.c_str(),
                      plan_in.supervisor_id().c_str(), why.c_str());
@@ -224,11 +221,11 @@ int run(int argc, char** argv) {
       interval_worst_us = 0.0;
       status.publish();
     }
-    if (core.cut_off(mono_ns())) {
-      std::fprintf(stderr, "tandem-robot %s: no plan from the module's leader (epoch %llu, strength %d) for %.1f s at tick "
-                   "%ld: cut off from it; leaving its arm and exiting, to come back with a fresh participant\n",
+    if (core.cut_off()) {
+      std::fprintf(stderr, "tandem-robot %s: no plan from the module's leader (epoch %llu, strength %d) for %ld ticks "
+                   "at tick %ld: cut off from it; leaving its arm and exiting, to come back with a fresh participant\n",
                    robot_id.c_str(), static_cast<unsigned long long>(core.plan_rank().epoch), core.plan_rank().strength,
-                   static_cast<double>(robot::RobotCore::kLeaderSilenceNs) * 1e-9, core.done());
+                   robot::RobotCore::kLeaderSilenceTicks, core.done());
       cut_off = true;
       break;
     }

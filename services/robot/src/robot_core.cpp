@@ -6,12 +6,12 @@ RobotCore::RobotCore(const sim::ModuleSetup& m, int j, bool continuous, double t
     : m_(m), j_(j), follower_(m, continuous), ctl_(m.plant.arms[j], m.control[j]),
       meter_(m.control[j].selection_p, transient, m.path.motion_end()) {}
 
-plan::PlanFollower::Offer RobotCore::offer_plan(const plan::PlanData& p, std::string* why, int64_t now_ns) {
+plan::PlanFollower::Offer RobotCore::offer_plan(const plan::PlanData& p, std::string* why) {
   const plan::PlanFollower::Offer o = follower_.offer(p, why, done_);
   if (o == plan::PlanFollower::Offer::Rejected) {
     ++rejected_;
-  } else if (now_ns >= 0 && !follower_.rank().outranks(p.rank())) {
-    leader_heard_ns_ = now_ns;  // the leader's heartbeat (same rank), or a plan that outranks the one followed
+  } else if (!follower_.rank().outranks(p.rank())) {
+    leader_heard_tick_ = done_;  // the leader's heartbeat (same rank), or a plan that outranks the one followed
   }
   return o;
 }

@@ -19,22 +19,19 @@ class RobotCore {
   RobotCore(const sim::ModuleSetup& m, int j, bool continuous, double transient);
 
   /// A plan heard on the wire: adopted if it outranks the one followed (plan::PlanFollower); a malformed one
-  /// is rejected and counted (`why` says how). `now_ns` (a monotonic clock; -1: not timed): when it was heard,
-  /// for the leader's silence (cut_off).
-  plan::PlanFollower::Offer offer_plan(const plan::PlanData& p, std::string* why = nullptr, int64_t now_ns = -1);
+  /// is rejected and counted (`why` says how).
+  plan::PlanFollower::Offer offer_plan(const plan::PlanData& p, std::string* why = nullptr);
 
-  /// The supervisor a robot follows publishes its plan at least every 20 ms (its heartbeat), and a new leader
-  /// publishes in a higher epoch within about 50 ms of a takeover. A robot that has followed a plan and hears
-  /// none of its leader's rank or above for this long is cut off from the module's leader: it must not serve
-  /// an arm with that plan. Found by the one-hour soak: after a supervisor takeover, Fast DDS failed to add the
-  /// new leader's writer to one standby robot's reader ("Failed to open segment fast_datasharing_..."). That
-  /// robot kept its old plan and was 158 mm off the module's reference. It later took its arm over and the
-  /// object was dropped. 3 s is above the longest leader stall that the soak's standby supervisors cover.
-  static constexpr int64_t kLeaderSilenceNs = 3'000'000'000;
-  /// Whether the leader has been silent past kLeaderSilenceNs at `now_ns` (timed offers only).
-  bool cut_off(int64_t now_ns) const {
-    return follower_.has_plan() && leader_heard_ns_ >= 0 && now_ns - leader_heard_ns_ > kLeaderSilenceNs;
-  }
+  /// The leading supervisor publishes its plan on each world report (every 10 ticks) at least every 20 ms, and
+  /// a new leader publishes in a higher epoch within about 50 ms of a takeover. A robot that follows a plan and
+  /// computes this many ticks without hearing a plan of its leader's rank or above is cut off from the leader:
+  /// it must not serve an arm with that plan. Counted in ticks, so that a world that does not tick (before the
+  /// first tick, a stalled world) cuts no robot off. Found by the one-hour soak: after a supervisor takeover,
+  /// Fast DDS failed to add the new leader's writer to one standby robot's reader ("Failed to open segment
+  /// fast_datasharing_..."); that robot kept its old plan, 158 mm off the module's reference, later took its
+  /// arm over, and the object was dropped.
+  static constexpr long kLeaderSilenceTicks = 3000;
+  bool cut_off() const { return follower_.has_plan() && done_ - leader_heard_tick_ > kLeaderSilenceTicks; }
 
   /// One sensor sample of tick k. Returns the torque to send: for a new tick the law's output (eq. 15 from
   /// the plan, saturated at tau_max); for a repeat of the last tick (lockstep asks again) the same command;
@@ -76,7 +73,7 @@ class RobotCore {
   unsigned long long rejected_ = 0;
   unsigned long long saturated_ = 0;
   bool last_saturated_ = false;
-  int64_t leader_heard_ns_ = -1;  ///< when a plan of the followed rank or above was last heard
+  long leader_heard_tick_ = -1;  ///< the last tick computed when a plan of the followed rank or above was heard
 };
 
 }  // namespace tandem::robot

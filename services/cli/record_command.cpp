@@ -25,6 +25,7 @@
 #include <sstream>
 #include <thread>
 
+#include "tandem/record/event_deriver.hpp"
 #include "tandem/record/recording.hpp"
 #include "tandem/runtime/deployment.hpp"
 #include "tandem/runtime/security.hpp"
@@ -72,6 +73,8 @@ void convert(const msg::ArmSensors& s, pb::ArmSensors& o) {
   o.set_braked(s.braked());
   copy_to(s.tau(), o.mutable_tau());
   o.set_from(s.from());
+  o.set_plan_epoch(s.plan_epoch());
+  o.set_plan_strength(s.plan_strength());
 }
 void convert(const msg::TorqueCommand& c, pb::TorqueCommand& o) {
   o.set_tick(c.tick());
@@ -211,8 +214,21 @@ pb::ControlRequest convert(const msg::ControlRequest& r) {
 }
 
 
-const char* kStateNames[] = {"unconfigured", "inactive", "active", "finalized", "error"};
-const char* state_name(unsigned s) { return s < 5 ? kStateNames[s] : "?"; }
+
+/// What the event deriver needs of a world's report.
+record::WorldView world_view(const msg::WorldReport& wr) {
+  record::WorldView w;
+  w.tick = wr.tick();
+  w.braked = {wr.braked()[0], wr.braked()[1]};
+  w.load_paused = wr.load_paused();
+  w.failed = wr.failed();
+  w.failure = wr.failure();
+  w.owners.reserve(wr.owners().size());
+  for (const auto& o : wr.owners()) {
+    w.owners.push_back({o.arm(), o.state() == msg::ARM_SERVED, o.strength(), runtime::owner_text(o)});
+  }
+  return w;
+}
 
 /// The recorder: one participant, a reader per chosen topic, one writer of the file.
 class Recorder {
@@ -312,23 +328,14 @@ class Recorder {
       if (!ps.deployment().empty() && ps.deployment() != d_.name) continue;
       if (ps.process_id() == "launcher") launcher_state_ = ps.state();
       if (groups_.count("status") != 0) put("tandem/process_status", convert(ps), now);
-      auto known = states_.find(ps.process_id());
-      if (known == states_.end()) known = states_.emplace(ps.process_id(), -1).first;
-      int& last = known->second;
-      if (last != static_cast<int>(ps.state())) {
-        event("lifecycle", ps.module_id(), ps.process_id(),
-              std::string(last < 0 ? "(new)" : state_name(static_cast<unsigned>(last))) + " -> " +
-                  state_name(ps.state()) + (ps.detail().empty() ? "" : ": " + ps.detail()),
-              ps.tick(), now);
-        last = ps.state();
-      }
+      write_events(deriver_.on_status(ps.process_id(), ps.module_id(), ps.state(), ps.detail(), ps.tick()), now);
     }
     for (auto& [module, r] : reports_) {
       msg::WorldReport wr;
       while (r->take(wr)) {
         if (wr.module_id() != module) continue;
         if (groups_.count("world") != 0) put(bus::module_topic(bus::kWorldReportTopic, module), convert(wr), now);
-        world_events(module, wr, now);
+        write_events(deriver_.on_world(module, world_view(wr)), now);
       }
     }
     for (auto& [module, r] : plans_) {
@@ -352,26 +359,19 @@ class Recorder {
     msg::TaskAssignment ta;
     while (assign_->take(ta)) {
       if (groups_.count("tasks") != 0) put(bus::kTaskAssignmentTopic, convert(ta), now);
-      if (seen_tasks_.insert(ta.task_id()).second) {
-        event("task_assigned", ta.module_id(), ta.task_name(), "task " + std::to_string(ta.task_id()), 0, now);
-      }
+      write_events(deriver_.on_assignment(ta.task_id(), ta.module_id(), ta.task_name()), now);
     }
     msg::TaskState ts;
     while (task_state_->take(ts)) {
       if (!ts.deployment().empty() && ts.deployment() != d_.name) continue;
       if (groups_.count("tasks") != 0) put(bus::kTaskStateTopic, convert(ts), now);
-      auto& done = tasks_done_[ts.module_id()];
-      if (ts.tasks_done() > done) {
-        event("task_done", ts.module_id(), "task " + std::to_string(ts.task_id()),
-              std::to_string(ts.tasks_done()) + " done by " + ts.module_id(), ts.tick(), now);
-        done = ts.tasks_done();
-      }
+      write_events(deriver_.on_task_state(ts.module_id(), ts.task_id(), ts.tasks_done(), ts.tick()), now);
     }
     msg::ControlRequest cr;
     while (control_->take(cr)) {
       if (cr.deployment() != d_.name) continue;
       if (groups_.count("control") != 0) put(bus::kControlTopic, convert(cr), now);
-      event("control", "", cr.target(), cr.command() + (cr.option().empty() ? "" : " " + cr.option()), 0, now);
+      write_events(deriver_.on_control(cr.command(), cr.target(), cr.option()), now);
     }
     std::lock_guard<std::mutex> lock(mu_);
     if (Clock::now() - last_flush_ > std::chrono::seconds(1)) {  // a crash loses at most a second
@@ -493,10 +493,10 @@ class Recorder {
     if (closing_) return;
     w_.write(w_.channel(topic, M::descriptor()), m, now);
   }
-  void event(const std::string& kind, const std::string& module, const std::string& subject, const std::string& detail,
-             uint64_t tick, uint64_t now) {
+  void write_events(const std::vector<record::DerivedEvent>& events, uint64_t now) {
+    if (events.empty()) return;
     std::lock_guard<std::mutex> lock(mu_);
-    event_locked(kind, module, subject, detail, tick, now);
+    for (const auto& e : events) event_locked(e.kind, e.module, e.subject, e.detail, e.tick, now);
   }
   void event_locked(const std::string& kind, const std::string& module, const std::string& subject,
                     const std::string& detail, uint64_t tick, uint64_t now) {
@@ -509,34 +509,6 @@ class Recorder {
     e.set_tick(tick);
     w_.write(events_, e, now);
   }
-  void world_events(const std::string& module, const msg::WorldReport& wr, uint64_t now) {
-    auto& prev = world_prev_[module];
-    if (prev.seen) {
-      for (size_t j = 0; j < 2; ++j) {
-        if (wr.braked()[j] != prev.braked[j]) {
-          event(wr.braked()[j] ? "brake" : "release", module, "arm " + std::to_string(j), "", wr.tick(), now);
-        }
-      }
-      if (wr.load_paused() != prev.load_paused) {
-        event(wr.load_paused() ? "load_pause" : "load_resume", module, module, "", wr.tick(), now);
-      }
-      // A change of the robot an arm follows: to a weaker one is a failover, to a stronger one a takeover
-      // (braked or stopping in between is neither: the brake and release events tell those).
-      for (const auto& o : wr.owners()) {
-        const auto b = prev.strength.find(o.arm());
-        const int s = o.state() == msg::ARM_SERVED ? o.strength() : 0;
-        if (b == prev.strength.end() || b->second == s || b->second == 0 || s == 0) continue;
-        event(s < b->second ? "failover" : "takeover", module, module + "/" + o.arm(),
-              prev.owners + " -> " + runtime::owners_text(wr.owners()), wr.tick(), now);
-      }
-    }
-    prev.seen = true;
-    prev.braked = {wr.braked()[0], wr.braked()[1]};
-    prev.load_paused = wr.load_paused();
-    prev.owners = runtime::owners_text(wr.owners());
-    for (const auto& o : wr.owners()) prev.strength[o.arm()] = o.state() == msg::ARM_SERVED ? o.strength() : 0;
-  }
-
   const runtime::Deployment& d_;
   std::set<std::string> groups_;
   bool realtime_ = false;
@@ -555,17 +527,7 @@ class Recorder {
   std::unique_ptr<bus::Reader<msg::TaskAssignment, msg::TaskAssignmentPubSubType>> assign_;
   std::unique_ptr<bus::Reader<msg::TaskState, msg::TaskStatePubSubType>> task_state_;
   std::unique_ptr<bus::Reader<msg::ControlRequest, msg::ControlRequestPubSubType>> control_;
-  std::map<std::string, int> states_;
-  std::set<uint64_t> seen_tasks_;
-  std::map<std::string, uint64_t> tasks_done_;
-  struct WorldPrev {
-    bool seen = false;
-    std::array<bool, 2> braked{};
-    bool load_paused = false;
-    std::string owners;                 ///< as text, for the event's detail
-    std::map<std::string, int> strength;  ///< arm -> strength of the robot it follows (0: none)
-  };
-  std::map<std::string, WorldPrev> world_prev_;
+  record::EventDeriver deriver_;  ///< events from what is taken (the main loop only)
   int launcher_state_ = -1;
   std::map<std::string, uint64_t> world_ticks_;  ///< module -> ticks of its world's summary (under mu_)
 };

@@ -179,6 +179,7 @@ int run(int argc, char** argv) {
       if (woke_late_ns > 20'000'000) core.forgive_silence(sent);
     }
     auto publish_samples = [&](bool all) {
+      const plan::SupervisorRank plan_rank = core.plan_rank();
       for (size_t j = 0; j < 2; ++j) {
         const world::SampleOut& o = samples[j];
         if (!o.publish && !all) continue;
@@ -193,6 +194,8 @@ int run(int argc, char** argv) {
         s.braked(o.braked);
         for (size_t i = 0; i < 3; ++i) s.tau()[i] = o.tau_applied(static_cast<int>(i));
         s.from(o.applied_from);
+        s.plan_epoch(plan_rank.epoch);
+        s.plan_strength(plan_rank.strength);
         sensors[j]->write(s);
       }
     };

@@ -261,44 +261,54 @@ TEST_CASE("a robot component answers new ticks, repeats the last one, and reject
   CHECK((t2->cwiseAbs().array() <= m.plant.arms[1].tau_max.array()).all());  // saturated at the drive's limit
 }
 
-TEST_CASE("a robot cut off from its leader's plans knows it after 3000 ticks; heartbeats and a new leader keep it in", "[components]") {
+TEST_CASE("a robot whose plan the world's outranks for 500 ticks is cut off; a takeover heard in time is not", "[components]") {
   const ts::ModuleSetup& m = sosm();
   RobotCore r(m, 0, true, paper().transient);
   tmo::ArmSensors in;
   in.q = m.initial.q[0];
-  long k = 0;
-  auto ticks = [&](long n, const tp::PlanData* heartbeat) {  // n ticks; the plan offered every 10 ticks
-    for (long i = 0; i < n; ++i, ++k) {
-      if (heartbeat != nullptr && k % 10 == 0) r.offer_plan(*heartbeat);
-      REQUIRE(r.on_sample(k, in, false).has_value());
-    }
-  };
-  CHECK_FALSE(r.cut_off());  // no plan yet: nothing to be cut off from
   tp::PlanData leader = initial_plan(m, true);
   leader.version = 1;
-  REQUIRE(r.offer_plan(leader) == tp::PlanFollower::Offer::Adopted);
-  CHECK_FALSE(r.cut_off());  // a plan before the first tick, and no tick: a world that does not tick cuts nobody off
-  ticks(5000, &leader);      // the leader's heartbeat (the same version: ignored as a plan, heard as the leader)
-  CHECK_FALSE(r.cut_off());
-  // A lower-ranked supervisor's plans (a stalled former leader, a standby) do not count as the leader's.
-  tp::PlanData lower = leader;
-  lower.strength = 50;
-  lower.version = 7;
-  r.offer_plan(leader);  // its last heartbeat, heard after tick k - 1
-  ticks(3000, &lower);
-  CHECK_FALSE(r.cut_off());
-  ticks(1, &lower);
-  CHECK(r.cut_off());
-  // A new leader in a higher epoch (a takeover) is heard: in again.
-  tp::PlanData successor = leader;
+  tp::PlanData successor = leader;  // a standby that took over: epoch 1, strength 50
   successor.epoch = 1;
   successor.strength = 50;
+  long k = 0;
+  // n ticks with the world on plan rank w; returns how many were answered.
+  auto ticks = [&](long n, tp::SupervisorRank w) {
+    long answered = 0;
+    for (long i = 0; i < n; ++i, ++k) {
+      r.world_rank(w, k);
+      if (!r.cut_off() && r.on_sample(k, in, false).has_value()) ++answered;
+    }
+    return answered;
+  };
+  REQUIRE(r.offer_plan(leader) == tp::PlanFollower::Offer::Adopted);
+  CHECK(ticks(2000, leader.rank()) == 2000);  // the same plan as the world: never cut off
+  CHECK_FALSE(r.cut_off());
+  // A takeover: the world adopts the successor's plan 3 ticks before this robot does.
+  CHECK(ticks(3, successor.rank()) == 3);
   REQUIRE(r.offer_plan(successor) == tp::PlanFollower::Offer::Adopted);
+  CHECK(ticks(2000, successor.rank()) == 2000);
   CHECK_FALSE(r.cut_off());
-  ticks(3000, nullptr);
+  // A world still on an older plan (it is behind, not this robot): not cut off.
+  CHECK(ticks(1000, leader.rank()) == 1000);
   CHECK_FALSE(r.cut_off());
-  ticks(1, nullptr);
+  // The next takeover never reaches this robot (its reader missed the new leader's writer): after 500 ticks it
+  // is cut off and answers nothing more.
+  tp::PlanData third = successor;
+  third.epoch = 2;
+  CHECK(ticks(501, third.rank()) == 501);
+  CHECK_FALSE(r.cut_off());
+  CHECK(ticks(1, third.rank()) == 0);
   CHECK(r.cut_off());
+  // A robot that has not heard a plan yet (joining a running module) commands nothing and is not cut off.
+  RobotCore fresh(m, 1, true, paper().transient);
+  for (long t = 0; t < 5000; ++t) fresh.world_rank(leader.rank(), t);
+  CHECK_FALSE(fresh.cut_off());
+  CHECK_FALSE(fresh.on_sample(5000, in, false).has_value());
+  // Before the world has any plan ({0, 0}), nobody is behind.
+  RobotCore early(m, 1, true, paper().transient);
+  for (long t = 0; t < 5000; ++t) early.world_rank(tp::SupervisorRank{}, t);
+  CHECK_FALSE(early.cut_off());
 }
 
 TEST_CASE("the world component rejects bad commands and tells a failover from a takeover", "[components]") {

@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "tandem/record/event_deriver.hpp"
 #include "tandem/record/mcap.hpp"
 #include "tandem/record/recording.hpp"
 
@@ -212,4 +213,86 @@ TEST_CASE("the summary's chunk and message indexes point at the chunks and messa
   CHECK(chunks > 10);
   CHECK(messages == 2010);
   std::remove(p.c_str());
+}
+
+namespace {
+tandem::record::WorldView world(uint64_t tick, const std::string& left, int left_strength, const std::string& right,
+                                int right_strength) {
+  tandem::record::WorldView w;
+  w.tick = tick;
+  auto arm = [](const std::string& name, const std::string& who, int strength) {
+    const bool served = strength > 0;
+    return tandem::record::ArmOwnerView{name, served, strength, who};
+  };
+  w.owners = {arm("left", left, left_strength), arm("right", right, right_strength)};
+  w.braked = {left_strength == 0, right_strength == 0};
+  return w;
+}
+std::vector<std::string> kinds(const std::vector<tandem::record::DerivedEvent>& events) {
+  std::vector<std::string> out;
+  for (const auto& e : events) out.push_back(e.kind + " " + e.subject);
+  return out;
+}
+}  // namespace
+
+TEST_CASE("events: failovers and takeovers are derived from owner changes, braked in between is neither", "[record]") {
+  tandem::record::EventDeriver d;
+  CHECK(d.on_world("m1", world(10, "m1/left", 100, "m1/right", 100)).empty());  // the first report: a baseline
+  // The primary dies: its standby serves (weaker): a failover.
+  auto e = d.on_world("m1", world(20, "m1/left@50", 50, "m1/right", 100));
+  REQUIRE(kinds(e) == std::vector<std::string>{"failover m1/left"});
+  CHECK(e[0].module == "m1");
+  CHECK(e[0].tick == 20);
+  CHECK(e[0].detail == "left=m1/left,right=m1/right -> left=m1/left@50,right=m1/right");
+  // The restarted primary takes the arm back (stronger): a takeover.
+  CHECK(kinds(d.on_world("m1", world(30, "m1/left", 100, "m1/right", 100))) == std::vector<std::string>{"takeover m1/left"});
+  // The same owners again: nothing.
+  CHECK(d.on_world("m1", world(40, "m1/left", 100, "m1/right", 100)).empty());
+  // Every robot of the right arm dies: braked (a brake, no failover), then a restarted robot releases it (no
+  // takeover either: the release tells it).
+  CHECK(kinds(d.on_world("m1", world(50, "m1/left", 100, "braked", 0))) == std::vector<std::string>{"brake arm 1"});
+  CHECK(kinds(d.on_world("m1", world(60, "m1/left", 100, "m1/right@49", 49))) == std::vector<std::string>{"release arm 1"});
+  // Modules are apart: a first report of m2 is its own baseline.
+  CHECK(d.on_world("m2", world(5, "m2/left@50", 50, "m2/right", 100)).empty());
+}
+
+TEST_CASE("events: a load pause, a dropped object once, lifecycle changes, tasks and commands", "[record]") {
+  tandem::record::EventDeriver d;
+  auto w = world(10, "m1/left", 100, "m1/right", 100);
+  CHECK(d.on_world("m1", w).empty());
+  w.load_paused = true;
+  w.tick = 20;
+  CHECK(kinds(d.on_world("m1", w)) == std::vector<std::string>{"load_pause m1"});
+  w.load_paused = false;
+  w.failed = true;
+  w.failure = "a contact carried no force for 10 ms at tick 25";
+  w.braked = {true, true};
+  w.owners[0] = {"left", false, 0, "braked"};
+  w.owners[1] = {"right", false, 0, "braked"};
+  w.tick = 30;
+  const auto e = d.on_world("m1", w);
+  CHECK(kinds(e) == std::vector<std::string>{"brake arm 0", "brake arm 1", "load_resume m1", "module_failed m1"});
+  CHECK(e.back().detail == w.failure);
+  w.tick = 40;
+  CHECK(d.on_world("m1", w).empty());  // failed stays failed: one event
+  // A recorder that joins after the drop still records it.
+  tandem::record::EventDeriver late;
+  CHECK(kinds(late.on_world("m1", w)) == std::vector<std::string>{"module_failed m1"});
+
+  auto s = d.on_status("m1/left", "m1", 1, "", 0);
+  REQUIRE(s.size() == 1);
+  CHECK(s[0].detail == "(new) -> inactive");
+  CHECK(d.on_status("m1/left", "m1", 1, "", 0).empty());
+  s = d.on_status("m1/left", "m1", 4, "cut off from the module's leader", 3200);
+  REQUIRE(s.size() == 1);
+  CHECK(s[0].detail == "inactive -> error: cut off from the module's leader");
+  CHECK(s[0].tick == 3200);
+
+  CHECK(kinds(d.on_assignment(7, "m1", "soak-7")) == std::vector<std::string>{"task_assigned soak-7"});
+  CHECK(d.on_assignment(7, "m1", "soak-7").empty());  // re-sent: the same id
+  CHECK(kinds(d.on_task_state("m1", 7, 1, 900)) == std::vector<std::string>{"task_done task 7"});
+  CHECK(d.on_task_state("m1", 7, 1, 950).empty());
+  const auto c = d.on_control("plug", "robot m1/left", "standby");
+  REQUIRE(c.size() == 1);
+  CHECK(c[0].detail == "plug standby");
 }

@@ -190,7 +190,7 @@ ReportResult write_recording_report(const std::string& mcap, const std::string& 
           parse(e);
           events.emplace_back(wall, e);
           const std::string& k = e.kind();
-          if (k == "failover" || k == "takeover" || k == "brake" || k == "load_pause" ||
+          if (k == "failover" || k == "takeover" || k == "brake" || k == "load_pause" || k == "module_failed" ||
               (k == "lifecycle" && e.detail().find("-> error") != std::string::npos)) {
             modules[e.module_id().empty() ? module_of(e.subject()) : e.module_id()].marks.push_back(
                 {wall, e.tick(), k + " " + e.subject()});

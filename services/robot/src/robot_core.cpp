@@ -1,5 +1,7 @@
 #include "tandem/robot/robot_core.hpp"
 
+#include <algorithm>
+
 namespace tandem::robot {
 
 RobotCore::RobotCore(const sim::ModuleSetup& m, int j, bool continuous, double transient)
@@ -8,12 +10,19 @@ RobotCore::RobotCore(const sim::ModuleSetup& m, int j, bool continuous, double t
 
 plan::PlanFollower::Offer RobotCore::offer_plan(const plan::PlanData& p, std::string* why) {
   const plan::PlanFollower::Offer o = follower_.offer(p, why, done_);
-  if (o == plan::PlanFollower::Offer::Rejected) {
-    ++rejected_;
-  } else if (!follower_.rank().outranks(p.rank())) {
-    leader_heard_tick_ = done_;  // the leader's heartbeat (same rank), or a plan that outranks the one followed
-  }
+  if (o == plan::PlanFollower::Offer::Rejected) ++rejected_;
   return o;
+}
+
+void RobotCore::world_rank(const plan::SupervisorRank& world, long k) {
+  // Without a plan a robot commands nothing (on_sample), so it cannot serve a stale one; it may still be
+  // discovering the supervisor's writer (a robot that joins a running module).
+  if (follower_.has_plan() && world.outranks(follower_.rank())) {
+    if (behind_since_ < 0) behind_since_ = k;
+  } else {
+    behind_since_ = -1;
+  }
+  last_k_ = std::max(last_k_, k);
 }
 
 std::optional<model::Vec3> RobotCore::on_sample(long k, const model::ArmSensors& in, bool braked,

@@ -22,16 +22,17 @@ class RobotCore {
   /// is rejected and counted (`why` says how).
   plan::PlanFollower::Offer offer_plan(const plan::PlanData& p, std::string* why = nullptr);
 
-  /// The leading supervisor publishes its plan on each world report (every 10 ticks) at least every 20 ms, and
-  /// a new leader publishes in a higher epoch within about 50 ms of a takeover. A robot that follows a plan and
-  /// computes this many ticks without hearing a plan of its leader's rank or above is cut off from the leader:
-  /// it must not serve an arm with that plan. Counted in ticks, so that a world that does not tick (before the
-  /// first tick, a stalled world) cuts no robot off. Found by the one-hour soak: after a supervisor takeover,
-  /// Fast DDS failed to add the new leader's writer to one standby robot's reader ("Failed to open segment
-  /// fast_datasharing_..."); that robot kept its old plan, 158 mm off the module's reference, later took its
-  /// arm over, and the object was dropped.
-  static constexpr long kLeaderSilenceTicks = 3000;
-  bool cut_off() const { return follower_.has_plan() && done_ - leader_heard_tick_ > kLeaderSilenceTicks; }
+  /// The rank of the plan the world follows, sent with each sample of tick k (ArmSensors.plan_epoch and
+  /// plan_strength). A robot with a plan that the world's outranks for more than kBehindTicks has missed its
+  /// leader's plans: it is cut off from the module's leader and must not serve an arm (cut_off). A takeover's
+  /// plan reaches the world and the robots within a few ticks of each other. Found by the one-hour soak: after a
+  /// supervisor takeover, Fast DDS failed to add the new leader's writer to one standby robot's reader ("Failed
+  /// to open segment fast_datasharing_..."); that robot kept its old plan, 158 mm off the module's reference,
+  /// later took its arm over, and the object was dropped. (A first version judged the leader's heartbeat, but
+  /// a leader publishes nothing while it is unsure it still leads, and robots were cut off by the dozen.)
+  void world_rank(const plan::SupervisorRank& world, long k);
+  static constexpr long kBehindTicks = 500;
+  bool cut_off() const { return behind_since_ >= 0 && last_k_ - behind_since_ > kBehindTicks; }
 
   /// One sensor sample of tick k. Returns the torque to send: for a new tick the law's output (eq. 15 from
   /// the plan, saturated at tau_max); for a repeat of the last tick (lockstep asks again) the same command;
@@ -73,7 +74,8 @@ class RobotCore {
   unsigned long long rejected_ = 0;
   unsigned long long saturated_ = 0;
   bool last_saturated_ = false;
-  long leader_heard_tick_ = -1;  ///< the last tick computed when a plan of the followed rank or above was heard
+  long behind_since_ = -1;  ///< the first tick of the current run at which the world's plan outranked this one's
+  long last_k_ = -1;        ///< the tick of the last world rank heard
 };
 
 }  // namespace tandem::robot

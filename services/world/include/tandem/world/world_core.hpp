@@ -138,6 +138,9 @@ class WorldCore {
   void set_log(std::function<void(const std::string&)> log) { log_ = std::move(log); }
 
   /// A plan heard on the wire: followed as the robots follow it (plan::PlanFollower, checked at this tick).
+  /// The rank of the plan followed ({0, 0} before any): sent with every sample, so that a robot that missed its
+  /// leader's plans can tell (robot::RobotCore::cut_off).
+  plan::SupervisorRank plan_rank() const { return follower_.has_plan() ? follower_.rank() : plan::SupervisorRank{}; }
   plan::PlanFollower::Offer offer_plan(const plan::PlanData& p, std::string* why = nullptr) {
     return follower_.offer(p, why, k_);
   }

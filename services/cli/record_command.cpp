@@ -127,6 +127,9 @@ pb::ProcessStatus convert(const msg::ProcessStatus& s) {
   o.set_strength(s.strength());
   copy_owners(s.owners(), o.mutable_owners());
   for (const auto& label : s.runs()) o.add_runs(label);
+  o.set_reply_seq(s.reply_seq());
+  o.set_reply_ok(s.reply_ok());
+  o.set_reply_text(s.reply_text());
   o.set_host(s.host());
   return o;
 }
@@ -206,9 +209,13 @@ pb::SupervisorPlan convert(const msg::SupervisorPlan& p) {
 pb::ControlRequest convert(const msg::ControlRequest& r) {
   pb::ControlRequest o;
   o.set_deployment(r.deployment());
-  o.set_command(r.command());
+  o.set_command(static_cast<pb::ControlCommand>(r.command()));
+  o.set_target_kind(static_cast<pb::TargetKind>(r.target_kind()));
   o.set_target(r.target());
-  o.set_option(r.option());
+  o.set_standby(r.standby());
+  o.set_scenario(r.scenario());
+  o.set_case_name(r.case_name());
+  o.set_host(r.host());
   o.set_seq(r.seq());
   return o;
 }
@@ -371,7 +378,10 @@ class Recorder {
     while (control_->take(cr)) {
       if (cr.deployment() != d_.name) continue;
       if (groups_.count("control") != 0) put(bus::kControlTopic, convert(cr), now);
-      write_events(deriver_.on_control(cr.command(), cr.target(), cr.option()), now);
+      std::string option = cr.command() == msg::CMD_PLUG && cr.target_kind() == msg::TARGET_ROBOT
+                               ? (cr.standby() ? "standby" : "primary")
+                               : cr.scenario().empty() ? "" : cr.scenario() + " " + cr.case_name();
+      write_events(deriver_.on_control(runtime::command_name(cr.command()), cr.target(), option), now);
     }
     std::lock_guard<std::mutex> lock(mu_);
     if (Clock::now() - last_flush_ > std::chrono::seconds(1)) {  // a crash loses at most a second

@@ -129,8 +129,8 @@ int status_command(const std::vector<std::string>& args) {
 
 namespace {
 // Sends a request to the deployment's launcher, re-sent until answered; waits up to 5 s for the launcher's answer
-// (its status detail "reply <seq> ok|error: text"), prints it, and returns 0 for ok, 1 for an error.
-int send_request(const char* verb, const Deployment& d, const std::string& target, const std::string& option) {
+// (its status: reply_seq, reply_ok, reply_text), prints it, and returns 0 for ok, 1 for an error.
+int send_request(const char* verb, const Deployment& d, msg::ControlRequest req) {
   if (d.name.empty()) {
     std::fprintf(stderr, "tandem %s: name the deployment (--name NAME or a deployment file)\n", verb);
     return 2;
@@ -162,11 +162,7 @@ int send_request(const char* verb, const Deployment& d, const std::string& targe
     return 1;
   }
   std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  msg::ControlRequest req;
   req.deployment(d.name);
-  req.command(verb);
-  req.target(target);
-  req.option(option);
   // A sequence number unique enough to tell this request's answer from an earlier one; the launcher carries
   // a request out once, however often it arrives (it is re-sent until answered). The time in microseconds
   // and this process's pid: two CLIs started together got the same microsecond once, and the launcher took
@@ -176,7 +172,6 @@ int send_request(const char* verb, const Deployment& d, const std::string& targe
   const auto seq = us * 1000ULL + static_cast<unsigned long long>(::getpid()) % 1000ULL;
   req.seq(seq);
   control.write(req);
-  const std::string prefix = "reply " + std::to_string(seq) + " ";
   const auto t1 = std::chrono::steady_clock::now();
   auto sent = t1;
   while (std::chrono::steady_clock::now() - t1 < std::chrono::seconds(5)) {
@@ -187,11 +182,9 @@ int send_request(const char* verb, const Deployment& d, const std::string& targe
     status.wait(0.05);
     msg::ProcessStatus s;
     while (status.take(s)) {
-      if (s.deployment() != d.name || s.role() != "launcher" || s.detail().rfind(prefix, 0) != 0) continue;
-      const std::string text = s.detail().substr(prefix.size());
-      const bool ok = text.rfind("ok: ", 0) == 0;
-      std::printf("%s: %s\n", d.name.c_str(), text.substr(ok ? 4 : 7).c_str());
-      return ok ? 0 : 1;
+      if (s.deployment() != d.name || s.role() != "launcher" || s.reply_seq() != seq) continue;
+      std::printf("%s: %s\n", d.name.c_str(), s.reply_text().c_str());
+      return s.reply_ok() ? 0 : 1;
     }
   }
   std::fprintf(stderr, "tandem %s: the launcher of %s did not answer within 5 s\n", verb, d.name.c_str());
@@ -219,7 +212,9 @@ std::vector<std::string> take_target_args(std::vector<std::string>& args) {
 int down_command(const std::vector<std::string>& args) {
   Deployment d;
   if (!parse_target("down", args, d)) return 2;
-  return send_request("down", d, "", "");
+  msg::ControlRequest req;
+  req.command(msg::CMD_DOWN);
+  return send_request("down", d, req);
 }
 
 int kill_command(const std::vector<std::string>& args_in) {
@@ -232,7 +227,12 @@ int kill_command(const std::vector<std::string>& args_in) {
   }
   Deployment d;
   if (!parse_target("kill", target_args, d)) return 2;
-  return send_request("kill", d, args[0], "");
+  msg::ControlRequest req;
+  req.command(msg::CMD_KILL);
+  req.target_kind(args[0].find('/') == std::string::npos && args[0].rfind("coordinator", 0) != 0 ? msg::TARGET_MODULE
+                                                                                                : msg::TARGET_PROCESS);
+  req.target(args[0]);
+  return send_request("kill", d, req);
 }
 
 namespace {
@@ -248,10 +248,11 @@ int plug_or_unplug(const char* verb, const std::vector<std::string>& args_in) {
   if (args.size() < 2 || (args[0] != "robot" && args[0] != "module")) return bad("expected 'robot <label>' or 'module <name>'");
   const bool robot = args[0] == "robot";
   const std::string name = args[1];
-  std::string option, scenario, case_name, host;
+  std::string scenario, case_name, host;
+  bool standby = false;
   for (size_t i = 2; i < args.size(); ++i) {
     if (plug && robot && (args[i] == "--standby" || args[i] == "--primary")) {
-      option = args[i].substr(2);
+      standby = args[i] == "--standby";
     } else if (plug && !robot && args[i] == "--scenario" && i + 1 < args.size()) {
       scenario = args[++i];
     } else if (plug && !robot && args[i] == "--case" && i + 1 < args.size()) {
@@ -268,7 +269,6 @@ int plug_or_unplug(const char* verb, const std::vector<std::string>& args_in) {
     if (slash == std::string::npos || slash == 0 || slash + 1 == name.size() || (plug && name.find('@') != std::string::npos)) {
       return bad("a robot is named <module>/<arm>" + std::string(plug ? "" : "[@<strength>]") + ", e.g. m1/left; got '" + name + "'");
     }
-    if (plug && option.empty()) option = "primary";
   } else {
     if (name.empty() || name.find('/') != std::string::npos) return bad("a module name has no '/'; got '" + name + "'");
     if (!scenario.empty() || !case_name.empty()) {
@@ -276,16 +276,23 @@ int plug_or_unplug(const char* verb, const std::vector<std::string>& args_in) {
       // The launcher may run elsewhere: send an absolute path, and check the file here first.
       char resolved[4096];
       if (::realpath(scenario.c_str(), resolved) == nullptr) return bad("cannot open the scenario '" + scenario + "'");
-      option = "scenario=" + std::string(resolved) + " case=" + case_name;
+      scenario = resolved;
     }
     if (!host.empty()) {
       if (scenario.empty()) return bad("--host places a new module: give --scenario and --case too");
-      option += " host=" + host;
     }
   }
   Deployment d;
   if (!parse_target(verb, target_args, d)) return 2;
-  return send_request(verb, d, args[0] + " " + name, option);
+  msg::ControlRequest req;
+  req.command(plug ? msg::CMD_PLUG : msg::CMD_UNPLUG);
+  req.target_kind(!robot ? msg::TARGET_MODULE : plug ? msg::TARGET_ROBOT : msg::TARGET_PROCESS);
+  req.target(name);
+  req.standby(standby);
+  req.scenario(scenario);
+  req.case_name(case_name);
+  req.host(host);
+  return send_request(verb, d, req);
 }
 }  // namespace
 

@@ -340,7 +340,7 @@ class Soak : public NemesisActions {
       if (s.deployment() != d_.name) continue;
       const std::string& label = s.process_id();
       if (s.role() == "launcher") {
-        on_launcher_detail(s.detail());
+        on_launcher_reply(s.reply_seq(), s.reply_ok(), s.reply_text());
         continue;
       }
       const long long pid = s.pid();
@@ -493,12 +493,16 @@ class Soak : public NemesisActions {
     Reply done;
   };
 
-  void request(const std::string& cmd, const std::string& target, const std::string& option, Reply done) override {
+  void request(Live what, const std::string& name, bool standby, Reply done) override {
     Request r;
     r.req.deployment(d_.name);
-    r.req.command(cmd);
-    r.req.target(target);
-    r.req.option(option);
+    const bool plug = what == Live::PlugRobot || what == Live::PlugModule;
+    r.req.command(plug ? msg::CMD_PLUG : msg::CMD_UNPLUG);
+    r.req.target_kind(what == Live::PlugRobot     ? msg::TARGET_ROBOT
+                      : what == Live::UnplugRobot ? msg::TARGET_PROCESS
+                                                  : msg::TARGET_MODULE);
+    r.req.target(name);
+    r.req.standby(standby);
     r.req.seq(next_seq_++);
     r.sent = r.first = now();
     r.done = std::move(done);
@@ -521,17 +525,14 @@ class Soak : public NemesisActions {
     }
   }
 
-  void on_launcher_detail(const std::string& detail) {
-    if (detail.rfind("reply ", 0) != 0) return;
-    const unsigned long long seq = std::strtoull(detail.c_str() + 6, nullptr, 10);
+  void on_launcher_reply(unsigned long long seq, bool ok, const std::string& text) {
     const auto it = requests_.find(seq);
-    if (it == requests_.end()) return;
-    const auto sp = detail.find(' ', 6);
-    const std::string text = sp == std::string::npos ? "" : detail.substr(sp + 1);
+    if (seq == 0 || it == requests_.end()) return;
     auto done = std::move(it->second.done);
     requests_.erase(it);
-    if (done) done(text.rfind("ok", 0) == 0, text, now());
+    if (done) done(ok, text, now());
   }
+
 
   const runtime::Deployment& d_;
   const Schedule& sched_;

@@ -145,18 +145,6 @@ pid_t spawn(const std::string& exe, const std::vector<std::string>& args, int rt
   return launcher::spawn("tandem up", exe, args, launcher::SpawnOptions{rt_priority, participant_id, identity});
 }
 
-// Parses "key=value key=value" (the option of `plug module`).
-std::map<std::string, std::string> parse_kv(const std::string& text) {
-  std::map<std::string, std::string> out;
-  std::istringstream in(text);
-  std::string item;
-  while (in >> item) {
-    const auto eq = item.find('=');
-    if (eq != std::string::npos) out[item.substr(0, eq)] = item.substr(eq + 1);
-  }
-  return out;
-}
-
 /// The launcher's state and its actions; the main loop calls poll() until nothing runs.
 class Launcher {
  public:
@@ -281,23 +269,32 @@ class Launcher {
 
   void handle(const msg::ControlRequest& req) {
     if (req.deployment() != d_.name) return;
+    if (to_supervisor(req.command())) return;  // the launcher's own, to supervisors
     // Requests are re-sent until answered: carry each out once.
     if (req.seq() != 0 && !handled_seqs_.insert(req.seq()).second) return;
-    const std::string& cmd = req.command();
     current_seq_ = req.seq();
-    if (cmd == "down") {
-      if (!stopping_) say(true, "'down' requested over DDS; stopping %d process(es)\n", running());
-      g_stop = true;
-    } else if (cmd == "kill") {
-      kill_target(req.target());
-    } else if (cmd == "plug") {
-      plug(req.target(), req.option());
-    } else if (cmd == "unplug") {
-      unplug(req.target());
-    } else if (cmd != "pause" && cmd != "resume" && cmd != "drain") {  // those are the launcher's own, to supervisors
-      say(false, "unknown command '%s' (accepted: down, kill, plug, unplug)\n", cmd.c_str());
+    switch (req.command()) {
+      case msg::CMD_DOWN:
+        if (!stopping_) say(true, "'down' requested over DDS; stopping %d process(es)\n", running());
+        g_stop = true;
+        break;
+      case msg::CMD_KILL:
+        kill_target(req.target());
+        break;
+      case msg::CMD_PLUG:
+        plug(req);
+        break;
+      case msg::CMD_UNPLUG:
+        unplug(req);
+        break;
+      default:
+        say(false, "unknown command %d (accepted: down, kill, plug, unplug)\n", static_cast<int>(req.command()));
     }
     std::fflush(stdout);
+  }
+
+  static bool to_supervisor(msg::ControlCommand c) {
+    return c == msg::CMD_PAUSE || c == msg::CMD_RESUME || c == msg::CMD_DRAIN;
   }
 
   /// Prints a command's outcome and keeps it as the launcher's answer (its status detail), which the
@@ -337,10 +334,9 @@ class Launcher {
     if (!found) say(false, "'kill %s': no such running process or module\n", target.c_str());
   }
 
-  void plug(const std::string& target, const std::string& option) {
-    const auto sp = target.find(' ');
-    const std::string what = target.substr(0, sp), name = sp == std::string::npos ? "" : target.substr(sp + 1);
-    if (what == "robot") {
+  void plug(const msg::ControlRequest& req) {
+    const std::string& name = req.target();
+    if (req.target_kind() == msg::TARGET_ROBOT) {
       const auto slash = name.find('/');
       const std::string module = name.substr(0, slash), robot = slash == std::string::npos ? "" : name.substr(slash + 1);
       const auto it = modules_.find(module);
@@ -354,7 +350,7 @@ class Launcher {
         return;
       }
       int strength = 0;
-      if (option == "standby") {
+      if (req.standby()) {
         strength = standby_strength(name);
         if (strength < 1) {
           say(false, "'plug robot %s --standby': no ownership strength left below the live ones\n", name.c_str());
@@ -373,16 +369,19 @@ class Launcher {
         return;
       }
       say(true, "plugged a robot into %s as %s (ownership strength %d)\n", name.c_str(),
-          option == "standby" ? "a standby" : "the primary", strength);
+          req.standby() ? "a standby" : "the primary", strength);
       resume_if_paused_for_unplug(module);
-    } else if (what == "module") {
-      plug_module(name, option);
+    } else if (req.target_kind() == msg::TARGET_MODULE) {
+      plug_module(name, req.scenario(), req.case_name(), req.host());
     } else {
-      say(false, "'plug %s': expected 'robot <module>/<arm>' or 'module <name>'\n", target.c_str());
+      say(false, "'plug %s': expected a robot for an arm (<module>/<arm>) or a module\n", name.c_str());
     }
   }
 
-  void plug_module(const std::string& name, const std::string& option) {
+  /// Plugs a module in again (one of the deployment, or one failed by a drop: cleared), or a new one from a
+  /// scenario and case (on `host` in a multi-host deployment).
+  void plug_module(const std::string& name, const std::string& scenario, const std::string& case_name,
+                   const std::string& host) {
     auto it = modules_.find(name);
     const auto ts = task_states_.find(name);
     const bool failed = ts != task_states_.end() && ts->second.state() == 6;
@@ -407,27 +406,25 @@ class Launcher {
                  "has left\n", name.c_str());
       return;
     }
-    const auto kv = parse_kv(option);
-    if (it == modules_.end() || kv.count("scenario") != 0) {
-      if (name.empty() || name.find('/') != std::string::npos || kv.count("scenario") == 0 || kv.count("case") == 0) {
+    if (it == modules_.end() || !scenario.empty()) {
+      if (name.empty() || name.find('/') != std::string::npos || scenario.empty() || case_name.empty()) {
         say(false, "'plug module %s': not a module of %s; give its scenario and case "
                     "(tandem plug module NAME --scenario FILE --case CASE)\n", name.c_str(), file_.c_str());
         return;
       }
       runtime::ModuleDeployment cfg;
       cfg.name = name;
-      cfg.scenario = kv.at("scenario");
-      cfg.case_name = kv.at("case");
+      cfg.scenario = scenario;
+      cfg.case_name = case_name;
       if (!d_.hosts.empty()) {
-        const auto h = kv.find("host");
-        if (h == kv.end() || runtime::find_host(d_, h->second) == nullptr) {
+        if (host.empty() || runtime::find_host(d_, host) == nullptr) {
           std::string list;
           for (const auto& x : d_.hosts) list += (list.empty() ? "" : ", ") + x.name;
           say(false, "'plug module %s': a multi-host deployment places a new module on a host: give --host (hosts: %s)\n",
               name.c_str(), list.c_str());
           return;
         }
-        cfg.host = h->second;
+        cfg.host = host;
       }
       try {
         prepare_module(cfg);
@@ -453,10 +450,9 @@ class Launcher {
     start_module(name);
   }
 
-  void unplug(const std::string& target) {
-    const auto sp = target.find(' ');
-    const std::string what = target.substr(0, sp), name = sp == std::string::npos ? "" : target.substr(sp + 1);
-    if (what == "module") {
+  void unplug(const msg::ControlRequest& req) {
+    const std::string& name = req.target();
+    if (req.target_kind() == msg::TARGET_MODULE) {
       const auto it = modules_.find(name);
       if (it == modules_.end() || !it->second.started || !it->second.end.empty()) {
         say(false, "'unplug module %s': no running module of that name\n", name.c_str());
@@ -466,11 +462,11 @@ class Launcher {
       say(true, "unplugging module %s: draining (it finishes its task first)\n", name.c_str());
       it->second.end = "draining";
       if (governor_) governor_->set_available(name, false);
-      send(name, "drain");
+      send(name, msg::CMD_DRAIN);
       return;
     }
-    if (what != "robot") {
-      say(false, "'unplug %s': expected 'robot <label>' or 'module <name>'\n", target.c_str());
+    if (req.target_kind() != msg::TARGET_PROCESS) {
+      say(false, "'unplug %s': expected a robot's label or a module\n", name.c_str());
       return;
     }
     Child* c = find_running(name);
@@ -493,7 +489,7 @@ class Launcher {
                 c->module.c_str());
     c->expected = true;
     modules_.at(c->module).paused_for_unplug = true;
-    send(c->module, "pause");
+    send(c->module, msg::CMD_PAUSE);
     pending_unplugs_.push_back({c->label, c->module, Clock::now()});
   }
 
@@ -825,14 +821,13 @@ class Launcher {
 
   /// The answer to a request that came while the deployment stops: nothing is carried out.
   void refuse_while_stopping(const msg::ControlRequest& req) {
-    const std::string& cmd = req.command();
-    if (cmd == "pause" || cmd == "resume" || cmd == "drain") return;  // the launcher's own, to supervisors
+    if (to_supervisor(req.command())) return;  // the launcher's own, to supervisors
     if (req.seq() != 0 && !handled_seqs_.insert(req.seq()).second) return;
     current_seq_ = req.seq();
-    if (req.command() == "down") {
+    if (req.command() == msg::CMD_DOWN) {
       say(true, "'down' requested over DDS; the deployment is already stopping\n");
     } else {
-      say(false, "'%s %s' refused: the deployment is stopping\n", req.command().c_str(), req.target().c_str());
+      say(false, "'%s %s' refused: the deployment is stopping\n", runtime::command_name(req.command()), req.target().c_str());
     }
   }
 
@@ -891,7 +886,7 @@ class Launcher {
                   "the queue\n", dec.module.c_str(), dec.why.c_str());
       modules_.at(dec.module).end = "parked: " + dec.why;
       ++parks_;
-      send(dec.module, "pause");
+      send(dec.module, msg::CMD_PAUSE);
       pending_parks_.push_back({dec.module, Clock::now()});
     } else if (dec.kind == launcher::Governor::Decision::Kind::Unpark) {
       std::printf("tandem up: unparking module %s (%s)\n", dec.module.c_str(), dec.why.c_str());
@@ -938,10 +933,11 @@ class Launcher {
     return out;
   }
 
-  void send(const std::string& module, const std::string& command) {
+  void send(const std::string& module, msg::ControlCommand command) {
     msg::ControlRequest req;
     req.deployment(d_.name);
     req.command(command);
+    req.target_kind(msg::TARGET_MODULE);
     req.target(module);
     req.seq(++seq_);
     control_out_->write(req);
@@ -951,7 +947,7 @@ class Launcher {
     ModuleRun& mr = modules_.at(module);
     if (!mr.paused_for_unplug) return;
     mr.paused_for_unplug = false;
-    send(module, "resume");  // it resumes once the arm's new robot answers (the world releases the brake)
+    send(module, msg::CMD_RESUME);  // it resumes once the arm's new robot answers (the world releases the brake)
   }
 
   int running() const {
@@ -1823,8 +1819,9 @@ int up_command(const std::vector<std::string>& args) {
       // The answer the sender waits for (again, for a request re-sent: see Launcher::answers_).
       const auto answer = L.answers_.find(req.seq());
       if (answer != L.answers_.end()) {
-        launcher_status.msg().detail("reply " + std::to_string(req.seq()) + (answer->second.ok ? " ok: " : " error: ") +
-                                     answer->second.text);
+        launcher_status.msg().reply_seq(req.seq());
+        launcher_status.msg().reply_ok(answer->second.ok);
+        launcher_status.msg().reply_text(answer->second.text);
         launcher_status.publish();
       }
     }

@@ -129,7 +129,11 @@ int run(int argc, char** argv) {
       if (heard.module_id() == opt.module) core.on_plan(runtime::from_wire(heard), now);
     }
     while (control.take(req)) {
-      if (req.deployment() == opt.deployment && req.target() == opt.module) core.on_request(req.command());
+      if (req.deployment() != opt.deployment || req.target_kind() != msg::TARGET_MODULE || req.target() != opt.module) continue;
+      using R = supervisor::SupervisorCore::Request;
+      if (req.command() == msg::CMD_PAUSE) core.on_request(R::Pause);
+      if (req.command() == msg::CMD_RESUME) core.on_request(R::Resume);
+      if (req.command() == msg::CMD_DRAIN) core.on_request(R::Drain);
     }
     while (assignments.take(a)) {
       if (a.module_id() == opt.module) core.on_assignment(a.task_id(), a.task_name(), a.waypoints());

@@ -37,8 +37,11 @@ struct Recorder : NemesisActions {
     return next_hog++;
   }
   void end_hog(long long pid) override { calls.push_back({"end_hog", pid, "", ""}); }
-  void request(const std::string& command, const std::string& target, const std::string& option, Reply done) override {
-    calls.push_back({command, 0, target, option});
+  void request(Live what, const std::string& name, bool standby, Reply done) override {
+    const bool plug = what == Live::PlugRobot || what == Live::PlugModule;
+    const bool module = what == Live::PlugModule || what == Live::UnplugModule;
+    const std::string command = plug ? "plug" : "unplug", target = (module ? "module " : "robot ") + name;
+    calls.push_back({command, 0, target, what == Live::PlugRobot ? (standby ? "standby" : "primary") : ""});
     if (done) replies.emplace_back(command + " " + target, std::move(done));
   }
   std::vector<Call> of(const std::string& what) const {

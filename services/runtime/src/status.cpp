@@ -2,6 +2,19 @@
 
 namespace tandem::runtime {
 
+const char* command_name(msg::ControlCommand c) {
+  switch (c) {
+    case msg::CMD_DOWN: return "down";
+    case msg::CMD_KILL: return "kill";
+    case msg::CMD_PLUG: return "plug";
+    case msg::CMD_UNPLUG: return "unplug";
+    case msg::CMD_PAUSE: return "pause";
+    case msg::CMD_RESUME: return "resume";
+    case msg::CMD_DRAIN: return "drain";
+  }
+  return "?";
+}
+
 const char* role_name(msg::ServingRole role) {
   return role == msg::ROLE_PRIMARY ? "primary" : role == msg::ROLE_STANDBY ? "standby" : "";
 }

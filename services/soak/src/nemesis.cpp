@@ -197,12 +197,12 @@ void Nemesis::fire(const Fault& f, double t) {
     case FaultKind::Unplug:
       if (is_module) {
         out_.insert(target);
-        act_.request("unplug", "module " + target, "", nullptr);
+        act_.request(NemesisActions::Live::UnplugModule, target, false, nullptr);
         replug_module(target, index, t + f.duration_s, t + f.duration_s + 90.0);
       } else {
         const std::string arm = target.substr(0, target.find('@'));
         const bool primary = target.find('@') == std::string::npos;
-        act_.request("unplug", "robot " + target, "", nullptr);
+        act_.request(NemesisActions::Live::UnplugRobot, target, false, nullptr);
         later(t + f.duration_s,
               [this, arm, primary, index](double now) { replug_robot(arm, primary, index, now + 30.0); });
       }
@@ -227,7 +227,7 @@ void Nemesis::hog(const Fault& f, FaultRecord& r, size_t index) {
 
 void Nemesis::replug_module(const std::string& module, size_t index, double at, double give_up) {
   later(at, [this, module, index, give_up](double) {
-    act_.request("plug", "module " + module, "", [this, module, index, give_up](bool ok, const std::string& why, double now) {
+    act_.request(NemesisActions::Live::PlugModule, module, false, [this, module, index, give_up](bool ok, const std::string& why, double now) {
       // "running already": an earlier attempt whose answer was lost plugged it in.
       if (ok || why.find("running already") != std::string::npos) {
         h_.faults[index].end_t = now;
@@ -244,7 +244,7 @@ void Nemesis::replug_module(const std::string& module, size_t index, double at, 
 
 void Nemesis::replug_robot(const std::string& arm, bool primary, size_t index, double give_up) {
   if (stopping_) return;
-  act_.request("plug", "robot " + arm, primary ? "primary" : "standby",
+  act_.request(NemesisActions::Live::PlugRobot, arm, !primary,
                [this, arm, primary, index, give_up](bool ok, const std::string& why, double now) {
                  if (ok) {
                    h_.faults[index].end_t = now;

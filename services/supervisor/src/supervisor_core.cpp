@@ -107,11 +107,11 @@ void SupervisorCore::on_plan(const plan::PlanData& p, int64_t now_ns) {
   if (!active_ && !adopt(p, r.outranks(followed_))) leaving_ = true;
 }
 
-void SupervisorCore::on_request(const std::string& command) {
-  if (command == "pause") pause_requested_ = true;
-  if (command == "resume") pause_requested_ = false;
-  if (command == "drain") draining_ = true;
-  if (command == "pause" || command == "resume" || command == "drain") log(command + " requested");
+void SupervisorCore::on_request(Request r) {
+  if (r == Request::Pause) pause_requested_ = true;
+  if (r == Request::Resume) pause_requested_ = false;
+  if (r == Request::Drain) draining_ = true;
+  log(std::string(r == Request::Pause ? "pause" : r == Request::Resume ? "resume" : "drain") + " requested");
 }
 
 void SupervisorCore::on_assignment(uint64_t id, const std::string& name, const std::vector<double>& waypoints) {

@@ -17,6 +17,8 @@ namespace tandem::runtime {
 
 enum class Lifecycle : uint8_t { Unconfigured = 0, Inactive = 1, Active = 2, Finalized = 3, Error = 4 };
 const char* lifecycle_name(uint8_t state);
+/// "down", "kill", "plug", "unplug", "pause", "resume", "drain" (ControlRequest.command).
+const char* command_name(msg::ControlCommand c);
 /// "primary", "standby" or "" (ProcessStatus.serving).
 const char* role_name(msg::ServingRole role);
 /// Who an arm follows, for people: its robot's label, or "stopping", "braked", "braked(load)".

@@ -52,9 +52,16 @@ class NemesisActions {
   /// reports its end with Nemesis::hog_ended.
   virtual long long start_hog(int cores, double seconds) = 0;
   virtual void end_hog(long long pid) = 0;      ///< stops it now and reaps it
-  /// Sends a live command as `tandem plug/unplug` would; `done` (may be empty) gets the launcher's answer, or
-  /// (false, why) if there is none within the host's limit.
-  virtual void request(const std::string& command, const std::string& target, const std::string& option, Reply done) = 0;
+  /// The live commands the nemesis sends, as `tandem plug/unplug` would.
+  enum class Live {
+    UnplugRobot,   ///< name: the robot's label
+    UnplugModule,  ///< name: the module
+    PlugRobot,     ///< name: the arm ("m1/left"); standby or primary
+    PlugModule     ///< name: the module (one of the deployment's)
+  };
+  /// Sends a live command; `done` (may be empty) gets the launcher's answer, or (false, why) if there is none
+  /// within the host's limit.
+  virtual void request(Live what, const std::string& name, bool standby, Reply done) = 0;
 };
 
 class Nemesis {

@@ -76,7 +76,9 @@ class SupervisorCore {
 
   // Inputs.
   void on_report(const ReportIn& r, int64_t now_ns);
-  void on_request(const std::string& command);  ///< "pause" | "resume" | "drain" (others ignored)
+  /// What the launcher asks of a module's supervisor (ControlRequest pause, resume, drain).
+  enum class Request { Pause, Resume, Drain };
+  void on_request(Request r);
   void on_assignment(uint64_t id, const std::string& name, const std::vector<double>& waypoints);
   /// Another supervisor's plan (its own are not to be passed).
   void on_plan(const plan::PlanData& p, int64_t now_ns);

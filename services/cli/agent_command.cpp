@@ -97,7 +97,7 @@ class Agent {
     if (r.host() != host_ || r.deployment() != d_.name) return;
     if (r.run() == 0) return;
     if (r.run() != run_) {
-      if (r.kind() == "end") return;  // the end of a run this agent does not serve
+      if (r.kind() == msg::AGENT_END) return;  // the end of a run this agent does not serve
       // First come, first served: another launcher of this deployment while the one served lives is refused.
       if (run_ != 0 && !run_over_ && silent() <= d_.host_timeout) {
         if (refused_runs_.insert(r.run()).second) {
@@ -109,18 +109,18 @@ class Agent {
       new_run(r.run());
     }
     launcher_heard_ = Clock::now();
-    if (r.kind() == "heartbeat") {
+    if (r.kind() == msg::AGENT_HEARTBEAT) {
       if (r.host_lost()) {
         // One-way partition: this agent hears the launcher, but the launcher does not hear it.
         fence("the launcher counts this host as lost (it does not hear this agent)");
       } else {
         heard_again();
       }
-    } else if (r.kind() == "start") {
+    } else if (r.kind() == msg::AGENT_START) {
       start(r);
-    } else if (r.kind() == "signal") {
+    } else if (r.kind() == msg::AGENT_SIGNAL) {
       signal(r);
-    } else if (r.kind() == "end") {
+    } else if (r.kind() == msg::AGENT_END) {
       if (!run_over_) {
         run_over_ = true;
         if (running() > 0) {
@@ -129,7 +129,7 @@ class Agent {
         }
       }
     } else {
-      note("refused a request of unknown kind '" + r.kind() + "' (accepted: start, signal, heartbeat, end)");
+      note("refused a request of unknown kind " + std::to_string(static_cast<int>(r.kind())) + " (accepted: start, signal, heartbeat, end)");
     }
   }
 

@@ -1128,7 +1128,7 @@ class Launcher {
  public:
   // ---- multi-host: the agents ------------------------------------------------------------------------------
 
-  msg::AgentRequest request(const std::string& host, const char* kind) const {
+  msg::AgentRequest request(const std::string& host, msg::AgentRequestKind kind) const {
     msg::AgentRequest r;
     r.host(host);
     r.deployment(d_.name);
@@ -1138,7 +1138,7 @@ class Launcher {
   }
 
   void send_start(Child& c) {
-    msg::AgentRequest r = request(c.host, "start");
+    msg::AgentRequest r = request(c.host, msg::AGENT_START);
     r.spawn_id(c.spawn_id);
     r.label(c.label);
     r.role(c.role);
@@ -1162,7 +1162,7 @@ class Launcher {
     c.signal_sent = Clock::now();
   }
   void send_signal(const std::string& host, unsigned long long spawn_id, const std::string& label, int sig) {
-    msg::AgentRequest r = request(host, "signal");
+    msg::AgentRequest r = request(host, msg::AGENT_SIGNAL);
     r.spawn_id(spawn_id);
     r.label(label);
     r.signal(sig);
@@ -1174,7 +1174,7 @@ class Launcher {
   void heartbeat(bool end = false) {
     if (hosts_ == nullptr) return;
     for (const auto& h : d_.hosts) {
-      msg::AgentRequest r = request(h.name, end ? "end" : "heartbeat");
+      msg::AgentRequest r = request(h.name, end ? msg::AGENT_END : msg::AGENT_HEARTBEAT);
       r.host_lost(hosts_->lost(h.name));
       agent_out_->write(r);
     }

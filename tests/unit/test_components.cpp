@@ -656,6 +656,52 @@ TEST_CASE("supervisor component: a standby takes over when the leader's plans st
   CHECK(robot.offer(stale) == tp::PlanFollower::Offer::Ignored);
 }
 
+TEST_CASE("supervisor component: a standby that hears the world again after a gap waits for the leader's plans", "[components]") {
+  const ts::ModuleSetup& m = sosm();
+  const int64_t ms = 1000000;
+  SupervisorOptions lo{"m1/supervisor", 100, true, 0.1}, so{"m1/supervisor@50", 50, true, 0.1};
+  SupervisorCore leader(m, lo, 0), standby(m, so, 0);
+  std::string log;
+  standby.set_log([&](const std::string& l) { log += l + "\n"; });
+  leader.on_assignment(1, "out", {0.0, 0.8, 0.0, 1.0});
+  standby.on_assignment(1, "out", {0.0, 0.8, 0.0, 1.0});
+  long k = 0;
+  for (; k < 400; k += 10) {
+    leader.on_report(report_at(k), k * ms);
+    standby.on_report(report_at(k), k * ms);
+    leader.update(k * ms);
+    if (auto p = leader.take_plan()) standby.on_plan(*p, k * ms);
+    standby.update(k * ms);
+  }
+  // The standby's loop runs, but it hears nothing for 320 ms (its DDS threads starved); then the world's newest
+  // report arrives before the leader's plans of that time. It must not take over on that report alone.
+  for (; k < 720; k += 10) {
+    leader.on_report(report_at(k), k * ms);
+    leader.update(k * ms);
+    (void)leader.take_plan();
+    standby.update(k * ms);
+  }
+  standby.on_report(report_at(k), k * ms);
+  standby.update(k * ms);
+  CHECK_FALSE(standby.active());
+  CHECK(log.find("heard the world again 330 ticks on") != std::string::npos);
+  // The leader's plan arrives 5 ms later: still no takeover, and none while the leader goes on.
+  for (; k < 1000; k += 10) {
+    leader.on_report(report_at(k), k * ms);
+    standby.on_report(report_at(k), k * ms);
+    leader.update(k * ms);
+    if (auto p = leader.take_plan()) standby.on_plan(*p, k * ms + 5 * ms);
+    standby.update(k * ms + 5 * ms);
+  }
+  CHECK_FALSE(standby.active());
+  // A leader that is really gone is still replaced: 50 ms and 20 ticks of silence after the world is heard.
+  for (; k < 1100; k += 10) {
+    standby.on_report(report_at(k), k * ms);
+    standby.update(k * ms);
+  }
+  CHECK(standby.active());
+}
+
 TEST_CASE("supervisor component: a hold for load stops the path smoothly, and a braked module is rebased to its object", "[components]") {
   const ts::ModuleSetup& m = sosm();
   const int64_t ms = 1000000;

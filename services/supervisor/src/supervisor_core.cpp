@@ -130,6 +130,17 @@ void SupervisorCore::on_report(const ReportIn& r, int64_t now_ns) {
         " past the newest this one had heard (it was stalled); silent until it hears whether another supervisor "
         "took over");
   }
+  if (!active_ && heard_stronger_ && heard_tick_ >= 0 && r.tick > heard_tick_ + kTakeOverTicks) {
+    // This standby did not hear the world for a while although its loop ran (its DDS threads starved on a busy
+    // machine): the leader's plans of that time may still be on their way. Its silence counts from now, as after
+    // standing still. Found by the one-hour soak: a standby heard the world again 320 ticks on, before the
+    // leader's plans, took over at once with a replica that lacked the leader's last task, the references
+    // jumped 9.3 mm under the held object, and it was dropped.
+    last_stronger_ = now_ns;
+    stronger_tick_ = std::max(stronger_tick_, r.tick);
+    log("heard the world again " + std::to_string(r.tick - heard_tick_) +
+        " ticks on (this one heard nothing meanwhile); the leader's silence counts from now");
+  }
   heard_tick_ = std::max(heard_tick_, r.tick);
   braked_ = r.braked;
   hold_ = r.hold;

@@ -261,7 +261,7 @@ TEST_CASE("a robot component answers new ticks, repeats the last one, and reject
   CHECK((t2->cwiseAbs().array() <= m.plant.arms[1].tau_max.array()).all());  // saturated at the drive's limit
 }
 
-TEST_CASE("a robot whose plan the world's outranks for 500 ticks is cut off; a takeover heard in time is not", "[components]") {
+TEST_CASE("a robot behind the world's plan answers nothing, and is cut off after 500 ticks; a takeover heard in time is not", "[components]") {
   const ts::ModuleSetup& m = sosm();
   RobotCore r(m, 0, true, paper().transient);
   tmo::ArmSensors in;
@@ -284,8 +284,10 @@ TEST_CASE("a robot whose plan the world's outranks for 500 ticks is cut off; a t
   REQUIRE(r.offer_plan(leader) == tp::PlanFollower::Offer::Adopted);
   CHECK(ticks(2000, leader.rank()) == 2000);  // the same plan as the world: never cut off
   CHECK_FALSE(r.cut_off());
-  // A takeover: the world adopts the successor's plan 3 ticks before this robot does.
-  CHECK(ticks(3, successor.rank()) == 3);
+  // A takeover: the world adopts the successor's plan 3 ticks before this robot does; meanwhile the robot answers
+  // nothing (a standby with the plan serves those ticks), then it goes on.
+  CHECK(ticks(3, successor.rank()) == 0);
+  CHECK(r.behind());
   REQUIRE(r.offer_plan(successor) == tp::PlanFollower::Offer::Adopted);
   CHECK(ticks(2000, successor.rank()) == 2000);
   CHECK_FALSE(r.cut_off());
@@ -296,7 +298,7 @@ TEST_CASE("a robot whose plan the world's outranks for 500 ticks is cut off; a t
   // is cut off and answers nothing more.
   tp::PlanData third = successor;
   third.epoch = 2;
-  CHECK(ticks(501, third.rank()) == 501);
+  CHECK(ticks(501, third.rank()) == 0);
   CHECK_FALSE(r.cut_off());
   CHECK(ticks(1, third.rank()) == 0);
   CHECK(r.cut_off());

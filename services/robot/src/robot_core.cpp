@@ -17,7 +17,8 @@ plan::PlanFollower::Offer RobotCore::offer_plan(const plan::PlanData& p, std::st
 void RobotCore::world_rank(const plan::SupervisorRank& world, long k) {
   // Without a plan a robot commands nothing (on_sample), so it cannot serve a stale one; it may still be
   // discovering the supervisor's writer (a robot that joins a running module).
-  if (follower_.has_plan() && world.outranks(follower_.rank())) {
+  behind_ = follower_.has_plan() && world.outranks(follower_.rank());
+  if (behind_) {
     if (behind_since_ < 0) behind_since_ = k;
   } else {
     behind_since_ = -1;
@@ -31,6 +32,9 @@ std::optional<model::Vec3> RobotCore::on_sample(long k, const model::ArmSensors&
     ++rejected_;
     return std::nullopt;
   }
+  // Behind the world's plan (a takeover's plan not heard yet): no command from a plan the module has left. The
+  // world serves the tick from a robot that has the plan (a standby), or keeps the last torque for a few ticks.
+  if (behind_) return std::nullopt;
   if (k < done_) return std::nullopt;
   if (k == done_) return tau_;                         // the world asks again: the same answer
   if (!follower_.has_plan()) return std::nullopt;      // nothing to follow yet

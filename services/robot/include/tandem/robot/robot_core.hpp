@@ -30,7 +30,9 @@ class RobotCore {
   /// to open segment fast_datasharing_..."); that robot kept its old plan, 158 mm off the module's reference,
   /// later took its arm over, and the object was dropped. (A first version judged the leader's heartbeat, but
   /// a leader publishes nothing while it is unsure it still leads, and robots were cut off by the dozen.)
+  /// While the world's plan outranks this robot's, on_sample answers nothing (a stale plan is never served).
   void world_rank(const plan::SupervisorRank& world, long k);
+  bool behind() const { return behind_; }
   static constexpr long kBehindTicks = 500;
   bool cut_off() const { return behind_since_ >= 0 && last_k_ - behind_since_ > kBehindTicks; }
 
@@ -74,6 +76,7 @@ class RobotCore {
   unsigned long long rejected_ = 0;
   unsigned long long saturated_ = 0;
   bool last_saturated_ = false;
+  bool behind_ = false;     ///< the world's plan outranks this robot's (world_rank)
   long behind_since_ = -1;  ///< the first tick of the current run at which the world's plan outranked this one's
   long last_k_ = -1;        ///< the tick of the last world rank heard
 };

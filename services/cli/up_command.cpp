@@ -827,7 +827,14 @@ class Launcher {
     if (req.command() == msg::CMD_DOWN) {
       say(true, "'down' requested over DDS; the deployment is already stopping\n");
     } else {
-      say(false, "'%s %s' refused: the deployment is stopping\n", runtime::command_name(req.command()), req.target().c_str());
+      // As the user typed it: "plug robot m1/left", "unplug module m2", "kill m1/world".
+      const char* kind = req.target_kind() == msg::TARGET_MODULE && req.command() != msg::CMD_KILL ? "module "
+                         : req.target_kind() == msg::TARGET_ROBOT ||
+                                   (req.target_kind() == msg::TARGET_PROCESS && req.command() == msg::CMD_UNPLUG)
+                             ? "robot "
+                             : "";
+      say(false, "'%s %s%s' refused: the deployment is stopping\n", runtime::command_name(req.command()), kind,
+          req.target().c_str());
     }
   }
 

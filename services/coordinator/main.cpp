@@ -161,7 +161,7 @@ std::string fixed(double v, int decimals) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
+int run(int argc, char** argv) {
   Options opt;
   int code = 0;
   if (!parse_options(argc, argv, opt, code)) return code;
@@ -379,3 +379,5 @@ int main(int argc, char** argv) {
   std::this_thread::sleep_for(std::chrono::milliseconds(200));
   return queue.duplicates() == 0 ? 0 : 1;
 }
+
+int main(int argc, char** argv) { return runtime::run_guarded("tandem-coordinator", run, argc, argv); }

@@ -11,7 +11,7 @@ void fill_summary(const world::WorldCore& core, const std::string& module, long 
   ws.overruns(overruns);
   ws.ticks(static_cast<uint64_t>(ticks));
   for (int j = 0; j < 2; ++j) {
-    for (int i = 0; i < 3; ++i) ws.q_final()[static_cast<size_t>(3 * j + i)] = plant.state().q[j](i);
+    for (int i = 0; i < 3; ++i) ws.q_final()[3 * static_cast<size_t>(j) + static_cast<size_t>(i)] = plant.state().q[j](i);
   }
   ws.object_final()[0] = plant.state().c(0);
   ws.object_final()[1] = plant.state().c(1);

@@ -839,8 +839,8 @@ TEST_CASE("supervisor component: a malformed plan of a higher rank does not depo
   CHECK(s.rank().epoch == 0);
   bad.waypoints = {};
   bad.heard_tick = -5;  // out of range
-  s.on_plan(bad, 200 * 1000000);
-  s.update(200 * 1000000);
+  s.on_plan(bad, int64_t{200} * 1000000);
+  s.update(int64_t{200} * 1000000);
   CHECK(s.active());
 }
 

@@ -230,6 +230,7 @@ tandem::record::WorldView world(uint64_t tick, const std::string& left, int left
 }
 std::vector<std::string> kinds(const std::vector<tandem::record::DerivedEvent>& events) {
   std::vector<std::string> out;
+  out.reserve(events.size());
   for (const auto& e : events) out.push_back(e.kind + " " + e.subject);
   return out;
 }

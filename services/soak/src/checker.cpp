@@ -169,7 +169,9 @@ class Judge {
   }
 
   void grasp_force(size_t inv) {
-    for (const auto& [module, series] : h_.modules) {
+    for (const auto& entry : h_.modules) {
+      const std::string& module = entry.first;
+      const std::vector<ModuleSample>& series = entry.second;
       const auto hs = h_.h_sg.find(module);
       if (hs == h_.h_sg.end()) continue;
       double exempt_until = -1.0;
@@ -452,7 +454,9 @@ class Judge {
     // Per module: one in service does a task at least every progress_s. A gap is excused when the module was
     // out or stopped in it (braked, held, paused for load, failed), or a fault hit it or the whole machine (a
     // hog) in it or shortly before.
-    for (const auto& [module, series] : h_.modules) {
+    for (const auto& entry : h_.modules) {
+      const std::string& module = entry.first;  // named, not a structured binding: the lambdas below capture it
+      const std::vector<ModuleSample>& series = entry.second;
       if (series.empty()) continue;
       const std::vector<double>& ts = done_by[module];
       auto excused = [&](double a, double b) {

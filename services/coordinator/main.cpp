@@ -262,7 +262,10 @@ int run(int argc, char** argv) {
 
   while (!runtime::g_stop) {
     const double t = now();
-    if (const std::string line = lead.on_loop(t); !line.empty()) say(line);
+    if (const std::string line = lead.on_loop(t); !line.empty()) {
+      say(line);
+      queue.forgive_silence(t);  // its own stall, not the modules'
+    }
     msg::ProcessStatus ps;
     while (status_in.take(ps)) {
       if (ps.deployment() != d.name) continue;

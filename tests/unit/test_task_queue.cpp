@@ -206,6 +206,34 @@ TEST_CASE("a module that leaves is removed, its unfinished task back at the fron
   CHECK(q.done_count() == 1);
 }
 
+TEST_CASE("a coordinator back from its own stall does not take the modules' tasks back; a module silent after it does", "[coordinator]") {
+  TaskQueue q(task_names(3), Balance::Wear);
+  q.report({"m1", 0, kIdle}, 0.0);
+  q.report({"m2", 0, kIdle}, 0.0);
+  const auto a1 = q.assign_next(no_wear);
+  const auto a2 = q.assign_next(no_wear);
+  REQUIRE(a1);
+  REQUIRE(a2);
+  // The coordinator stood still from 0.1 s to 2.1 s: nobody was heard, through its own fault.
+  q.forgive_silence(2.1);
+  CHECK(q.expire(2.1).empty());
+  CHECK(q.expire(3.5).empty());
+  CHECK(q.running_count() == 2);
+  // m1 reports again; m2 stays silent for 1.5 s after the stall: m2 is lost and its task goes back.
+  q.report({"m1", a1->id, kRunning}, 3.0);
+  const auto events = q.expire(3.7);
+  REQUIRE(events.size() == 1);
+  CHECK(events[0].module == "m2");
+  CHECK(q.pending().front() == q.task_name(a2->task));
+  // Without the forgiveness the same stall would have lost both (the behaviour the soak found).
+  TaskQueue r(task_names(3), Balance::Wear);
+  r.report({"m1", 0, kIdle}, 0.0);
+  r.report({"m2", 0, kIdle}, 0.0);
+  REQUIRE(r.assign_next(no_wear));
+  REQUIRE(r.assign_next(no_wear));
+  CHECK(r.expire(2.1).size() == 2);
+}
+
 TEST_CASE("task states with an unknown state or no module are rejected and counted", "[coordinator]") {
   TaskQueue q(task_names(1), Balance::Wear);
   CHECK(q.report({"m1", 0, 7}, 0.0).empty());

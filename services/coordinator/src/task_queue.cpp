@@ -145,6 +145,12 @@ std::vector<Event> TaskQueue::report(const ModuleReport& r, double now) {
   return events;
 }
 
+void TaskQueue::forgive_silence(double now) {
+  for (auto& [name, m] : modules_) {
+    if (!m.lost) m.last_heard = std::max(m.last_heard, now);
+  }
+}
+
 std::vector<Event> TaskQueue::expire(double now) {
   std::vector<Event> events;
   for (auto& [name, m] : modules_) {

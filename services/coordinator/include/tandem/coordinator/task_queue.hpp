@@ -100,6 +100,10 @@ class TaskQueue {
   std::vector<Event> report(const ModuleReport& r, double now);
   /// Modules not heard for kModuleLostS become lost; their tasks go back to the front of the queue.
   std::vector<Event> expire(double now);
+  /// This coordinator itself stood still (a stall, starvation) until `now`: the modules' silence meanwhile was
+  /// its own, so each module not lost yet counts as heard now (as the world forgives robots after its own stall).
+  /// Found by the soak: a primary back from a 2 s stall declared both modules lost and took their tasks back.
+  void forgive_silence(double now);
 
   // --- Assignment ------------------------------------------------------------------------------------------
   /// Hands the first pending task to the best free module (not lost, state idle or done, nothing in flight),

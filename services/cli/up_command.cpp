@@ -114,6 +114,8 @@ struct ModuleRun {
   bool ticked = false;               ///< its world has reported a tick past 0 (the module came up)
   int repairs = 0;                   ///< restarts because it did not come up (docs/security.md, "Start-up")
   Clock::time_point started_at{};    ///< when its processes were last started
+  Clock::time_point drain_first{}, drain_sent{};  ///< draining: when it was asked first, and last
+  bool drain_warned = false;
 };
 
 
@@ -461,6 +463,7 @@ class Launcher {
       // Drain: the supervisor finishes the module's task, takes no new one, and exits; then the rest stops.
       say(true, "unplugging module %s: draining (it finishes its task first)\n", name.c_str());
       it->second.end = "draining";
+      it->second.drain_sent = it->second.drain_first = Clock::now();
       if (governor_) governor_->set_available(name, false);
       send(name, msg::CMD_DRAIN);
       return;
@@ -498,6 +501,7 @@ class Launcher {
   void poll() {
     reap();
     watch_hosts();
+    resend_drains();
     for (auto& c : children_) {
       if (c.running || c.handled) continue;
       c.handled = true;
@@ -991,6 +995,25 @@ class Launcher {
   }
   /// Per role: the CPU seconds each process took from its start to active.
   std::map<std::string, std::vector<double>> start_cpu_;
+
+  /// A drain the module's leading supervisor has not acknowledged (its task state neither draining nor left)
+  /// is sent again every second: found by the soak, a leader whose control reader missed the one request kept
+  /// taking tasks, and the module never left (its plug-in retries gave up after 60 s).
+  void resend_drains() {
+    const auto now = Clock::now();
+    for (auto& [name, mr] : modules_) {
+      if (mr.end != "draining" || now - mr.drain_sent < std::chrono::seconds(1)) continue;
+      const auto ts = task_states_.find(name);
+      const bool acked = ts != task_states_.end() && (ts->second.state() == 4 || ts->second.state() == 5);
+      if (acked) continue;
+      if (!mr.drain_warned && now - mr.drain_first > std::chrono::seconds(10)) {
+        std::printf("tandem up: module %s has not acknowledged its drain within 10 s; still asking\n", name.c_str());
+        mr.drain_warned = true;
+      }
+      send(name, msg::CMD_DRAIN);
+      mr.drain_sent = now;
+    }
+  }
 
   void on_task_state(const msg::TaskState& ts) {
     if (ts.deployment() == d_.name) task_states_[ts.module_id()] = ts;

@@ -108,9 +108,11 @@ void SupervisorCore::on_plan(const plan::PlanData& p, int64_t now_ns) {
 }
 
 void SupervisorCore::on_request(Request r) {
+  const bool pause = pause_requested_, drain = draining_;
   if (r == Request::Pause) pause_requested_ = true;
   if (r == Request::Resume) pause_requested_ = false;
   if (r == Request::Drain) draining_ = true;
+  if (pause_requested_ == pause && draining_ == drain) return;  // a request sent again (the launcher re-sends drains)
   log(std::string(r == Request::Pause ? "pause" : r == Request::Resume ? "resume" : "drain") + " requested");
 }
 

@@ -27,6 +27,7 @@ constexpr uint8_t kIdle = 0, kRunning = 1, kDone = 2, kPaused = 3, kDraining = 4
 
 std::vector<std::string> task_names(int n) {
   std::vector<std::string> out;
+  out.reserve(static_cast<size_t>(n));
   for (int i = 0; i < n; ++i) out.push_back("t" + std::to_string(i));
   return out;
 }

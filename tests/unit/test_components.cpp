@@ -302,11 +302,19 @@ TEST_CASE("a robot behind the world's plan answers nothing, and is cut off after
   CHECK_FALSE(r.cut_off());
   CHECK(ticks(1, third.rank()) == 0);
   CHECK(r.cut_off());
-  // A robot that has not heard a plan yet (joining a running module) commands nothing and is not cut off.
+  // A robot that has not heard a plan yet (joining a running module) commands nothing; it has 10000 ticks to
+  // hear one, then it is cut off too (its plan reader never matched the leader's writer).
   RobotCore fresh(m, 1, true, paper().transient);
-  for (long t = 0; t < 5000; ++t) fresh.world_rank(leader.rank(), t);
+  for (long t = 0; t <= RobotCore::kNoPlanTicks; ++t) fresh.world_rank(leader.rank(), t);
   CHECK_FALSE(fresh.cut_off());
-  CHECK_FALSE(fresh.on_sample(5000, in, false).has_value());
+  CHECK_FALSE(fresh.on_sample(RobotCore::kNoPlanTicks, in, false).has_value());
+  fresh.world_rank(leader.rank(), RobotCore::kNoPlanTicks + 1);
+  CHECK(fresh.cut_off());
+  RobotCore joins(m, 1, true, paper().transient);  // one that hears the plan in time is not
+  for (long t = 0; t < 3000; ++t) joins.world_rank(leader.rank(), t);
+  joins.offer_plan(leader);
+  for (long t = 3000; t < 20000; ++t) joins.world_rank(leader.rank(), t);
+  CHECK_FALSE(joins.cut_off());
   // Before the world has any plan ({0, 0}), nobody is behind.
   RobotCore early(m, 1, true, paper().transient);
   for (long t = 0; t < 5000; ++t) early.world_rank(tp::SupervisorRank{}, t);

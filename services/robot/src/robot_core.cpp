@@ -16,13 +16,15 @@ plan::PlanFollower::Offer RobotCore::offer_plan(const plan::PlanData& p, std::st
 
 void RobotCore::world_rank(const plan::SupervisorRank& world, long k) {
   // Without a plan a robot commands nothing (on_sample), so it cannot serve a stale one; it may still be
-  // discovering the supervisor's writer (a robot that joins a running module).
+  // discovering the supervisor's writer (a robot that joins a running module): it gets kNoPlanTicks for that.
+  const bool planless = !follower_.has_plan() && world.outranks(plan::SupervisorRank{});
   behind_ = follower_.has_plan() && world.outranks(follower_.rank());
-  if (behind_) {
+  if (behind_ || planless) {
     if (behind_since_ < 0) behind_since_ = k;
   } else {
     behind_since_ = -1;
   }
+  behind_limit_ = planless ? kNoPlanTicks : kBehindTicks;
   last_k_ = std::max(last_k_, k);
 }
 

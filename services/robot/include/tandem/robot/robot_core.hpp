@@ -34,7 +34,11 @@ class RobotCore {
   void world_rank(const plan::SupervisorRank& world, long k);
   bool behind() const { return behind_; }
   static constexpr long kBehindTicks = 500;
-  bool cut_off() const { return behind_since_ >= 0 && last_k_ - behind_since_ > kBehindTicks; }
+  /// A robot that has heard no plan at all while the world follows one is cut off after this many ticks (its
+  /// plan reader never matched the leader's writer: seen in a soak, a restarted robot stayed a silent "standby"
+  /// that the launcher counted as serving, and its arm stayed braked when the robot that did serve was killed).
+  static constexpr long kNoPlanTicks = 10000;
+  bool cut_off() const { return behind_since_ >= 0 && last_k_ - behind_since_ > behind_limit_; }
 
   /// One sensor sample of tick k. Returns the torque to send: for a new tick the law's output (eq. 15 from
   /// the plan, saturated at tau_max); for a repeat of the last tick (lockstep asks again) the same command;
@@ -77,6 +81,7 @@ class RobotCore {
   unsigned long long saturated_ = 0;
   bool last_saturated_ = false;
   bool behind_ = false;     ///< the world's plan outranks this robot's (world_rank)
+  long behind_limit_ = kBehindTicks;
   long behind_since_ = -1;  ///< the first tick of the current run at which the world's plan outranked this one's
   long last_k_ = -1;        ///< the tick of the last world rank heard
 };

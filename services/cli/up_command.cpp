@@ -999,11 +999,31 @@ class Launcher {
   /// A drain the module's leading supervisor has not acknowledged (its task state neither draining nor left)
   /// is sent again every second: found by the soak, a leader whose control reader missed the one request kept
   /// taking tasks, and the module never left (its plug-in retries gave up after 60 s).
+  static std::string task_state_name(unsigned state) {
+    static const char* names[] = {"idle", "running", "done", "paused", "draining", "left", "failed"};
+    return state < 7 ? names[state] : "unknown (" + std::to_string(state) + ")";
+  }
+
   void resend_drains() {
     const auto now = Clock::now();
     for (auto& [name, mr] : modules_) {
       if (mr.end != "draining" || now - mr.drain_sent < std::chrono::seconds(1)) continue;
       const auto ts = task_states_.find(name);
+      if (now - mr.drain_first > kDrainTimeout) {
+        // A drain waits for the running task to end; a task that cannot end (an arm braked with no robot left to
+        // serve it, a module that lost its leader) would keep the module, and its slot, forever (seen in soaks:
+        // an unplugged module refused "it is draining" for over 60 s). Past the bound the module is stopped with
+        // its task unfinished: the coordinator re-plans that task elsewhere (it is not counted done).
+        const std::string last = ts == task_states_.end() ? std::string("no task state heard")
+                                                          : "its task state: " + task_state_name(ts->second.state());
+        std::printf("tandem up: module %s did not drain within %.0f s (%s); stopping it with its task unfinished, "
+                    "which goes back to the queue\n",
+                    name.c_str(), std::chrono::duration<double>(kDrainTimeout).count(), last.c_str());
+        ++forced_drains_;
+        mr.end = "unplugged";
+        stop_module(name);
+        continue;
+      }
       const bool acked = ts != task_states_.end() && (ts->second.state() == 4 || ts->second.state() == 5);
       if (acked) continue;
       if (!mr.drain_warned && now - mr.drain_first > std::chrono::seconds(10)) {
@@ -1037,6 +1057,10 @@ class Launcher {
   std::vector<PendingUnplug> pending_unplugs_;
   std::vector<std::string> pending_clears_;  ///< failed modules being cleared (plug module): restarted once stopped
   static constexpr int kStartRepairs = 3;
+  /// A drain that has not ended by then is forced (resend_drains): a task lasts a few seconds, a pause for load
+  /// or a braked arm's restart a few more.
+  static constexpr std::chrono::seconds kDrainTimeout{30};
+  unsigned long long forced_drains_ = 0;     ///< unplugged modules stopped with their task unfinished
   unsigned long long start_repairs_ = 0;     ///< modules restarted because they did not come up
   unsigned long long plan_restarts_ = 0;     ///< modules restarted because their supervisors lost the plan
   std::map<std::string, Clock::time_point> world_done_;  ///< modules whose world finished its task, and when
@@ -2003,7 +2027,13 @@ int up_command(const std::vector<std::string>& args) {
     if (out) out << "startup_cpu." << role << ".median_s=" << median << "\nstartup_cpu." << role << ".starts=" << v.size() << "\n";
   }
   std::printf("tandem up: start-up repairs (modules restarted because they did not come up): %llu\n", L.start_repairs_);
-  if (out) out << "start_repairs=" << L.start_repairs_ << "\nplan_restarts=" << L.plan_restarts_ << "\n";
+  if (L.forced_drains_ > 0) {
+    std::printf("tandem up: unplugged modules stopped before their task ended (drain over %.0f s): %llu\n",
+                std::chrono::duration<double>(Launcher::kDrainTimeout).count(), L.forced_drains_);
+  }
+  if (out) {
+    out << "start_repairs=" << L.start_repairs_ << "\nplan_restarts=" << L.plan_restarts_ << "\nforced_drains=" << L.forced_drains_ << "\n";
+  }
   if (L.plan_restarts_ > 0) std::printf("tandem up: modules restarted because their supervisors lost the plan: %llu\n", L.plan_restarts_);
   if (L.governor_) {
     std::printf("tandem up: modules parked for load during the run: %llu time(s); parked at the end: %s\n",

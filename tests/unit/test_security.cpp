@@ -134,6 +134,35 @@ TEST_CASE("secured data-sharing segments go in a directory only this user can en
   CHECK(dir == "/dev/shm/tandem-" + std::to_string(::getuid()));
 }
 
+TEST_CASE("torque commands of a plain deployment go by the shared-memory transport, sensor samples by data-sharing",
+          "[security][dds]") {
+  // A data-sharing reader dies with a writer killed mid-write (Fast DDS 2.9.1; bench/peer_kill.sh), and robots,
+  // the torque writers, are killed and restarted by design: their world must not go with them.
+  using tandem::dds::TopicKind;
+  namespace fdds = eprosima::fastdds::dds;
+  const char* had = std::getenv("TANDEM_SECURITY_DIR");
+  const std::string saved = had != nullptr ? had : "";
+  ::unsetenv("TANDEM_SECURITY_DIR");
+  CHECK_FALSE(tandem::dds::shares_data(TopicKind::TorquesRealtime, true));
+  CHECK_FALSE(tandem::dds::shares_data(TopicKind::Torques, true));
+  CHECK(tandem::dds::shares_data(TopicKind::SensorsRealtime, true));
+  CHECK(tandem::dds::shares_data(TopicKind::Sensors, true));
+  CHECK_FALSE(tandem::dds::shares_data(TopicKind::Sensors, false));  // UDP deployments: none
+  CHECK_FALSE(tandem::dds::shares_data(TopicKind::Status, true));
+  CHECK(tandem::dds::reader_qos(TopicKind::TorquesRealtime).data_sharing().kind() == fdds::OFF);
+  CHECK(tandem::dds::writer_qos(TopicKind::TorquesRealtime).data_sharing().kind() == fdds::OFF);
+  CHECK(tandem::dds::writer_qos(TopicKind::SensorsRealtime).data_sharing().kind() == fdds::AUTO);
+  // Secured: the transport's segments are readable by other users and per-tick samples are not encrypted, so
+  // torques stay in the private data-sharing directory.
+  ::setenv("TANDEM_SECURITY_DIR", "/nonexistent-keys", 1);
+  CHECK(tandem::dds::shares_data(TopicKind::TorquesRealtime, true));
+  if (saved.empty()) {
+    ::unsetenv("TANDEM_SECURITY_DIR");
+  } else {
+    ::setenv("TANDEM_SECURITY_DIR", saved.c_str(), 1);
+  }
+}
+
 TEST_CASE("certificates are checked with OpenSSL's X509 API: missing, not a certificate, expired", "[security]") {
   const std::string dir = "/tmp/tandem-cert-test-" + std::to_string(::getpid());
   ::mkdir(dir.c_str(), 0700);

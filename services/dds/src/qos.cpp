@@ -30,6 +30,16 @@ std::string private_shm_dir() {
   return dir;
 }
 
+bool shares_data(TopicKind kind, bool data_sharing) {
+  if (!per_tick(kind) || !data_sharing) return false;
+  if (kind != TopicKind::Torques && kind != TopicKind::TorquesRealtime) return true;
+  static const bool forced = [] {
+    const char* v = std::getenv("TANDEM_TORQUES_DATA_SHARING");
+    return v != nullptr && std::string(v) == "1";
+  }();
+  return forced || secured();
+}
+
 namespace {
 // Per-tick topics: reliable (lockstep must not lose a tick), keep-last 256 (a reader that is behind, a
 // recorder, still gets everything), volatile (a late joiner starts from the next
@@ -82,7 +92,7 @@ void apply(Q& q, TopicKind kind) {
 
 template <class Q>
 void apply_data_sharing(Q& q, TopicKind kind, bool data_sharing) {
-  if (per_tick(kind) && data_sharing) {
+  if (shares_data(kind, data_sharing)) {
     // Secured: the segments go in a directory only this user can enter (their samples are not encrypted, and
     // Fast DDS creates the files 0644 whatever the umask). docs/security.md, "Threat model".
     const std::string dir = secured() ? private_shm_dir() : std::string();

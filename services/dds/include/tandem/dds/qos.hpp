@@ -37,6 +37,16 @@ inline bool per_tick(TopicKind kind) {
          kind == TopicKind::TorquesRealtime;
 }
 
+/// Whether a per-tick topic's samples go by data-sharing (`data_sharing`: the participant's transport allows it).
+/// Sensor samples do. Torque commands of a plain deployment go by the shared-memory transport instead: their
+/// writers are the robots, which the failure model kills and restarts, and Fast DDS 2.9.1's data-sharing reader
+/// aborts its whole process when a writer dies at the wrong moment (an assertion in ReaderPool::
+/// init_shared_segment, or an uncaught "Interprocess mutex timeout when locking" on a lock the dead writer held;
+/// seen: a world in a soak; bench/peer_kill.sh reproduces both). The transport's reader survives it. A secured
+/// deployment keeps torques on data-sharing, whose segments are private to the user (docs/security.md); the
+/// transport's are not. TANDEM_TORQUES_DATA_SHARING=1 restores data-sharing for torques (benchmarks only).
+bool shares_data(TopicKind kind, bool data_sharing);
+
 /// Topic names. The per-tick topics are per module ("<base>/<module>"), so that a world and its robots receive
 /// only their own module's samples, however many modules share the domain; sensor samples are per arm
 /// ("<base>/<module>/<robot>"), so that each robot receives only its own arm's.

@@ -293,15 +293,11 @@ class Recorder {
         t->torques_listener.fn = [tap = t.get()](fdds::DataReader* r) { tap->on_torques(r); };
         taps_.push_back(std::move(t));
       }
-      // Not by data-sharing (plain deployments): a data-sharing reader dies with a writer killed at the wrong
-      // moment (dds::shares_data), and the recorder must outlive every world and robot it records. Secured ones
-      // keep it: the transport's segments are readable by other users, the samples unencrypted.
-      const bool ds = bus::secured();
       for (auto& t : taps_) {
         t->sensors = std::make_unique<bus::Reader<msg::ArmSensors, msg::ArmSensorsPubSubType>>(
-            part, bus::arm_topic(bus::kSensorsTopic, t->arm), reader_kind(realtime_, true), &t->sensors_listener, ds);
+            part, bus::arm_topic(bus::kSensorsTopic, t->arm), reader_kind(realtime_, true), &t->sensors_listener);
         t->torques = std::make_unique<bus::Reader<msg::TorqueCommand, msg::TorqueCommandPubSubType>>(
-            part, bus::arm_topic(bus::kTorquesTopic, t->arm), reader_kind(realtime_, false), &t->torques_listener, ds);
+            part, bus::arm_topic(bus::kTorquesTopic, t->arm), reader_kind(realtime_, false), &t->torques_listener);
       }
     }
     if (groups_.count("world") != 0 || groups_.count("events") != 0) {

@@ -87,16 +87,13 @@ template <class T, class PubSubType>
 class Reader {
  public:
   /// With a listener, its on_data_available runs in the DDS thread that received the sample (no hand-off to
-  /// another thread); the listener must outlive the reader. data_sharing false: never by data-sharing, whatever
-  /// the participant's transport (observers such as the recorder, which must outlive the writers they watch:
-  /// dds::shares_data).
-  Reader(Participant& p, const std::string& topic_name, TopicKind kind, fdds::DataReaderListener* listener = nullptr,
-         bool data_sharing = true)
+  /// another thread); the listener must outlive the reader.
+  Reader(Participant& p, const std::string& topic_name, TopicKind kind, fdds::DataReaderListener* listener = nullptr)
       : p_(p) {
     fdds::Topic* t = p.topic(topic_name, new PubSubType());
-    const fdds::DataReaderQos q = reader_qos(kind, data_sharing && p.data_sharing());
-    reader_ = listener == nullptr ? p.subscriber()->create_datareader(t, q)
-                                  : p.subscriber()->create_datareader(t, q, listener, fdds::StatusMask::data_available());
+    reader_ = listener == nullptr ? p.subscriber()->create_datareader(t, reader_qos(kind, p.data_sharing()))
+                                  : p.subscriber()->create_datareader(t, reader_qos(kind, p.data_sharing()), listener,
+                                                                      fdds::StatusMask::data_available());
     if (reader_ == nullptr) throw std::runtime_error("cannot create a DDS reader on " + topic_name);
   }
   ~Reader() { p_.subscriber()->delete_datareader(reader_); }

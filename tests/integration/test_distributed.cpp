@@ -895,6 +895,44 @@ TEST_CASE("both cores loaded mid-task: the modules pause for load with the objec
   CHECK_FALSE(processes_left(domain));
 }
 
+TEST_CASE("an unplugged module whose task cannot end is stopped after the drain bound, and its task is done elsewhere", "[distributed]") {
+  // m1's only left robot is killed mid-task (no standby, no restart): the world drives that arm to rest and brakes
+  // it, and m1's task stays paused. An unplug of m1 asks for a drain that cannot end; 30 s later the launcher
+  // stops m1 with its task unfinished, and the coordinator gives that task to m2. No task lost, none done twice.
+  const int domain = test_domain(23);
+  const std::string path = write_task_deployment("drainbound", domain, 4, "", sosm_modules(2), kCrashTransport);
+  const std::string summary = work_dir() + "/drainbound.summary", up_log = work_dir() + "/drainbound.log";
+  const std::string t = kBin + "/tandem ";
+  const std::string cmd = t + "up " + path + " --summary " + summary + " > " + up_log + " 2>&1 & up=$!; " +
+                          "for i in $(seq 200); do grep -q \"task .* -> m1\" " + up_log + " && break; sleep 0.05; done; " +
+                          t + "kill " + path + " m1/left; echo kill_rc=$?; " +
+                          "for i in $(seq 100); do grep -q \"m1/left braked\" " + up_log + " && break; sleep 0.05; done; " +
+                          t + "unplug " + path + " module m1; echo unplug_rc=$?; " +
+                          "wait $up; echo up_rc=$?";
+  const Run r = run("bash -c '" + cmd + "'");
+  const std::string log = read_file(up_log);
+  INFO(r.output << "\n--- tandem up ---\n" << log);
+  CHECK(r.output.find("kill_rc=0") != std::string::npos);
+  CHECK(r.output.find("unplug_rc=0") != std::string::npos);
+  CHECK(r.output.find("up_rc=0") != std::string::npos);
+  CHECK(log.find("module m1 did not drain within 30 s (its task state: paused)") != std::string::npos);
+  CHECK(log.find("module m1 drained") == std::string::npos);
+  const auto kv = read_summary(summary);
+  const auto text = read_summary_text(summary);
+  CHECK(kv.at("forced_drains") == 1);
+  CHECK(kv.at("coordinator.tasks_done") == 8);
+  CHECK(kv.at("coordinator.duplicates") == 0);
+  CHECK(text.at("m1.end") == "unplugged");
+  CHECK(text.at("m2.end") == "ran");
+  // The object was held throughout, on both modules (m1's braked, m2's moving).
+  for (const char* m : {"m1", "m2"}) {
+    INFO(m);
+    CHECK(kv.at(std::string(m) + ".slip_events") == 0);
+    CHECK(kv.at(std::string(m) + ".contact_lost") == 0);
+  }
+  CHECK_FALSE(processes_left(domain));
+}
+
 TEST_CASE("four modules: the coordinator is killed, one module killed and one unplugged, and every task is done once", "[distributed]") {
   const int domain = test_domain(12);
   const std::string path = write_task_deployment("live4", domain, 16, "  standby: 1\n", sosm_modules(4), kCrashTransport);

@@ -93,6 +93,7 @@ struct Child {
   bool heard = false;              ///< its status was heard over DDS (it is part of the domain)
   bool cut_off = false;            ///< killed because it was never heard (kSilentStartS)
   bool active_seen = false;        ///< its status said active once (its start-up CPU is then measured)
+  bool leads = false;              ///< supervisors: its latest status says it leads its module
   // Multi-host: started by the agent of `host` ("" = by the launcher, on this machine).
   std::string host;
   unsigned long long spawn_id = 0;  ///< the launcher's request id (AgentRequest.spawn_id)
@@ -116,6 +117,7 @@ struct ModuleRun {
   Clock::time_point started_at{};    ///< when its processes were last started
   Clock::time_point drain_first{}, drain_sent{};  ///< draining: when it was asked first, and last
   bool drain_warned = false;
+  bool deaf_leader_stopped = false;  ///< draining: a leader that did not acknowledge it was stopped
 };
 
 
@@ -464,6 +466,8 @@ class Launcher {
       say(true, "unplugging module %s: draining (it finishes its task first)\n", name.c_str());
       it->second.end = "draining";
       it->second.drain_sent = it->second.drain_first = Clock::now();
+      it->second.drain_warned = false;
+      it->second.deaf_leader_stopped = false;
       if (governor_) governor_->set_available(name, false);
       send(name, msg::CMD_DRAIN);
       return;
@@ -980,10 +984,11 @@ class Launcher {
   }
 
   /// A status sample from process `label` (pid): it is part of the domain.
-  void on_status(const std::string& label, long long pid, bool active) {
+  void on_status(const std::string& label, long long pid, bool active, msg::ServingRole serving) {
     for (auto& c : children_) {
       if (!(c.running && c.label == label && c.pid == pid)) continue;
       c.heard = true;
+      if (serving != msg::ROLE_NONE) c.leads = serving == msg::ROLE_PRIMARY;
       if (active && !c.active_seen && c.host.empty()) {
         // The CPU one start costs (a soak restarts about a thousand processes an hour): user + system time
         // of the process from its start to its first active status.
@@ -1002,6 +1007,32 @@ class Launcher {
   static std::string task_state_name(unsigned state) {
     static const char* names[] = {"idle", "running", "done", "paused", "draining", "left", "failed"};
     return state < 7 ? names[state] : "unknown (" + std::to_string(state) + ")";
+  }
+
+  /// A leader that has not acknowledged a drain sent every second for kDeafLeader does not hear the launcher:
+  /// seen in a soak-small hour, a restarted supervisor that took the lead never heard the drain (nor the
+  /// coordinator's next task) while its standby logged "drain requested"; the module then idled until the drain
+  /// bound stopped it. Such a leader is stopped when another supervisor of the module runs: that one takes over
+  /// with the drain it heard and finishes the task properly.
+  void stop_deaf_leader(const std::string& module, ModuleRun& mr) {
+    Child* leader = nullptr;
+    bool other = false;
+    for (auto& c : children_) {
+      if (!c.running || c.role != "supervisor" || c.module != module) continue;
+      if (c.leads && leader == nullptr) {
+        leader = &c;
+      } else {
+        other = true;
+      }
+    }
+    if (leader == nullptr || !other) return;
+    mr.deaf_leader_stopped = true;
+    ++deaf_leaders_;
+    std::printf("tandem up: %s leads module %s but has not acknowledged its drain for %.0f s (it does not hear the "
+                "launcher); stopping it, a standby supervisor that heard the drain takes over\n",
+                leader->label.c_str(), module.c_str(), std::chrono::duration<double>(kDeafLeader).count());
+    leader->expected = true;  // not restarted: the module is leaving
+    terminate(*leader);
   }
 
   void resend_drains() {
@@ -1026,6 +1057,7 @@ class Launcher {
       }
       const bool acked = ts != task_states_.end() && (ts->second.state() == 4 || ts->second.state() == 5);
       if (acked) continue;
+      if (!mr.deaf_leader_stopped && now - mr.drain_first > kDeafLeader) stop_deaf_leader(name, mr);
       if (!mr.drain_warned && now - mr.drain_first > std::chrono::seconds(10)) {
         std::printf("tandem up: module %s has not acknowledged its drain within 10 s; still asking\n", name.c_str());
         mr.drain_warned = true;
@@ -1061,6 +1093,9 @@ class Launcher {
   /// or a braked arm's restart a few more.
   static constexpr std::chrono::seconds kDrainTimeout{30};
   unsigned long long forced_drains_ = 0;     ///< unplugged modules stopped with their task unfinished
+  /// A leader that has not acknowledged a drain for this long is stopped if a standby supervisor runs.
+  static constexpr std::chrono::seconds kDeafLeader{5};
+  unsigned long long deaf_leaders_ = 0;      ///< leaders stopped because they did not hear a drain
   unsigned long long start_repairs_ = 0;     ///< modules restarted because they did not come up
   unsigned long long plan_restarts_ = 0;     ///< modules restarted because their supervisors lost the plan
   std::map<std::string, Clock::time_point> world_done_;  ///< modules whose world finished its task, and when
@@ -1859,7 +1894,7 @@ int up_command(const std::vector<std::string>& args) {
     msg::ProcessStatus ps;
     while (status.take(ps)) {
       view.update(ps);
-      L.on_status(ps.process_id(), ps.pid(), ps.state() == static_cast<uint8_t>(runtime::Lifecycle::Active));
+      L.on_status(ps.process_id(), ps.pid(), ps.state() == static_cast<uint8_t>(runtime::Lifecycle::Active), ps.serving());
       if (ps.role() == "world" && ps.deployment() == d.name) L.on_world_load(ps.module_id(), ps.detail(), ps.tick());
     }
     msg::ControlRequest req;
@@ -2032,7 +2067,8 @@ int up_command(const std::vector<std::string>& args) {
                 std::chrono::duration<double>(Launcher::kDrainTimeout).count(), L.forced_drains_);
   }
   if (out) {
-    out << "start_repairs=" << L.start_repairs_ << "\nplan_restarts=" << L.plan_restarts_ << "\nforced_drains=" << L.forced_drains_ << "\n";
+    out << "start_repairs=" << L.start_repairs_ << "\nplan_restarts=" << L.plan_restarts_ << "\nforced_drains=" << L.forced_drains_
+        << "\ndeaf_leaders=" << L.deaf_leaders_ << "\n";
   }
   if (L.plan_restarts_ > 0) std::printf("tandem up: modules restarted because their supervisors lost the plan: %llu\n", L.plan_restarts_);
   if (L.governor_) {

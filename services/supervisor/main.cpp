@@ -150,6 +150,7 @@ int run(int argc, char** argv) {
       r.object_xy = model::Vec2(rep.object()[0], rep.object()[1]);
       r.object_known = true;
       r.failed = rep.failed();
+      r.world_rank = {rep.plan_epoch(), static_cast<int32_t>(rep.plan_strength())};
       core.on_report(r, now);
       last_report = std::chrono::steady_clock::now();
     }

@@ -45,6 +45,9 @@ void fill_report_counters(const world::WorldCore& core, bool realtime, msg::Worl
   rep.failovers(core.failovers);
   rep.load_paused(core.paused_for_load());
   rep.owners(owners(core));
+  const plan::SupervisorRank rank = core.plan_rank();
+  rep.plan_epoch(rank.epoch);
+  rep.plan_strength(rank.strength);
 }
 
 std::vector<msg::ArmOwner> owners(const world::WorldCore& core) {

@@ -666,6 +666,45 @@ TEST_CASE("supervisor component: a standby takes over when the leader's plans st
   CHECK(robot.offer(stale) == tp::PlanFollower::Offer::Ignored);
 }
 
+TEST_CASE("supervisor component: a leader that never heard a takeover steps down once the world has followed it for 500 ticks", "[components]") {
+  // Seen in a soak: the leader's plan reader never matched its standby's writer after the standby took over in a
+  // higher epoch. The world's reports carry the rank it follows; outranked for 500 ticks, the deaf leader steps
+  // down, and (the other leader silent to it) takes over again above the world's epoch with its replica.
+  const ts::ModuleSetup& m = sosm();
+  const int64_t ms = 1000000;
+  SupervisorCore s(m, SupervisorOptions{"m1/supervisor", 100, true, 0.1}, 0);
+  std::string log;
+  s.set_log([&](const std::string& l) { log += l + "\n"; });
+  s.on_assignment(1, "out", {0.0, 0.8, 0.0, 1.0});
+  long k = 0;
+  auto at = [&](long tick, tandem::plan::SupervisorRank world) {
+    auto r = report_at(tick);
+    r.world_rank = world;
+    s.on_report(r, tick * ms);
+    s.update(tick * ms);
+    s.take_plan();
+  };
+  for (; k < 300; k += 10) at(k, {0, 100});  // the world follows this leader (epoch 0, strength 100)
+  REQUIRE(s.active());
+  // A report with no rank ({0, 0}) or a malformed one ignores the rule.
+  at(k, {0, 0});
+  at(k + 10, {1ULL << 40, 50});
+  k += 20;
+  // The world now follows epoch 3 (a standby that took over), which this leader never hears.
+  const long from = k;
+  for (; k < from + 500; k += 10) at(k, {3, 50});
+  CHECK(s.active());  // 490 ticks past the first: a takeover's plan may still be on its way
+  at(k, {3, 50});
+  k += 10;
+  CHECK_FALSE(s.active());
+  CHECK(log.find("stepping down: the world has followed a plan of epoch 3 (strength 50) for 500 ticks") != std::string::npos);
+  // The leader it never heard stays silent to it: it takes over again, above the world's epoch.
+  for (const long until = k + 100; k < until; k += 10) at(k, {3, 50});
+  CHECK(s.active());
+  CHECK(s.rank().epoch == 4);
+  CHECK(log.find("taking over in epoch 4") != std::string::npos);
+}
+
 TEST_CASE("supervisor component: a standby that hears the world again after a gap waits for the leader's plans", "[components]") {
   const ts::ModuleSetup& m = sosm();
   const int64_t ms = 1000000;
@@ -746,6 +785,42 @@ TEST_CASE("supervisor component: a hold for load stops the path smoothly, and a 
   s.on_report(r, 1830 * ms);
   s.update(1830 * ms);
   CHECK(s.state() == tandem::plan::TaskStateCode::Paused);
+}
+
+TEST_CASE("supervisor component: a paused module acknowledges a drain at once, and leaves only when its task is over", "[components]") {
+  const ts::ModuleSetup& m = sosm();
+  const int64_t ms = 1000000;
+  SupervisorCore s(m, SupervisorOptions{"m1/supervisor", 100, false, 0.1}, 0);
+  long k = 0;
+  for (; k <= 1500; k += 10) {
+    s.on_report(report_at(k), k * ms);
+    s.update(k * ms);
+  }
+  auto r = report_at(k);
+  r.braked = {true, false};  // an arm braked, its robot gone: the path stops
+  r.braked_since = k;
+  for (; k <= 2000; k += 10) {
+    r.tick = k;
+    s.on_report(r, k * ms);
+    s.update(k * ms);
+  }
+  REQUIRE(s.state() == tandem::plan::TaskStateCode::Paused);
+  s.on_request(SupervisorCore::Request::Drain);
+  s.on_report(r, k * ms);
+  s.update(k * ms);
+  // The launcher reads the task state for the acknowledgment: draining, not paused.
+  CHECK(s.state() == tandem::plan::TaskStateCode::Draining);
+  CHECK_FALSE(s.leaving());  // the task is not over: the module stays
+  // Released, the task runs to its end, and then the module leaves.
+  r.braked = {false, false};
+  r.released_at = k;
+  for (; k <= m.steps + 5000 && !s.leaving(); k += 10) {
+    r.tick = k;
+    s.on_report(r, k * ms);
+    s.update(k * ms);
+  }
+  CHECK(s.state() == tandem::plan::TaskStateCode::Left);
+  CHECK(s.leaving());
 }
 
 TEST_CASE("the world's clock keeps absolute deadlines and re-anchors after a stall instead of a catch-up burst", "[components]") {

@@ -17,7 +17,7 @@ bool secured() {
 
 std::string private_shm_dir() {
   static const std::string dir = [] {
-    const std::string d = "/dev/shm/tandem-" + std::to_string(::getuid());
+    std::string d = "/dev/shm/tandem-" + std::to_string(::getuid());
     if (::mkdir(d.c_str(), 0700) != 0 && errno != EEXIST) return std::string();
     struct stat st {};
     if (::stat(d.c_str(), &st) != 0 || !S_ISDIR(st.st_mode) || st.st_uid != ::getuid()) {
@@ -107,7 +107,7 @@ void apply_data_sharing(Q& q, TopicKind kind, bool data_sharing) {
 }
 }  // namespace
 
-fdds::DataWriterQos writer_qos(TopicKind kind, int32_t strength, bool data_sharing) {
+fdds::DataWriterQos writer_qos(TopicKind kind, int32_t /*strength*/, bool data_sharing) {
   fdds::DataWriterQos q = fdds::DATAWRITER_QOS_DEFAULT;
   apply(q, kind);
   // The wire encoding, pinned: XCDR1 (plain CDR, final types), what other vendors' readers of these types

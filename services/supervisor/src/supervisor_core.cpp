@@ -21,8 +21,10 @@ TaskStateCode SupervisorCore::state() const {
   const long k = std::max(heard_tick_, 0L);
   const bool busy = o_.continuous ? plan_.running() : !plan_.motion_over(k);
   if (draining_ && !busy) return TaskStateCode::Left;
-  if (plan_.target_rate() == 0.0 && plan_.paused_at(k)) return TaskStateCode::Paused;
+  // Draining before paused: a paused module that was asked to drain says so (the launcher takes a leader that
+  // does not for one that cannot hear it, and stops it); both keep their task for the coordinator.
   if (draining_) return TaskStateCode::Draining;
+  if (plan_.target_rate() == 0.0 && plan_.paused_at(k)) return TaskStateCode::Paused;
   if (busy) return TaskStateCode::Running;
   return plan_.done() > 0 ? TaskStateCode::Done : TaskStateCode::Idle;
 }
@@ -142,6 +144,30 @@ void SupervisorCore::on_report(const ReportIn& r, int64_t now_ns) {
     stronger_tick_ = std::max(stronger_tick_, r.tick);
     log("heard the world again " + std::to_string(r.tick - heard_tick_) +
         " ticks on (this one heard nothing meanwhile); the leader's silence counts from now");
+  }
+  // The world follows a plan of a higher rank than this leader's, and this one never heard it (else on_plan would
+  // have stepped it down within a few ticks): its plan reader missed a takeover's writer. Found by a soak-small hour:
+  // a leader in epoch 2 never heard its standby take over in epoch 3; the module's arms followed epoch 3 while
+  // this one went on assigning itself tasks nobody carried out, and after epoch 3's leader was killed no
+  // supervisor took over. It steps down: as a standby it takes over above the world's epoch if its replica has
+  // the object where the module's plan has it, else the module has lost its plan (restarted).
+  const bool rank_known = plan::valid_rank(r.world_rank.strength, r.world_rank.epoch);  // {0, 0}: no plan yet
+  if (rank_known) max_epoch_ = std::max(max_epoch_, r.world_rank.epoch);
+  if (active_ && rank_known && r.world_rank.outranks(rank_)) {
+    if (outranked_since_ < 0) outranked_since_ = r.tick;
+    if (r.tick - outranked_since_ >= kOutrankedTicks) {
+      active_ = false;
+      suspect_from_ = -1;
+      outranked_since_ = -1;
+      heard_stronger_ = true;  // a leader exists (the world follows it): its silence counts from now
+      last_stronger_ = now_ns;
+      stronger_tick_ = std::max(stronger_tick_, r.tick);
+      log("stepping down: the world has followed a plan of epoch " + std::to_string(r.world_rank.epoch) + " (strength " +
+          std::to_string(r.world_rank.strength) + ") for " + std::to_string(kOutrankedTicks) +
+          " ticks, above this one's, and this one never heard it");
+    }
+  } else {
+    outranked_since_ = -1;
   }
   heard_tick_ = std::max(heard_tick_, r.tick);
   braked_ = r.braked;

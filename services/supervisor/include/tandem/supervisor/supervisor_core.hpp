@@ -35,6 +35,7 @@ struct ReportIn {
   model::Vec2 object_xy = model::Vec2::Zero();
   bool object_known = false;  ///< object_xy is the world's measurement (always on the wire; tests may leave it out)
   bool failed = false;  ///< the world reports the object dropped: the module is failed (TaskStateCode::Failed)
+  plan::SupervisorRank world_rank{};  ///< the rank of the plan the world follows ({0, 0}: none yet)
 };
 
 /// The module's task state for the coordinator (TaskState on the wire).
@@ -61,6 +62,8 @@ class SupervisorCore {
   static constexpr int64_t kHeartbeatNs = 20'000'000;
   static constexpr int64_t kTakeOverAfterNs = 50'000'000;
   static constexpr long kTakeOverTicks = 20;
+  /// A leader whose world follows a higher-ranked plan for this many ticks never heard that plan: it steps down.
+  static constexpr long kOutrankedTicks = 500;
   static constexpr int64_t kTakeOverAloneNs = 6'000'000'000;
   static constexpr double kAloneMatch = 2e-3;  ///< [m] object vs the initial plan for a takeover with no leader heard
   /// [m] Object vs this replica's plan at the world's tick, for a takeover from a silent leader: a replica further
@@ -131,6 +134,7 @@ class SupervisorCore {
   // Leadership.
   int64_t t_start_, last_report_, last_stronger_;
   long stronger_tick_ = -1, others_newest_ = -1, suspect_from_ = -1;
+  long outranked_since_ = -1;  ///< leading: the first tick of the world's report that outranks this one (-1: none)
   int64_t suspect_since_ = 0;
   int64_t last_update_ns_ = 0;  // the previous update(): a standby that stood still does not take over at once
   bool heard_stronger_ = false, stronger_now_ = false, alone_refused_ = false;

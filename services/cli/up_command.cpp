@@ -1001,9 +1001,6 @@ class Launcher {
   /// Per role: the CPU seconds each process took from its start to active.
   std::map<std::string, std::vector<double>> start_cpu_;
 
-  /// A drain the module's leading supervisor has not acknowledged (its task state neither draining nor left)
-  /// is sent again every second: found by the soak, a leader whose control reader missed the one request kept
-  /// taking tasks, and the module never left (its plug-in retries gave up after 60 s).
   static std::string task_state_name(unsigned state) {
     static const char* names[] = {"idle", "running", "done", "paused", "draining", "left", "failed"};
     return state < 7 ? names[state] : "unknown (" + std::to_string(state) + ")";
@@ -1035,6 +1032,10 @@ class Launcher {
     terminate(*leader);
   }
 
+  /// A drain the module's leading supervisor has not acknowledged (its task state neither draining nor left)
+  /// is sent again every second: found by the soak, a leader whose control reader missed the one request kept
+  /// taking tasks, and the module never left (its plug-in retries gave up after 60 s).
+  /// Past kDeafLeader the leader is taken for deaf (stop_deaf_leader); past kDrainTimeout the module is stopped.
   void resend_drains() {
     const auto now = Clock::now();
     for (auto& [name, mr] : modules_) {

@@ -866,6 +866,16 @@ TEST_CASE("launcher component: restarts by policy with a doubling backoff, and g
   CHECK(d.kind == RestartDecision::Kind::Restart);
   CHECK(d.delay == Approx(0.2));
   CHECK(p.on_exit("coordinator", 0, always, 0.0).delay == Approx(0.5));  // always: a clean exit too
+  // The doubling stops at the cap (2 s by default): 0.2, 0.4, 0.8, 1.6, then 2 s for every later restart.
+  const tandem::launcher::RestartRule soak{"always", 20, 60.0, 0.2};
+  std::vector<double> delays;
+  for (int i = 0; i < 8; ++i) delays.push_back(p.on_exit("m2/left", 137, soak, 1.0 + i).delay);
+  CHECK(delays[3] == Approx(1.6));
+  for (int i = 4; i < 8; ++i) CHECK(delays[static_cast<size_t>(i)] == Approx(2.0));
+  // A first delay above the cap is kept as it is.
+  const tandem::launcher::RestartRule slow{"always", 20, 60.0, 5.0};
+  CHECK(p.on_exit("m3/left", 137, slow, 0.0).delay == Approx(5.0));
+  CHECK(p.on_exit("m3/left", 137, slow, 1.0).delay == Approx(5.0));
 }
 
 TEST_CASE("a robot that falls silent is stopped as an arm with no controller, not paused for load", "[components]") {

@@ -17,7 +17,7 @@ RestartDecision RestartPolicy::on_exit(const std::string& key, int exit_status, 
     return d;
   }
   d.kind = RestartDecision::Kind::Restart;
-  d.delay = rule.backoff * std::pow(2.0, static_cast<double>(hist.size()));
+  d.delay = std::min(rule.backoff * std::pow(2.0, static_cast<double>(hist.size())), std::max(rule.backoff, rule.max_backoff));
   hist.push_back(now);
   d.count = static_cast<int>(hist.size());
   return d;

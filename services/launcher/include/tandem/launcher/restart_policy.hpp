@@ -1,6 +1,6 @@
 // The launcher's restart policy as a component (no processes, no clock: times in seconds are passed in), as
 // Erlang/OTP supervisors do it: a child that exits is restarted by policy (never, on-failure, always) after a
-// backoff that doubles with each restart inside the window, and given up on after `limit` restarts within
+// backoff that doubles with each restart inside the window (up to a cap), and given up on after `limit` restarts within
 // `window` seconds (the intensity limit). services/cli/up_command.cpp asks it; tests/unit drive it.
 #pragma once
 
@@ -15,6 +15,10 @@ struct RestartRule {
   int limit = 3;                 ///< restarts within `window` before giving up
   double window = 30.0;          ///< [s]
   double backoff = 0.2;          ///< first delay [s], doubled per restart inside the window
+  /// The doubling stops here [s] (or at `backoff` if that is larger). Uncapped, the eighth restart of an arm
+  /// within a minute waited 25.6 s, and a soak hour's "replacement robot within 10 s" failed by the policy's own
+  /// delay while a standby-less arm stayed braked; crash loops are still ended by `limit`.
+  double max_backoff = 2.0;
 };
 
 struct RestartDecision {

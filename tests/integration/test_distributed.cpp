@@ -915,7 +915,7 @@ TEST_CASE("an unplugged module whose task cannot end is stopped after the drain 
   CHECK(r.output.find("kill_rc=0") != std::string::npos);
   CHECK(r.output.find("unplug_rc=0") != std::string::npos);
   CHECK(r.output.find("up_rc=0") != std::string::npos);
-  CHECK(log.find("module m1 did not drain within 30 s (its task state: paused)") != std::string::npos);
+  CHECK(log.find("module m1 did not drain within 30 s (its task state: draining)") != std::string::npos);
   CHECK(log.find("module m1 drained") == std::string::npos);
   const auto kv = read_summary(summary);
   const auto text = read_summary_text(summary);

@@ -869,6 +869,7 @@ TEST_CASE("launcher component: restarts by policy with a doubling backoff, and g
   // The doubling stops at the cap (2 s by default): 0.2, 0.4, 0.8, 1.6, then 2 s for every later restart.
   const tandem::launcher::RestartRule soak{"always", 20, 60.0, 0.2};
   std::vector<double> delays;
+  delays.reserve(8);
   for (int i = 0; i < 8; ++i) delays.push_back(p.on_exit("m2/left", 137, soak, 1.0 + i).delay);
   CHECK(delays[3] == Approx(1.6));
   for (int i = 4; i < 8; ++i) CHECK(delays[static_cast<size_t>(i)] == Approx(2.0));

@@ -49,6 +49,7 @@
 #include "tandem/runtime/security.hpp"
 #include "tandem/runtime/role.hpp"
 #include "tandem/runtime/shm_clean.hpp"
+#include "tandem/plan/plan.hpp"
 #include "tandem/runtime/status.hpp"
 #include "tandem/model/controller.hpp"
 #include "tandem/model/plant.hpp"
@@ -1001,11 +1002,6 @@ class Launcher {
   /// Per role: the CPU seconds each process took from its start to active.
   std::map<std::string, std::vector<double>> start_cpu_;
 
-  static std::string task_state_name(unsigned state) {
-    static const char* names[] = {"idle", "running", "done", "paused", "draining", "left", "failed"};
-    return state < 7 ? names[state] : "unknown (" + std::to_string(state) + ")";
-  }
-
   /// A leader that has not acknowledged a drain sent every second for kDeafLeader does not hear the launcher:
   /// seen in a soak-small hour, a restarted supervisor that took the lead never heard the drain (nor the
   /// coordinator's next task) while its standby logged "drain requested"; the module then idled until the drain
@@ -1047,7 +1043,7 @@ class Launcher {
         // an unplugged module refused "it is draining" for over 60 s). Past the bound the module is stopped with
         // its task unfinished: the coordinator re-plans that task elsewhere (it is not counted done).
         const std::string last = ts == task_states_.end() ? std::string("no task state heard")
-                                                          : "its task state: " + task_state_name(ts->second.state());
+                                                          : std::string("its task state: ") + plan::task_state_name(ts->second.state());
         std::printf("tandem up: module %s did not drain within %.0f s (%s); stopping it with its task unfinished, "
                     "which goes back to the queue\n",
                     name.c_str(), std::chrono::duration<double>(kDrainTimeout).count(), last.c_str());

@@ -58,8 +58,7 @@ void SupervisorCore::publish_state(bool force, int64_t now_ns) {
   out_state_ = StateOut{plan_.task_id(), static_cast<uint8_t>(st), plan_.done(),
                         static_cast<uint64_t>(std::max(heard_tick_, 0L))};
   if (st != reported_) {
-    static const char* names[] = {"idle", "running", "done", "paused", "draining", "left", "failed (object dropped)"};
-    std::string detail = names[static_cast<int>(st)];
+    std::string detail = plan::task_state_name(static_cast<uint8_t>(st));
     if (st == TaskStateCode::Paused) {
       detail += hold_ ? " (for load)" : braked_[0] || braked_[1] ? " (arm braked)" : " (requested)";
     }

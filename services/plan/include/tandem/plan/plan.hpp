@@ -43,6 +43,12 @@ bool all_finite(const Array& a) {
 /// Failed: the world reports the module's object dropped (or slid out of the grasp): its task is not done.
 enum class TaskStateCode : uint8_t { Idle = 0, Running = 1, Done = 2, Paused = 3, Draining = 4, Left = 5, Failed = 6 };
 
+/// The state's name as status and logs show it ("failed (object dropped)" for Failed); "unknown" past Failed.
+inline const char* task_state_name(uint8_t state) {
+  static const char* const names[] = {"idle", "running", "done", "paused", "draining", "left", "failed (object dropped)"};
+  return state <= static_cast<uint8_t>(TaskStateCode::Failed) ? names[state] : "unknown";
+}
+
 /// The plan as it travels (SupervisorPlan on the wire; services/runtime converts).
 struct PlanData {
   std::string supervisor_id;

@@ -104,6 +104,9 @@ pb::WorldReport convert(const msg::WorldReport& r) {
   copy_owners(r.owners(), o.mutable_owners());
   o.set_failed(r.failed());
   o.set_failure(r.failure());
+  o.set_plan_epoch(r.plan_epoch());
+  o.set_plan_strength(r.plan_strength());
+  o.set_plan_version(r.plan_version());
   return o;
 }
 pb::ProcessStatus convert(const msg::ProcessStatus& s) {

@@ -151,11 +151,21 @@ int run(int argc, char** argv) {
       r.object_known = true;
       r.failed = rep.failed();
       r.world_rank = {rep.plan_epoch(), static_cast<int32_t>(rep.plan_strength())};
+      r.world_plan_version = rep.plan_version();
       core.on_report(r, now);
       last_report = std::chrono::steady_clock::now();
     }
     core.update(now);
     publish();
+    if (core.deaf()) {
+      // A leader lives (the world's plan kept changing) but this standby hears none of its plans: a fresh
+      // participant may. Exit 6: the launcher restarts this supervisor alone, as a standby.
+      std::fprintf(stderr, "tandem-supervisor %s: cannot hear the module's leader (the world's plan changed while this "
+                   "standby heard none of it); exiting, to come back with a fresh participant\n", opt.module.c_str());
+      status.set(runtime::Lifecycle::Error, "cannot hear the leader");
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      return 6;
+    }
     if (core.no_plan()) {
       // Never heard a leader and cannot lead the moved object with the initial plan: the module has lost its
       // plan. Exit 5: the launcher restarts the module (docs/architecture.md, "Hot standby (supervisors)").

@@ -213,6 +213,9 @@ int run(int argc, char** argv) {
       rep.failed(r.failed);
       if (r.failed && rep.failure() != r.failure) rep.failure(r.failure);
       world_wire::fill_report_counters(core, opt.realtime, rep);
+      rep.plan_epoch(r.plan_rank.epoch);  // the rank and version as of this report
+      rep.plan_strength(r.plan_rank.strength);
+      rep.plan_version(r.plan_version);
       report.write(rep);
     }
     // Real time: the tick ends at an absolute deadline; lockstep: when every arm that is not braked has its

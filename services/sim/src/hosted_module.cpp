@@ -27,6 +27,8 @@ supervisor::ReportIn supervisor_input(const world::ReportOut& r) {
   in.object_xy = r.object.head<2>();
   in.object_known = true;
   in.failed = r.failed;
+  in.world_rank = r.plan_rank;
+  in.world_plan_version = r.plan_version;
   return in;
 }
 

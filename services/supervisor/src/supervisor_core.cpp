@@ -152,6 +152,12 @@ void SupervisorCore::on_report(const ReportIn& r, int64_t now_ns) {
   // the object where the module's plan has it, else the module has lost its plan (restarted).
   const bool rank_known = plan::valid_rank(r.world_rank.strength, r.world_rank.epoch);  // {0, 0}: no plan yet
   if (rank_known) max_epoch_ = std::max(max_epoch_, r.world_rank.epoch);
+  world_rank_ = rank_known ? r.world_rank : plan::SupervisorRank{};
+  world_version_ = rank_known ? r.world_plan_version : 0;
+  if (!first_world_heard_) {
+    first_world_heard_ = true;
+    first_world_ = {world_rank_, world_version_};
+  }
   if (active_ && rank_known && r.world_rank.outranks(rank_)) {
     if (outranked_since_ < 0) outranked_since_ = r.tick;
     if (r.tick - outranked_since_ >= kOutrankedTicks) {
@@ -213,28 +219,51 @@ void SupervisorCore::update(int64_t now_ns) {
   // Never heard a leader: take over after kTakeOverAloneNs of the world's reports, and only if the object is
   // where this supervisor's own (initial) plan has it now: otherwise the module follows a plan this one never
   // heard, and leading with its own would jump the references (robots and world would refuse it anyway).
-  const bool alone_ok = heard_tick_ > kTakeOverTicks &&
+  const bool behind = behind_world();
+  const bool alone_ok = heard_tick_ > kTakeOverTicks && !behind &&
                         (plan_.sample(heard_tick_).pose.head<2>() - object_xy_).norm() < kAloneMatch;
-  if (!heard_stronger_ && !active_ && now_ns - t_start_ > kTakeOverAloneNs && !alone_ok && !alone_refused_) {
-    alone_refused_ = true;
-    log("never heard a leader, and the object is not where the initial plan has it: not taking over");
+  if (!heard_stronger_ && !active_ && now_ns - t_start_ > kTakeOverAloneNs && !alone_ok && !alone_refused_ && !deaf_) {
+    if (world_moved_on(first_world_)) {
+      deaf_ = true;
+      log("never heard a leader, but the world's plan changed meanwhile (" + world_plan_text() +
+          "): a leader lives that this supervisor cannot hear; not taking over");
+    } else {
+      alone_refused_ = true;
+      log("never heard a leader, and the object is not where the initial plan has it: not taking over");
+    }
   }
   const bool leader_silent =
       heard_stronger_ && now_ns - last_stronger_ > kTakeOverAfterNs && heard_tick_ - stronger_tick_ > kTakeOverTicks;
   // A silent leader is replaced only by a replica that has its plan: the object is where the replica's plan has it.
   const double replica_off =
       object_known_ && heard_tick_ >= 0 ? (plan_.sample(heard_tick_).pose.head<2>() - object_xy_).norm() : 0.0;
-  const bool replica_ok = replica_off < kReplicaMatch;
+  const bool replica_ok = replica_off < kReplicaMatch && !behind;
   if (!active_ && flowing && leader_silent && !replica_ok) {
     if (stale_since_ < 0) {
       stale_since_ = now_ns;
-      char line[200];
-      std::snprintf(line, sizeof line, "the leader is silent, but this replica is %.1f mm off the object at tick %ld "
-                    "(it missed the leader's newest plan): not taking over", replica_off * 1e3, heard_tick_);
+      stale_world_ = {world_rank_, world_version_};
+      char line[300];
+      if (behind) {
+        std::snprintf(line, sizeof line, "the leader is silent, but the world follows plan version %llu of epoch %llu "
+                      "(strength %d) and this replica has version %llu of epoch %llu (it missed the leader's newest "
+                      "plan): not taking over", static_cast<unsigned long long>(world_version_),
+                      static_cast<unsigned long long>(world_rank_.epoch), world_rank_.strength,
+                      static_cast<unsigned long long>(plan_.version()), static_cast<unsigned long long>(followed_.epoch));
+      } else {
+        std::snprintf(line, sizeof line, "the leader is silent, but this replica is %.1f mm off the object at tick %ld "
+                      "(it missed the leader's newest plan): not taking over", replica_off * 1e3, heard_tick_);
+      }
       log(line);
-    } else if (now_ns - stale_since_ > kTakeOverAloneNs && !alone_refused_) {
-      alone_refused_ = true;
-      log("no leader and no replica that has the module's plan: the module has lost its plan");
+    } else if (now_ns - stale_since_ > kTakeOverAloneNs && !alone_refused_ && !deaf_) {
+      if (world_moved_on(stale_world_)) {
+        // The world's plan changed while this one heard nothing: its leader lives, this supervisor is deaf to it.
+        deaf_ = true;
+        log("the world's plan changed while this replica heard nothing (" + world_plan_text() +
+            "): a leader lives that this supervisor cannot hear");
+      } else {
+        alone_refused_ = true;
+        log("no leader and no replica that has the module's plan: the module has lost its plan");
+      }
     }
   } else if (!leader_silent || replica_ok) {
     stale_since_ = -1;
@@ -312,6 +341,23 @@ void SupervisorCore::update(int64_t now_ns) {
     log("drained; the module leaves");
     leaving_ = true;
   }
+}
+
+bool SupervisorCore::behind_world() const {
+  if (world_rank_.strength == 0) return false;  // the world follows no plan yet (or an older world: not on the wire)
+  return world_rank_.epoch == followed_.epoch && world_rank_.strength == followed_.strength &&
+         world_version_ > plan_.version();
+}
+
+bool SupervisorCore::world_moved_on(const WorldPlan& since) const {
+  if (world_rank_.strength == 0) return false;
+  return world_rank_.epoch != since.rank.epoch || world_rank_.strength != since.rank.strength ||
+         world_version_ != since.version;
+}
+
+std::string SupervisorCore::world_plan_text() const {
+  return "the world follows plan version " + std::to_string(world_version_) + " of epoch " +
+         std::to_string(world_rank_.epoch) + ", strength " + std::to_string(world_rank_.strength);
 }
 
 double SupervisorCore::stop_ramp(long from) const {

@@ -209,6 +209,8 @@ ReportOut WorldCore::take_report() {
   r.object = model::Vec3(plant_.state().c(0), plant_.state().c(1), plant_.state().psi);
   r.failed = failed_;
   r.failure = failure_;
+  r.plan_rank = plan_rank();
+  r.plan_version = follower_.has_plan() ? follower_.version() : 0;
   report_normal_min_ = 1e300;
   report_now_ = false;
   return r;

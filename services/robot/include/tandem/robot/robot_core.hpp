@@ -33,7 +33,12 @@ class RobotCore {
   /// While the world's plan outranks this robot's, on_sample answers nothing (a stale plan is never served).
   void world_rank(const plan::SupervisorRank& world, long k);
   bool behind() const { return behind_; }
-  static constexpr long kBehindTicks = 500;
+  /// 2 s: a behind robot answers nothing anyway (no stale command), so the bound trades a restart against a longer
+  /// brake. It was 500 ticks: a soak-small run cut off all three live robots of a module at once when a starved
+  /// new leader's plan reached the world but not the robots' plan readers within 0.5 s (the leader itself then
+  /// stood still for 1 s); the restarts loaded the machine further and the module dropped its object after the
+  /// release.
+  static constexpr long kBehindTicks = 2000;
   /// A robot that has heard no plan at all while the world follows one is cut off after this many ticks (its
   /// plan reader never matched the leader's writer: seen in a soak, a restarted robot stayed a silent "standby"
   /// that the launcher counted as serving, and its arm stayed braked when the robot that did serve was killed).

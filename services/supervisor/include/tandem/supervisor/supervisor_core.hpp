@@ -36,6 +36,7 @@ struct ReportIn {
   bool object_known = false;  ///< object_xy is the world's measurement (always on the wire; tests may leave it out)
   bool failed = false;  ///< the world reports the object dropped: the module is failed (TaskStateCode::Failed)
   plan::SupervisorRank world_rank{};  ///< the rank of the plan the world follows ({0, 0}: none yet)
+  uint64_t world_plan_version = 0;    ///< the version of that plan
 };
 
 /// The module's task state for the coordinator (TaskState on the wire).
@@ -66,8 +67,8 @@ class SupervisorCore {
   static constexpr long kOutrankedTicks = 500;
   static constexpr int64_t kTakeOverAloneNs = 6'000'000'000;
   static constexpr double kAloneMatch = 2e-3;  ///< [m] object vs the initial plan for a takeover with no leader heard
-  /// [m] Object vs this replica's plan at the world's tick, for a takeover from a silent leader: a replica further
-  /// off missed the leader's newest plan (a soak on a busy machine: a standby took over with a plan version behind,
+  /// [m] Object vs this replica's plan at the world's tick, for a takeover from a silent leader (besides the version
+  /// check, behind_world): a replica further off missed the leader's newest plan (a soak on a busy machine: a standby took over with a plan version behind,
   /// the references jumped 10-122 mm and the object was dropped). It does not lead then; if that lasts
   /// kTakeOverAloneNs the module has lost its plan (no_plan(): the launcher restarts the module).
   static constexpr double kReplicaMatch = 5e-3;
@@ -101,6 +102,10 @@ class SupervisorCore {
   /// the leader is silent and this replica has been off the object for kTakeOverAloneNs. The module has lost its
   /// plan (the process exits, the launcher restarts the module).
   bool no_plan() const { return alone_refused_; }
+  /// A standby that cannot hear the module's leader: its replica is stale (or it never heard a leader) while the
+  /// plan the world follows kept changing, so a leader lives. The process exits 6; the launcher restarts this
+  /// supervisor alone, with a fresh participant (not the module, as no_plan does).
+  bool deaf() const { return deaf_; }
   long heard_tick() const { return heard_tick_; }
   plan::SupervisorRank rank() const { return rank_; }
   const plan::ModulePlan& plan() const { return plan_; }
@@ -113,6 +118,17 @@ class SupervisorCore {
   bool adopt(const plan::PlanData& p, bool from_new_leader);
   void publish_state(bool force, int64_t now_ns);
   void publish_plan(plan::TaskStateCode st, int64_t now_ns);
+  /// The world follows a plan this replica lacks: the same rank's newer version (WorldReport.plan_version). (A world
+  /// that follows a higher rank is judged by the object's position: a leader that missed a takeover retakes.) A replica checked by the object's position alone can be a version behind
+  /// at a task's start, when the object has not moved yet.
+  bool behind_world() const;
+  struct WorldPlan {
+    plan::SupervisorRank rank{};
+    uint64_t version = 0;
+  };
+  /// The plan the world follows is not `since` any more: a leader publishes, whether or not this one hears it.
+  bool world_moved_on(const WorldPlan& since) const;
+  std::string world_plan_text() const;
 
   const sim::ModuleSetup& m_;
   SupervisorOptions o_;
@@ -142,6 +158,11 @@ class SupervisorCore {
   int64_t stale_since_ = -1;  ///< the leader is silent and this replica is off the object since then (ns), or -1
   uint64_t max_epoch_ = 0;
   plan::SupervisorRank followed_{0, plan::kPrimaryStrength};
+  plan::SupervisorRank world_rank_{};  ///< the rank of the plan the world follows, from its last report ({0, 0}: none)
+  uint64_t world_version_ = 0;         ///< and that plan's version
+  WorldPlan first_world_{}, stale_world_{};  ///< the world's plan at its first report, and when this replica went stale
+  bool first_world_heard_ = false;
+  bool deaf_ = false;
   std::optional<plan::PlanData> latest_plan_;
   // Publishing.
   plan::TaskStateCode reported_ = plan::TaskStateCode::Idle;

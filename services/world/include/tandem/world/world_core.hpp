@@ -90,6 +90,8 @@ struct ReportOut {
   model::Vec3 object = model::Vec3::Zero();  ///< x, y, psi now
   bool failed = false;   ///< the object was dropped (or slid out of the grasp): both arms braked, the module out
   std::string failure;   ///< why, with the tick
+  plan::SupervisorRank plan_rank{};  ///< the rank of the plan the world follows ({0, 0}: none yet)
+  uint64_t plan_version = 0;         ///< and its version (a takeover checks that its replica has it)
 };
 
 /// A change of the robot an arm follows, and the worst tracking error and lowest normal force over the

@@ -1,6 +1,7 @@
 #include "live_view.hpp"
 
 #include <algorithm>
+#include <set>
 
 #include "tandem/runtime/status.hpp"
 
@@ -38,8 +39,20 @@ std::vector<std::string> LiveView::missing() const {
   return out;
 }
 
-void LiveView::print(std::FILE* f) const {
+void LiveView::print(std::FILE* f, Rows rows, std::chrono::steady_clock::time_point now) const {
+  std::set<std::string> run;  // what the launchers run now (empty: no launcher heard, nothing is left out)
   for (const auto& [id, s] : processes_) {
+    if (s.role() == "launcher") run.insert(s.runs().begin(), s.runs().end());
+  }
+  size_t gone = 0;
+  for (const auto& [id, s] : processes_) {
+    const auto h = heard_.find(id);
+    const bool silent = h != heard_.end() && now - h->second > kGoneAfter;
+    if (rows != Rows::All && !run.empty() && s.role() != "launcher" && run.count(id) == 0 &&
+        (rows == Rows::Run || silent)) {
+      ++gone;
+      continue;
+    }
     const char* state = runtime::lifecycle_name(s.state());
     if (s.role() == "world") {
       char progress[32] = "tasks from coordinator";
@@ -65,6 +78,7 @@ void LiveView::print(std::FILE* f) const {
                    s.detail().c_str());
     }
   }
+  if (gone > 0) std::fprintf(f, "  (%zu process(es) that exited and are not run any more: not shown)\n", gone);
 }
 
 }  // namespace tandem::cli

@@ -119,7 +119,7 @@ int status_command(const std::vector<std::string>& args) {
     return 1;
   }
   std::printf("%s on domain %d:\n", d.name.empty() ? "deployments" : d.name.c_str(), d.domain_id);
-  view.print(stdout);
+  view.print(stdout, LiveView::Rows::Run);
   for (const auto& label : view.missing()) {
     std::printf("  %-18s not heard from within 10 s (started by the launcher; still starting, or stuck)\n",
                 label.c_str());

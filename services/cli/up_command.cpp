@@ -2087,7 +2087,7 @@ int up_command(const std::vector<std::string>& args) {
     msg::ProcessStatus ps;
     while (status.take(ps)) view.update(ps);
     std::printf("final states:\n");
-    view.print(stdout);
+    view.print(stdout, LiveView::Rows::All);
   }
   // A process killed by a signal could not remove its shared-memory files: remove those of this run that no
   // live process uses (runtime::clean_stale_shm; also done during the run, after each killed child).

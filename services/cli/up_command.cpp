@@ -40,6 +40,7 @@
 
 #include "live_view.hpp"
 #include "tandem/launcher/capacity.hpp"
+#include "tandem/launcher/exit_rules.hpp"
 #include "tandem/launcher/governor.hpp"
 #include "tandem/launcher/host_watch.hpp"
 #include "tandem/launcher/restart_policy.hpp"
@@ -656,104 +657,117 @@ class Launcher {
       shm_dirty_ = true;
       killed_at_ = Clock::now();
     }
-    if (stopping_) return;
-    if (c.role == "coordinator") {
-      if (c.status == 0) {
+    const std::optional<launcher::Role> role = launcher::parse_role(c.role);
+    if (!role) return;  // not a role the launcher supervises (never started as such)
+    launcher::ExitFacts f;
+    f.role = *role;
+    f.status = c.status;
+    f.expected = c.expected;
+    f.never_heard = c.cut_off;
+    f.stopping = stopping_;
+    f.coordinated = d_.coordinator;
+    f.max_repairs = kStartRepairs;
+    ModuleRun* mr = c.module.empty() ? nullptr : &modules_.at(c.module);
+    if (mr != nullptr) {
+      f.module_ticked = mr->ticked;
+      f.module_repairs = mr->repairs;
+      f.module_draining = mr->end == "draining";
+      f.restart_always = mr->cfg.restart == "always";
+    }
+    f.live_peers = *role == launcher::Role::Coordinator ? live_coordinators() : live_robots(c.arm);
+    const std::string code = std::to_string(c.status);
+    switch (launcher::on_exit(f)) {
+      case launcher::ExitVerdict::Nothing:
+        return;
+      case launcher::ExitVerdict::AllTasksDone:
         std::printf("tandem up: %s reports every task done; stopping the deployment\n", c.label.c_str());
         coordinator_done_ = true;
         stop_all(SIGTERM);
         return;
-      }
-      const bool restarting = schedule_restart(c, d_.coordinator_restart, d_.coordinator_restart_limit,
-                                               d_.coordinator_restart_window, 0.2);
-      if (live_coordinators() > 0 || restarting) {
-        std::printf("tandem up: %s exited with code %d; %s\n", c.label.c_str(), c.status,
-                    live_coordinators() > 0 ? "a standby coordinator carries on" : "a new coordinator will take over");
+      case launcher::ExitVerdict::Restart:
+        break;
+      case launcher::ExitVerdict::RepairStart:
+        repair_start(c.module, c.label + (c.cut_off ? " was never heard on the domain" : " exited with code " + code) +
+                                   " before the first tick: its peers did not match");
         return;
-      }
-      fail(c.label + " exited with code " + std::to_string(c.status) + " and no coordinator is left");
-      return;
-    }
-    ModuleRun& mr = modules_.at(c.module);
-    if (c.expected) return;  // unplugged, or its module was stopped
-    // A module that did not come up: a process gave up waiting for its peers (world 3: peers not found; world,
-    // robot or supervisor 4: no tick, input or report) before the world's first tick. With DDS-Security a pair
-    // of participants sometimes never authenticates (a race in Fast DDS 2.9.1's SecurityManager, fixed in 2.9.2;
-    // docs/security.md), and nothing in the library retries it; new participants for the whole module (new
-    // GUIDs, fresh handshakes with everyone) repair it. Restarted up to kStartRepairs times, logged and counted.
-    if (!mr.ticked && !stopping_ && (c.role == "world" || c.role == "robot" || c.role == "supervisor") &&
-        (c.status == 3 || c.status == 4 || c.cut_off) && mr.repairs < kStartRepairs) {
-      repair_start(c.module, c.label + (c.cut_off ? " was never heard on the domain"
-                                                  : " exited with code " + std::to_string(c.status)) +
-                                 " before the first tick: its peers did not match");
-      return;
-    }
-    if (c.role == "supervisor" && c.status == 0 && mr.end == "draining") {
-      std::printf("tandem up: module %s drained; stopping its processes\n", c.module.c_str());
-      mr.end = "unplugged";
-      if (governor_) governor_->set_available(c.module, false);
-      stop_module(c.module);
-      return;
-    }
-    if (c.role == "robot") {
-      if (c.status == 0 && mr.cfg.restart != "always") return;  // its task is done
-      const bool restarting = schedule_restart(c, mr.cfg.restart, mr.cfg.restart_limit, mr.cfg.restart_window,
-                                               mr.cfg.restart_backoff);
-      const bool served = live_robots(c.arm) > 0;
-      if (served || restarting) {
-        std::printf("tandem up: %s exited with code %d; %s\n", c.label.c_str(), c.status,
-                    served ? "another robot serves its arm, the deployment goes on"
-                           : "its arm is braked until the restarted robot answers");
+      case launcher::ExitVerdict::Drained:
+        std::printf("tandem up: module %s drained; stopping its processes\n", c.module.c_str());
+        mr->end = "unplugged";
+        if (governor_) governor_->set_available(c.module, false);
+        stop_module(c.module);
         return;
-      }
-      if (d_.coordinator) {
+      case launcher::ExitVerdict::ModuleLostPlan:
+        // No leader and no replica has the module's plan (its leader died before a standby heard it). Tier 3: the
+        // module restarts from its initial grasp with new processes; the coordinator re-plans its task meanwhile.
+        std::printf("tandem up: module %s lost its plan (%s had no leader to follow); restarting the module\n",
+                    c.module.c_str(), c.label.c_str());
+        ++plan_restarts_;
+        mr->end = "repairing";
+        stop_module(c.module);
+        pending_clears_.push_back(c.module);
+        return;
+      case launcher::ExitVerdict::TaskOver:
+        // The module's task is over. Its processes end by themselves, but for one that joined late (a restarted
+        // standby) and waits for ticks that will not come: stopped after a grace for the summaries.
+        if (*role == launcher::Role::World) {
+          world_done_[c.module] = Clock::now();
+          mr->task_over = true;
+        }
+        return;
+      case launcher::ExitVerdict::ModuleFailed:
+        std::printf("tandem up: module %s failed (%s exited with code %d); stopping its processes, the others go on\n",
+                    c.module.c_str(), c.label.c_str(), c.status);
+        mr->end = "failed: " + c.label + " exited with code " + code;
+        if (governor_) governor_->set_available(c.module, false);
+        stop_module(c.module);
+        return;
+      case launcher::ExitVerdict::Fail:
+        fail(c.label + " exited with code " + code);
+        return;
+    }
+    // Restart: by the policy of its slot, then whether the slot is still served.
+    const bool restarting =
+        mr == nullptr ? schedule_restart(c, d_.coordinator_restart, d_.coordinator_restart_limit,
+                                         d_.coordinator_restart_window, 0.2)
+                      : schedule_restart(c, mr->cfg.restart, mr->cfg.restart_limit, mr->cfg.restart_window,
+                                         mr->cfg.restart_backoff);
+    f.live_peers = *role == launcher::Role::Coordinator ? live_coordinators() : live_robots(c.arm);
+    const launcher::AfterRestart next = launcher::after_restart(f, restarting);
+    switch (*role) {
+      case launcher::Role::Coordinator:
+        if (next == launcher::AfterRestart::Fail) {
+          fail(c.label + " exited with code " + code + " and no coordinator is left");
+          return;
+        }
+        std::printf("tandem up: %s exited with code %d; %s\n", c.label.c_str(), c.status,
+                    f.live_peers > 0 ? "a standby coordinator carries on" : "a new coordinator will take over");
+        return;
+      case launcher::Role::Supervisor:
+        std::printf("tandem up: %s exited with code %d; a standby supervisor carries on%s\n", c.label.c_str(), c.status,
+                    restarting ? " (the exited one comes back as a standby)" : "");
+        return;
+      case launcher::Role::Robot:
+      case launcher::Role::World:
+        break;
+    }
+    switch (next) {
+      case launcher::AfterRestart::CarriesOn:
+        std::printf("tandem up: %s exited with code %d; another robot serves its arm, the deployment goes on\n",
+                    c.label.c_str(), c.status);
+        return;
+      case launcher::AfterRestart::WaitsForRestart:
+        std::printf("tandem up: %s exited with code %d; its arm is braked until the restarted robot answers\n",
+                    c.label.c_str(), c.status);
+        return;
+      case launcher::AfterRestart::WaitsForPlug:
         std::printf("tandem up: %s exited with code %d and nobody serves %s: the module stays paused with the "
                     "arm braked; plug a robot in ('tandem plug robot %s') to resume\n",
                     c.label.c_str(), c.status, c.arm.c_str(), c.arm.c_str());
         return;
-      }
-      fail(c.label + " exited with code " + std::to_string(c.status));
-      return;
+      case launcher::AfterRestart::Fail:
+        fail(c.label + " exited with code " + code);
+        return;
     }
-    if (c.role == "supervisor" && c.status == 5 && d_.coordinator && !stopping_) {
-      // A supervisor that never heard a leader and could not lead the moved object (its initial plan is elsewhere):
-      // the module's plan is lost (its leader died before a standby heard it). Tier 3: the module restarts from
-      // its initial grasp with new processes; the coordinator re-plans its task meanwhile.
-      std::printf("tandem up: module %s lost its plan (%s had no leader to follow); restarting the module\n",
-                  c.module.c_str(), c.label.c_str());
-      ++plan_restarts_;
-      mr.end = "repairing";
-      stop_module(c.module);
-      pending_clears_.push_back(c.module);
-      return;
-    }
-    if (c.role == "supervisor" && !(c.status == 0 && !d_.coordinator) && live_robots(c.arm) > 0) {
-      // Hot standby: another supervisor of the module carries on with the same plan (tier 1).
-      const bool restarting = schedule_restart(c, mr.cfg.restart, mr.cfg.restart_limit, mr.cfg.restart_window,
-                                               mr.cfg.restart_backoff);
-      std::printf("tandem up: %s exited with code %d; a standby supervisor carries on%s\n", c.label.c_str(), c.status,
-                  restarting ? " (the exited one comes back as a standby)" : "");
-      return;
-    }
-    // World or supervisor.
-    if (c.status == 0 && !d_.coordinator) {
-      // The module's task is over. Its processes end by themselves, but for one that joined late (a restarted
-      // standby) and waits for ticks that will not come: stopped after a grace for the summaries.
-      if (c.role == "world") {
-        world_done_[c.module] = Clock::now();
-        mr.task_over = true;
-      }
-      return;
-    }
-    if (d_.coordinator) {
-      std::printf("tandem up: module %s failed (%s exited with code %d); stopping its processes, the others go on\n",
-                  c.module.c_str(), c.label.c_str(), c.status);
-      mr.end = "failed: " + c.label + " exited with code " + std::to_string(c.status);
-      if (governor_) governor_->set_available(c.module, false);
-      stop_module(c.module);
-      return;
-    }
-    fail(c.label + " exited with code " + std::to_string(c.status));
   }
 
   /// Restart policy (OTP-style, launcher::RestartPolicy): returns true if `c` will be started again after the

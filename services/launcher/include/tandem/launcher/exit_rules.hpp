@@ -1,0 +1,68 @@
+// What the exit of one of the launcher's processes means, as a component (no processes, no DDS, no clock): the
+// launcher (services/cli/up_command.cpp, Launcher::on_exit) gathers the facts, asks `on_exit`, and carries the
+// verdict out (restart, stop a module, fail the deployment, print). For a verdict of Restart it asks the restart
+// policy (restart_policy.hpp) and then `after_restart`. The rules, in order, are those of docs/failure-model.md
+// ("Failure tiers"); tests/unit/test_launcher_rules.cpp drives each.
+#pragma once
+
+#include <optional>
+#include <string_view>
+
+namespace tandem::launcher {
+
+enum class Role { Coordinator, World, Supervisor, Robot };
+
+/// "coordinator", "world", "supervisor", "robot"; nothing for anything else.
+std::optional<Role> parse_role(std::string_view role);
+
+/// Exit codes the processes use (services/*/main.cpp).
+namespace exit_code {
+inline constexpr int kDone = 0;         ///< task done, drained, or (coordinator) every task done
+inline constexpr int kPeersNotFound = 3;  ///< world: its peers were not found in time
+inline constexpr int kNoInput = 4;      ///< world, robot, supervisor: no tick, input or report in time
+inline constexpr int kLostPlan = 5;     ///< supervisor: no leader and no replica has the module's plan
+inline constexpr int kCutOff = 6;       ///< robot or supervisor: cut off from the module's leader (a fresh participant may hear it)
+}  // namespace exit_code
+
+struct ExitFacts {
+  Role role = Role::Robot;
+  int status = 0;              ///< exit code, 128 + signal if killed
+  bool expected = false;       ///< unplugged, drained, its module stopped, or restarted on purpose
+  bool never_heard = false;    ///< killed by the launcher because it was never heard on the domain
+  bool stopping = false;       ///< the whole deployment is stopping
+  bool coordinated = false;    ///< the deployment has a coordinator (continuous tasks)
+  bool module_ticked = false;  ///< its module's world has ticked (the module came up)
+  int module_repairs = 0;      ///< start-up repairs of its module so far
+  int max_repairs = 0;
+  bool module_draining = false;  ///< its module is being unplugged (drained)
+  bool restart_always = false;   ///< its restart policy is `always` (robots restart after a done task too)
+  /// Live processes of its slot other than itself: coordinators; the module's other supervisors; its arm's other
+  /// robots.
+  int live_peers = 0;
+};
+
+enum class ExitVerdict {
+  Nothing,         ///< the deployment is stopping, the exit was expected, or a robot's task is done
+  AllTasksDone,    ///< a coordinator exited 0: stop the deployment
+  Restart,         ///< ask the restart policy, then after_restart()
+  RepairStart,     ///< the module never came up (peers not matched): restart it with new participants
+  Drained,         ///< a drained module's supervisor exited 0: stop the module, it is unplugged
+  ModuleLostPlan,  ///< a supervisor exited 5: restart the module from its initial grasp (tier 3)
+  TaskOver,        ///< scenario mode, exit 0: the module's task is over (a world's exit marks it)
+  ModuleFailed,    ///< coordinated: stop the module, the others go on, its task is re-planned
+  Fail,            ///< the deployment fails
+};
+
+ExitVerdict on_exit(const ExitFacts& f);
+
+enum class AfterRestart {
+  CarriesOn,        ///< a live peer serves the slot (a standby robot, supervisor or coordinator)
+  WaitsForRestart,  ///< nobody serves it until the restarted process answers (a robot's arm stays braked)
+  WaitsForPlug,     ///< coordinated, a robot with no restart and no peer: its arm stays braked until a plug
+  Fail,             ///< the deployment fails
+};
+
+/// After a Restart verdict: `restarting` is the restart policy's answer (a restart is scheduled).
+AfterRestart after_restart(const ExitFacts& f, bool restarting);
+
+}  // namespace tandem::launcher

@@ -1,0 +1,59 @@
+#include "tandem/launcher/exit_rules.hpp"
+
+namespace tandem::launcher {
+
+std::optional<Role> parse_role(std::string_view role) {
+  if (role == "coordinator") return Role::Coordinator;
+  if (role == "world") return Role::World;
+  if (role == "supervisor") return Role::Supervisor;
+  if (role == "robot") return Role::Robot;
+  return std::nullopt;
+}
+
+ExitVerdict on_exit(const ExitFacts& f) {
+  if (f.stopping) return ExitVerdict::Nothing;
+  if (f.role == Role::Coordinator) {
+    // Every task done; otherwise a standby coordinator carries on, or a restart takes over.
+    return f.status == exit_code::kDone ? ExitVerdict::AllTasksDone : ExitVerdict::Restart;
+  }
+  if (f.expected) return ExitVerdict::Nothing;  // unplugged, or its module was stopped
+  // A module that did not come up: a process gave up waiting for its peers before the world's first tick, or was
+  // never heard. With DDS-Security a pair of participants sometimes never authenticates (Fast DDS 2.9.1), and new
+  // participants for the whole module repair it (docs/security.md, "Start-up").
+  if (!f.module_ticked && (f.status == exit_code::kPeersNotFound || f.status == exit_code::kNoInput || f.never_heard) &&
+      f.module_repairs < f.max_repairs) {
+    return ExitVerdict::RepairStart;
+  }
+  if (f.role == Role::Supervisor && f.status == exit_code::kDone && f.module_draining) return ExitVerdict::Drained;
+  if (f.role == Role::Robot) {
+    if (f.status == exit_code::kDone && !f.restart_always) return ExitVerdict::Nothing;  // its task is done
+    return ExitVerdict::Restart;
+  }
+  if (f.role == Role::Supervisor && f.status == exit_code::kLostPlan && f.coordinated) return ExitVerdict::ModuleLostPlan;
+  // Hot standby: another supervisor of the module carries on with the same plan (tier 1); this one comes back as a
+  // standby if its policy says so (a deaf one, exit 6, with a fresh participant).
+  if (f.role == Role::Supervisor && !(f.status == exit_code::kDone && !f.coordinated) && f.live_peers > 0) {
+    return ExitVerdict::Restart;
+  }
+  // The world, or a module's last supervisor.
+  if (f.status == exit_code::kDone && !f.coordinated) return ExitVerdict::TaskOver;
+  return f.coordinated ? ExitVerdict::ModuleFailed : ExitVerdict::Fail;
+}
+
+AfterRestart after_restart(const ExitFacts& f, bool restarting) {
+  switch (f.role) {
+    case Role::Coordinator:
+      return f.live_peers > 0 || restarting ? AfterRestart::CarriesOn : AfterRestart::Fail;
+    case Role::Supervisor:
+      return AfterRestart::CarriesOn;  // on_exit asked for a restart only with a live peer
+    case Role::Robot:
+      if (f.live_peers > 0) return AfterRestart::CarriesOn;
+      if (restarting) return AfterRestart::WaitsForRestart;
+      return f.coordinated ? AfterRestart::WaitsForPlug : AfterRestart::Fail;
+    case Role::World:
+      break;
+  }
+  return AfterRestart::Fail;  // a world is never restarted alone (on_exit never says Restart for it)
+}
+
+}  // namespace tandem::launcher

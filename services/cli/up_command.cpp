@@ -40,6 +40,7 @@
 
 #include "live_view.hpp"
 #include "tandem/launcher/capacity.hpp"
+#include "tandem/launcher/drain_watch.hpp"
 #include "tandem/launcher/exit_rules.hpp"
 #include "tandem/launcher/governor.hpp"
 #include "tandem/launcher/host_watch.hpp"
@@ -117,9 +118,7 @@ struct ModuleRun {
   bool ticked = false;               ///< its world has reported a tick past 0 (the module came up)
   int repairs = 0;                   ///< restarts because it did not come up (docs/security.md, "Start-up")
   Clock::time_point started_at{};    ///< when its processes were last started
-  Clock::time_point drain_first{}, drain_sent{};  ///< draining: when it was asked first, and last
-  bool drain_warned = false;
-  bool deaf_leader_stopped = false;  ///< draining: a leader that did not acknowledge it was stopped
+  launcher::DrainWatch drain;        ///< draining: the bounds of its drain
 };
 
 
@@ -467,9 +466,7 @@ class Launcher {
       // Drain: the supervisor finishes the module's task, takes no new one, and exits; then the rest stops.
       say(true, "unplugging module %s: draining (it finishes its task first)\n", name.c_str());
       it->second.end = "draining";
-      it->second.drain_sent = it->second.drain_first = Clock::now();
-      it->second.drain_warned = false;
-      it->second.deaf_leader_stopped = false;
+      it->second.drain.start(seconds());
       if (governor_) governor_->set_available(name, false);
       send(name, msg::CMD_DRAIN);
       return;
@@ -1033,11 +1030,11 @@ class Launcher {
       }
     }
     if (leader == nullptr || !other) return;
-    mr.deaf_leader_stopped = true;
+    mr.drain.leader_stopped();
     ++deaf_leaders_;
     std::printf("tandem up: %s leads module %s but has not acknowledged its drain for %.0f s (it does not hear the "
                 "launcher); stopping it, a standby supervisor that heard the drain takes over\n",
-                leader->label.c_str(), module.c_str(), std::chrono::duration<double>(kDeafLeader).count());
+                leader->label.c_str(), module.c_str(), launcher::DrainWatch::kDeafLeader);
     leader->expected = true;  // not restarted: the module is leaving
     terminate(*leader);
   }
@@ -1045,36 +1042,31 @@ class Launcher {
   /// A drain the module's leading supervisor has not acknowledged (its task state neither draining nor left)
   /// is sent again every second: found by the soak, a leader whose control reader missed the one request kept
   /// taking tasks, and the module never left (its plug-in retries gave up after 60 s).
-  /// Past kDeafLeader the leader is taken for deaf (stop_deaf_leader); past kDrainTimeout the module is stopped.
+  /// The bounds are launcher::DrainWatch's: past kDeafLeader the leader is taken for deaf (stop_deaf_leader); past kTimeout the module is stopped.
   void resend_drains() {
-    const auto now = Clock::now();
+    const double now = seconds();
     for (auto& [name, mr] : modules_) {
-      if (mr.end != "draining" || now - mr.drain_sent < std::chrono::seconds(1)) continue;
+      if (mr.end != "draining") continue;
       const auto ts = task_states_.find(name);
-      if (now - mr.drain_first > kDrainTimeout) {
-        // A drain waits for the running task to end; a task that cannot end (an arm braked with no robot left to
-        // serve it, a module that lost its leader) would keep the module, and its slot, forever (seen in soaks:
-        // an unplugged module refused "it is draining" for over 60 s). Past the bound the module is stopped with
-        // its task unfinished: the coordinator re-plans that task elsewhere (it is not counted done).
+      const bool acked = ts != task_states_.end() && (ts->second.state() == static_cast<uint8_t>(plan::TaskStateCode::Draining) ||
+                                                      ts->second.state() == static_cast<uint8_t>(plan::TaskStateCode::Left));
+      const launcher::DrainStep step = mr.drain.step(now, acked);
+      if (step.force) {
         const std::string last = ts == task_states_.end() ? std::string("no task state heard")
                                                           : std::string("its task state: ") + plan::task_state_name(ts->second.state());
         std::printf("tandem up: module %s did not drain within %.0f s (%s); stopping it with its task unfinished, "
-                    "which goes back to the queue\n",
-                    name.c_str(), std::chrono::duration<double>(kDrainTimeout).count(), last.c_str());
+                    "which goes back to the queue\n", name.c_str(), launcher::DrainWatch::kTimeout, last.c_str());
         ++forced_drains_;
         mr.end = "unplugged";
         stop_module(name);
         continue;
       }
-      const bool acked = ts != task_states_.end() && (ts->second.state() == 4 || ts->second.state() == 5);
-      if (acked) continue;
-      if (!mr.deaf_leader_stopped && now - mr.drain_first > kDeafLeader) stop_deaf_leader(name, mr);
-      if (!mr.drain_warned && now - mr.drain_first > std::chrono::seconds(10)) {
-        std::printf("tandem up: module %s has not acknowledged its drain within 10 s; still asking\n", name.c_str());
-        mr.drain_warned = true;
+      if (step.stop_leader) stop_deaf_leader(name, mr);
+      if (step.warn) {
+        std::printf("tandem up: module %s has not acknowledged its drain within %.0f s; still asking\n", name.c_str(),
+                    launcher::DrainWatch::kWarnAfter);
       }
-      send(name, msg::CMD_DRAIN);
-      mr.drain_sent = now;
+      if (step.resend) send(name, msg::CMD_DRAIN);
     }
   }
 
@@ -1100,12 +1092,7 @@ class Launcher {
   std::vector<PendingUnplug> pending_unplugs_;
   std::vector<std::string> pending_clears_;  ///< failed modules being cleared (plug module): restarted once stopped
   static constexpr int kStartRepairs = 3;
-  /// A drain that has not ended by then is forced (resend_drains): a task lasts a few seconds, a pause for load
-  /// or a braked arm's restart a few more.
-  static constexpr std::chrono::seconds kDrainTimeout{30};
-  unsigned long long forced_drains_ = 0;     ///< unplugged modules stopped with their task unfinished
-  /// A leader that has not acknowledged a drain for this long is stopped if a standby supervisor runs.
-  static constexpr std::chrono::seconds kDeafLeader{5};
+  unsigned long long forced_drains_ = 0;     ///< unplugged modules stopped with their task unfinished (DrainWatch)
   unsigned long long deaf_leaders_ = 0;      ///< leaders stopped because they did not hear a drain
   unsigned long long start_repairs_ = 0;     ///< modules restarted because they did not come up
   unsigned long long plan_restarts_ = 0;     ///< modules restarted because their supervisors lost the plan
@@ -2075,7 +2062,7 @@ int up_command(const std::vector<std::string>& args) {
   std::printf("tandem up: start-up repairs (modules restarted because they did not come up): %llu\n", L.start_repairs_);
   if (L.forced_drains_ > 0) {
     std::printf("tandem up: unplugged modules stopped before their task ended (drain over %.0f s): %llu\n",
-                std::chrono::duration<double>(Launcher::kDrainTimeout).count(), L.forced_drains_);
+                launcher::DrainWatch::kTimeout, L.forced_drains_);
   }
   if (out) {
     out << "start_repairs=" << L.start_repairs_ << "\nplan_restarts=" << L.plan_restarts_ << "\nforced_drains=" << L.forced_drains_

@@ -2,6 +2,7 @@
 // means, rule by rule, as Launcher::on_exit carries them out (docs/failure-model.md, "Failure tiers").
 #include <catch2/catch.hpp>
 
+#include "tandem/launcher/drain_watch.hpp"
 #include "tandem/launcher/exit_rules.hpp"
 
 using namespace tandem::launcher;
@@ -116,4 +117,62 @@ TEST_CASE("launcher rules: worlds: a scenario's task over, a coordinated module 
   sup.coordinated = false;
   sup.live_peers = 1;
   CHECK(on_exit(sup) == ExitVerdict::TaskOver);
+}
+
+TEST_CASE("drain bounds: re-sent every second until acknowledged, a deaf leader stopped after 5 s, the module after 30 s", "[launcher]") {
+  // A leader that never acknowledges: the launcher's loop every 20 ms for 40 s.
+  DrainWatch w;
+  CHECK_FALSE(w.active());
+  w.start(100.0);
+  int resends = 0, warns = 0;
+  double first_stop_leader = -1.0, forced_at = -1.0;
+  for (double t = 100.0; t < 140.0; t += 0.02) {
+    const DrainStep s = w.step(t, false);
+    resends += s.resend ? 1 : 0;
+    warns += s.warn ? 1 : 0;
+    if (s.stop_leader && first_stop_leader < 0.0) first_stop_leader = t;
+    if (s.force) {
+      forced_at = t;
+      CHECK_FALSE((s.resend || s.stop_leader || s.warn));
+    }
+  }
+  CHECK(resends == Approx(30).margin(1));  // about one a second until the bound
+  CHECK(warns == 1);
+  CHECK(first_stop_leader > 105.0);
+  CHECK(first_stop_leader < 106.1);
+  CHECK(forced_at > 130.0);
+  CHECK(forced_at < 131.1);
+  CHECK_FALSE(w.active());  // over: nothing more
+  CHECK_FALSE(w.step(200.0, false).resend);
+
+  // No standby ran at the first try: the leader is asked for again each second until one does.
+  DrainWatch v;
+  v.start(0.0);
+  int asks = 0;
+  for (double t = 0.0; t < 9.0; t += 0.02) {
+    if (v.step(t, false).stop_leader) {
+      ++asks;
+      if (t > 7.0) v.leader_stopped();  // a standby supervisor ran from then on
+    }
+  }
+  CHECK(asks == 3);  // at about 6, 7 and 8 s: none after the stop
+
+  // Acknowledged at 2 s: no more requests, no leader stopped; the task still has to end within 30 s.
+  DrainWatch a;
+  a.start(0.0);
+  bool resent_after_ack = false, stop_leader = false, forced = false;
+  for (double t = 0.0; t < 31.5; t += 0.02) {
+    const DrainStep s = a.step(t, t >= 2.0);
+    resent_after_ack = resent_after_ack || (s.resend && t >= 2.0);
+    stop_leader = stop_leader || s.stop_leader;
+    forced = forced || s.force;
+  }
+  CHECK_FALSE(resent_after_ack);
+  CHECK_FALSE(stop_leader);
+  CHECK(forced);
+  // A new drain starts the bounds again.
+  a.start(50.0);
+  CHECK(a.active());
+  CHECK_FALSE(a.step(50.5, false).resend);
+  CHECK(a.step(51.0, false).resend);
 }

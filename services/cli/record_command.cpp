@@ -75,6 +75,8 @@ void convert(const msg::ArmSensors& s, pb::ArmSensors& o) {
   o.set_from(s.from());
   o.set_plan_epoch(s.plan_epoch());
   o.set_plan_strength(s.plan_strength());
+  o.set_plan_version(s.plan_version());
+  o.set_plan_since(s.plan_since());
 }
 void convert(const msg::TorqueCommand& c, pb::TorqueCommand& o) {
   o.set_tick(c.tick());

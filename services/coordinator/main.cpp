@@ -311,6 +311,11 @@ int run(int argc, char** argv) {
     std::string line;
     const coordinator::Leadership::Step step = lead.step(t, queue.task_count(), &line);
     if (!line.empty() && step != coordinator::Leadership::Step::TakeOver) say(line);
+    if (step == coordinator::Leadership::Step::Deaf) {
+      status.set(runtime::Lifecycle::Error, "cannot hear the queue state");
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      return 6;
+    }
     if (step == coordinator::Leadership::Step::AllDone) {
       status.set(runtime::Lifecycle::Finalized, "every task done (by the primary)");
       std::this_thread::sleep_for(std::chrono::milliseconds(100));

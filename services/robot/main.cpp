@@ -99,7 +99,8 @@ int run(int argc, char** argv) {
     // over the last period: track it (bumpless transfer and release).
     const model::Vec3 applied(smp.tau()[0], smp.tau()[1], smp.tau()[2]);
     const bool other = smp.from() != opt.strength && (smp.from() != 0 || smp.braked());
-    core.world_rank({smp.plan_epoch(), smp.plan_strength()}, static_cast<long>(smp.tick()));
+    core.world_plan({smp.plan_epoch(), smp.plan_strength()}, smp.plan_version(), static_cast<long>(smp.plan_since()),
+                    static_cast<long>(smp.tick()));
     if (core.cut_off()) return;  // a stale plan is never served: the main loop leaves the arm
     const std::optional<model::Vec3> tau =
         core.on_sample(static_cast<long>(smp.tick()), in, smp.braked(), other ? &applied : nullptr);
@@ -224,11 +225,11 @@ int run(int argc, char** argv) {
       status.publish();
     }
     if (core.cut_off()) {
-      std::fprintf(stderr, "tandem-robot %s: the world has followed a newer leader's plan than this robot's (epoch %llu, "
-                   "strength %d) for %ld ticks at tick %ld: cut off from the module's leader; leaving its arm and exiting, "
-                   "to come back with a fresh participant\n",
+      std::fprintf(stderr, "tandem-robot %s: the world has followed a newer plan than this robot's (epoch %llu, "
+                   "strength %d, version %llu) for %ld ticks at tick %ld: cut off from the module's leader; leaving its arm "
+                   "and exiting, to come back with a fresh participant\n",
                    robot_id.c_str(), static_cast<unsigned long long>(core.plan_rank().epoch), core.plan_rank().strength,
-                   robot::RobotCore::kBehindTicks, core.done());
+                   static_cast<unsigned long long>(core.plan_version()), robot::RobotCore::kBehindTicks, core.done());
       cut_off = true;
       break;
     }

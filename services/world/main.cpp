@@ -180,6 +180,8 @@ int run(int argc, char** argv) {
     }
     auto publish_samples = [&](bool all) {
       const plan::SupervisorRank plan_rank = core.plan_rank();
+      const uint64_t plan_version = core.plan_version();
+      const long plan_since = core.plan_since();
       for (size_t j = 0; j < 2; ++j) {
         const world::SampleOut& o = samples[j];
         if (!o.publish && !all) continue;
@@ -196,6 +198,8 @@ int run(int argc, char** argv) {
         s.from(o.applied_from);
         s.plan_epoch(plan_rank.epoch);
         s.plan_strength(plan_rank.strength);
+        s.plan_version(plan_version);
+        s.plan_since(plan_since);
         sensors[j]->write(s);
       }
     };

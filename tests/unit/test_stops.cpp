@@ -123,7 +123,10 @@ struct Rig {
       s.q = out[a].q;
       s.qd = out[a].qd;
       s.h = out[a].h;
-      // As the robot process: track the torque of another robot, the world's drive, or the brake.
+      // As the robot process: the plan the world follows first (a robot behind it answers nothing), then track the
+      // torque of another robot, the world's drive, or the brake.
+      robot[a]->world_plan(w.plan_rank(), w.plan_version(), w.plan_since(), k);
+      if (robot[a]->cut_off()) continue;
       const bool other = out[a].applied_from != 100 && (out[a].applied_from != 0 || out[a].braked);
       const auto tau = robot[a]->on_sample(k, s, out[a].braked, other ? &out[a].tau_applied : nullptr);
       if (tau) w.on_command(j, k, *tau, 100, now + 100000, false);
@@ -555,6 +558,54 @@ TEST_CASE("continuous: both arms lose their controllers at once mid-task, fresh 
       CHECK(rig.slips() == 0);
       CHECK(rig.min_normal >= rig.m.safe_grasp_force);
       CHECK(rig.sup[0]->plan().done() >= 4);
+    }
+  }
+}
+
+// Found by a soak-small hour (m1, 674 s): the serving left robot was stopped for about 0.1 s and the world drove its
+// arm; the supervisor stopped the path meanwhile, and was itself starved for 0.33 s. The robot, back, took its arm
+// over with the plan of before the stop (the stop's version had not reached it), ran ahead of the stopped object,
+// and the object slipped and was dropped 0.4 s later. Here: the serving robot of each arm stands still for 0.1-0.3 s
+// at several points of the task, the leader goes silent 150 ticks in for 330 ticks (or not at all), and the
+// robot, back, hears the plans it missed one tick after its first sample, or only at the leader's next plan.
+TEST_CASE("a serving robot back from a stall answers nothing until it has the plan the world follows, and nothing slips", "[stops]") {
+  for (const int j : {0, 1}) {
+    for (const long at : {1200L, 2500L}) {
+      for (const long stall : {105L, 300L}) {
+        for (const bool starved_leader : {false, true}) {
+          for (const bool hears_late : {false, true}) {
+            Rig rig;
+            const size_t a = static_cast<size_t>(j);
+            rig.run_to(at);
+            auto keep = std::move(rig.robot[a]);  // stopped: it hears and answers nothing
+            const long sup_from = at + 150, sup_to = at + 150 + 330;
+            if (starved_leader) {
+              rig.run_to(std::min(sup_from, at + stall));
+              if (rig.k >= sup_from) rig.sup_alive[0] = false;
+            }
+            rig.run_to(at + stall);
+            if (starved_leader && rig.k < sup_from) {
+              rig.robot[a] = std::move(keep);
+              rig.run_to(sup_from);
+              rig.sup_alive[0] = false;
+            }
+            if (!rig.robot[a]) {
+              rig.robot[a] = std::move(keep);  // back: its first sample comes before the plans it missed
+              rig.tick();
+              if (!hears_late && rig.last_plan) rig.robot[a]->offer_plan(*rig.last_plan);
+            }
+            rig.run_to(std::max(rig.k, starved_leader ? sup_to : 0L));
+            rig.sup_alive[0] = true;
+            rig.run_to(rig.k + 4000);
+            INFO("arm " << j << ", stopped at " << at << " for " << stall << " ticks, leader starved " << starved_leader
+                        << ", plans heard late " << hears_late << "\n" << rig.log);
+            CHECK(rig.slips() == 0);
+            CHECK(rig.min_normal >= rig.m.safe_grasp_force);
+            CHECK_FALSE(rig.w.failed());
+            CHECK(rig.w.plant().state().c(0) == Approx(0.2).margin(2e-3));  // the task ends where it should
+          }
+        }
+      }
     }
   }
 }

@@ -512,12 +512,54 @@ TEST_CASE("leadership: a late joiner with no state waits 3 s, a restarted one (-
   CHECK(fresh.step(13.01, 4, nullptr) == Step::TakeOver);
   CHECK_FALSE(fresh.last_state().has_value());  // from the whole queue
   Leadership resumed({"coordinator@r1", true, true}, 10.0);
-  CHECK(resumed.step(100.0, 4, nullptr) == Step::Wait);  // no state heard: never
+  CHECK(resumed.step(19.9, 4, nullptr) == Step::Wait);  // no state heard: it never leads without one
   CHECK_FALSE(resumed.primary());
-  CHECK(resumed.on_state(state_with(9, {1, 1, 1, 0}, 3), 100.5));  // the launcher's copy arrives late
-  CHECK(resumed.step(100.9, 4, nullptr) == Step::Wait);
-  CHECK(resumed.step(101.01, 4, nullptr) == Step::TakeOver);
+  CHECK(resumed.on_state(state_with(9, {1, 1, 1, 0}, 3), 19.95));  // the launcher's copy arrives late
+  CHECK(resumed.step(20.4, 4, nullptr) == Step::Wait);
+  CHECK(resumed.step(20.46, 4, nullptr) == Step::TakeOver);
   CHECK(resumed.last_state()->done_count() == 3);
+  // One that hears no state at all within kDeafS cannot hear the queue: it exits (restarted with a fresh participant).
+  Leadership deaf({"coordinator@r2", true, true}, 10.0);
+  CHECK(deaf.step(10.0 + Leadership::kDeafS - 0.01, 4, nullptr) == Step::Wait);
+  std::string log;
+  CHECK(deaf.step(10.0 + Leadership::kDeafS + 0.01, 4, &log) == Step::Deaf);
+  CHECK(log.find("cannot hear the queue") != std::string::npos);
+  CHECK_FALSE(deaf.primary());
+}
+
+TEST_CASE("leadership: a standby held back by one before it in line that cannot lead takes over 2 s later", "[coordinator]") {
+  // Found by a soak-small hour: coordinator@r21, a restart that never heard a queue state, stood first in line; r22
+  // had the launcher's copy of the state but waited for r21 for 900 s, and no task was done.
+  Leadership r21({"coordinator@r21", true, true}, 0.0), r22({"coordinator@r22", true, true}, 0.0);
+  r22.on_state(state_with(5, {1, 1, 0, 0}, 2), 1.0);  // the primary's last state
+  std::string log;
+  for (double t = 1.0; t < 4.0; t += 0.1) {
+    r21.on_peer("coordinator@r22", true, false, t);
+    r22.on_peer("coordinator@r21", true, false, t);
+    CHECK(r21.step(t, 4, nullptr) == Step::Wait);  // no state: it cannot lead
+    const Step s = r22.step(t, 4, &log);
+    if (t < 1.0 + Leadership::kTakeoverS + Leadership::kPassOverS - 0.01) {
+      CHECK(s == Step::Wait);
+    } else {
+      CHECK(s == Step::TakeOver);
+      break;
+    }
+  }
+  CHECK(r22.primary());
+  CHECK(log.find("the standby before this one in line did not") != std::string::npos);
+  // With a first in line that can lead, the second one never gets to pass it over: the first takes over at 0.5 s and
+  // its states make the primary heard again.
+  Leadership a({"coordinator@1", true, false}, 0.0), b({"coordinator@2", true, false}, 0.0);
+  a.on_state(state_with(3, {1, 0}, 1), 1.0);
+  b.on_state(state_with(3, {1, 0}, 1), 1.0);
+  a.on_peer("coordinator@2", true, false, 1.5);
+  b.on_peer("coordinator@1", true, false, 1.5);
+  CHECK(a.step(1.6, 2, nullptr) == Step::TakeOver);
+  for (double t = 1.6; t < 6.0; t += 0.1) {
+    b.on_state(state_with(4, {1, 0}, 1), t);  // the new primary publishes
+    b.on_peer("coordinator@1", true, true, t);
+    CHECK(b.step(t, 2, nullptr) == Step::Wait);
+  }
 }
 
 TEST_CASE("leadership: only the first live standby by id takes over, and a standby exits when every task is done", "[coordinator]") {

@@ -66,10 +66,21 @@ Leadership::Step Leadership::step(double now, size_t tasks, std::string* log) {
       if (log) *log = "the primary reports every task done; the standby exits";
       return Step::AllDone;
     }
+    if (!last_state_ && o_.resume && now - start_ > kDeafS) {
+      if (log) *log = "no queue state heard in " + ms(now - start_) + " (a restart never leads without one): this one "
+                      "cannot hear the queue; exiting, to come back with a fresh participant";
+      return Step::Deaf;
+    }
     const bool may = last_state_ || !o_.resume;
-    if (!may || silent(now) <= (last_state_ ? kTakeoverS : kFirstStateS) || !first_in_line(now)) return Step::Wait;
+    const double bound = last_state_ ? kTakeoverS : kFirstStateS;
+    if (!may || silent(now) <= bound) return Step::Wait;
+    const bool passed_over = !first_in_line(now);
+    if (passed_over && silent(now) <= bound + kPassOverS) return Step::Wait;
     primary_ = true;
-    if (log) *log = "primary silent for " + ms(silent(now)) + "; taking over";
+    if (log) {
+      *log = "primary silent for " + ms(silent(now)) + "; taking over" +
+             (passed_over ? std::string(" (the standby before this one in line did not)") : std::string());
+    }
     return Step::TakeOver;
   }
   if (doubting()) {

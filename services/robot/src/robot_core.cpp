@@ -14,11 +14,14 @@ plan::PlanFollower::Offer RobotCore::offer_plan(const plan::PlanData& p, std::st
   return o;
 }
 
-void RobotCore::world_rank(const plan::SupervisorRank& world, long k) {
+void RobotCore::world_plan(const plan::SupervisorRank& world, uint64_t version, long since, long k) {
   // Without a plan a robot commands nothing (on_sample), so it cannot serve a stale one; it may still be
   // discovering the supervisor's writer (a robot that joins a running module): it gets kNoPlanTicks for that.
   const bool planless = !follower_.has_plan() && world.outranks(plan::SupervisorRank{});
-  behind_ = follower_.has_plan() && world.outranks(follower_.rank());
+  const plan::SupervisorRank own = follower_.rank();
+  const bool same_rank = world.epoch == own.epoch && world.strength == own.strength;
+  const bool older = same_rank && version > follower_.version() && k - since > kVersionGraceTicks;
+  behind_ = follower_.has_plan() && (world.outranks(own) || older);
   if (behind_ || planless) {
     if (behind_since_ < 0) behind_since_ = k;
   } else {

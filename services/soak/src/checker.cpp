@@ -106,7 +106,8 @@ class Judge {
 
   void objects(size_t inv) {
     // Every incident, not one per world instance: a rise of the world's slip or contact-lost counters that
-    // follows kIncidentGapS without one starts a new incident; a world that reports its module failed is one.
+    // follows kIncidentGapS without one starts a new incident; a world that reports its module failed is one, and
+    // what its counters do after that (the object lies on the floor: contact stays lost) is that same failure.
     for (const auto& [module, series] : h_.modules) {
       double last_rise = -1e300;
       bool failed_said = false;
@@ -122,6 +123,7 @@ class Judge {
                                                           module.c_str(), s.tick));
         }
         if (s.slips <= slips0 && s.contact_lost <= lost0) continue;
+        if (p != nullptr && p->failed) continue;  // after the failure: the same dropped object
         const bool new_incident = s.t - last_rise > kIncidentGapS;
         last_rise = s.t;
         ++incidents_[module];

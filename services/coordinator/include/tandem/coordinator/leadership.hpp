@@ -14,7 +14,13 @@
 //   soak: a primary back from a 2 s SIGSTOP heard nobody within 0.3 s and led on beside its successor): so a
 //   primary that hears another primary later leaves too if it stalled within kStallMemoryS, and two primaries
 //   that never stalled keep the smaller id;
-// - a standby that hears a state with every task done exits with the primary.
+// - a standby that hears a state with every task done exits with the primary;
+// - a standby with a state that first_in_line holds back for kPassOverS more takes over all the same: the one before
+//   it in line is alive but cannot lead (found by a soak-small hour: a restarted standby that never heard a queue
+//   state, which a --resume one must not lead without, stood first in line for 900 s, and no task was done);
+// - a restarted one (--resume) that has heard no state for kDeafS cannot hear the queue (its reader matched neither
+//   the primary's writer nor the launcher's copy): Step::Deaf, it exits 6 and the launcher restarts it with a fresh
+//   participant.
 // Unit tests: tests/unit/test_task_queue.cpp ("leadership: ...").
 #pragma once
 
@@ -40,6 +46,8 @@ class Leadership {
   static constexpr double kStallS = kTakeoverS;
   static constexpr double kDoubtS = 0.3;
   static constexpr double kStallMemoryS = 10.0;
+  static constexpr double kPassOverS = 2.0;
+  static constexpr double kDeafS = 10.0;
 
   Leadership(const LeadershipOptions& o, double now) : o_(o), primary_(!o.standby), start_(now), last_loop_(now) {}
 
@@ -60,6 +68,7 @@ class Leadership {
     TakeOver,  ///< become the primary: restore last_state() (if any), reconcile, then lead (primary() is now true)
     Lead,      ///< the primary: assign, expire, publish
     AllDone,   ///< a standby heard every task done: exit
+    Deaf,      ///< a --resume standby that heard no queue state for kDeafS: exit 6 (restarted with a fresh participant)
   };
   /// What to do at `now` for a queue of `tasks` tasks; `log` gets a line when something changed.
   Step step(double now, size_t tasks, std::string* log);

@@ -31,7 +31,18 @@ class RobotCore {
   /// later took its arm over, and the object was dropped. (A first version judged the leader's heartbeat, but
   /// a leader publishes nothing while it is unsure it still leads, and robots were cut off by the dozen.)
   /// While the world's plan outranks this robot's, on_sample answers nothing (a stale plan is never served).
-  void world_rank(const plan::SupervisorRank& world, long k);
+  void world_rank(const plan::SupervisorRank& world, long k) { world_plan(world, 0, k, k); }
+  /// As world_rank, with the version of the plan the world follows and the tick at which the world adopted it
+  /// (ArmSensors.plan_version, plan_since): a robot whose plan is the same leader's but an older version, more than
+  /// kVersionGraceTicks after the world adopted the newer one, is behind too (it answers nothing until it has that
+  /// version). Found by a soak-small hour: the serving robot was stalled for 0.1 s while the supervisor stopped the
+  /// path (the world drove the arm meanwhile); back, it took the arm over with the running plan of before the stop,
+  /// its reference ran ahead of the stopped object, and the object slipped and was dropped. A new version takes
+  /// effect 5-20 ticks after it is made (kHoldLeadTicks, kLeadTicks) and reaches the world and the robots within a
+  /// tick of each other on a quiet machine, so the grace costs nothing then; at 10 ticks into a stop ramp a stale
+  /// reference is off by under 0.1 mm.
+  void world_plan(const plan::SupervisorRank& world, uint64_t version, long since, long k);
+  static constexpr long kVersionGraceTicks = 10;
   bool behind() const { return behind_; }
   /// 2 s: a behind robot answers nothing anyway (no stale command), so the bound trades a restart against a longer
   /// brake. It was 500 ticks: a soak-small run cut off all three live robots of a module at once when a starved
@@ -56,6 +67,7 @@ class RobotCore {
   long done() const { return done_; }                  ///< the last tick computed (-1: none)
   bool has_plan() const { return follower_.has_plan(); }  ///< a plan has been adopted (the law can run)
   plan::SupervisorRank plan_rank() const { return follower_.rank(); }  ///< the rank of the plan followed
+  uint64_t plan_version() const { return follower_.version(); }        ///< and its version
   const model::Vec3& last_tau() const { return tau_; }
   /// The law's output at the last tick computed (errors e_p, e_h, normal force; for recorders).
   const model::ControlOutput& last_output() const { return out_; }

@@ -144,8 +144,14 @@ class WorldCore {
   /// leader's plans can tell (robot::RobotCore::cut_off).
   plan::SupervisorRank plan_rank() const { return follower_.has_plan() ? follower_.rank() : plan::SupervisorRank{}; }
   plan::PlanFollower::Offer offer_plan(const plan::PlanData& p, std::string* why = nullptr) {
-    return follower_.offer(p, why, k_);
+    const plan::PlanFollower::Offer o = follower_.offer(p, why, k_);
+    if (o == plan::PlanFollower::Offer::Adopted) plan_since_ = k_;
+    return o;
   }
+  /// The version of the plan followed (0 before any), and the tick at which it was adopted: sent with every sample
+  /// too, so that a robot with an older version of the same plan can tell (robot::RobotCore::world_plan).
+  uint64_t plan_version() const { return follower_.has_plan() ? follower_.version() : 0; }
+  long plan_since() const { return plan_since_; }
 
   /// Starts tick k at `now_ns`: applies pending releases, measures the tracking error (the plan's eq. 15 as
   /// the robots evaluate it) and the contact forces, and fills both arms' samples.
@@ -293,6 +299,7 @@ class WorldCore {
   WorldOptions o_;
   model::ModulePlant plant_;
   plan::PlanFollower follower_;
+  long plan_since_ = 0;  ///< the tick at which the plan's current version was adopted
   std::function<void(const std::string&)> log_;
   std::array<ArmLink, 2> link_{};
   std::array<bool, 2> have_{false, false};

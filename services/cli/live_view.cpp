@@ -48,8 +48,9 @@ void LiveView::print(std::FILE* f, Rows rows, std::chrono::steady_clock::time_po
   for (const auto& [id, s] : processes_) {
     const auto h = heard_.find(id);
     const bool silent = h != heard_.end() && now - h->second > kGoneAfter;
-    if (rows != Rows::All && !run.empty() && s.role() != "launcher" && run.count(id) == 0 &&
-        (rows == Rows::Run || silent)) {
+    // Only the roles a launcher starts (agents, recorders and tools started otherwise are not in its list).
+    const bool launched = s.role() == "world" || s.role() == "robot" || s.role() == "supervisor" || s.role() == "coordinator";
+    if (rows != Rows::All && !run.empty() && launched && run.count(id) == 0 && (rows == Rows::Run || silent)) {
       ++gone;
       continue;
     }

@@ -23,7 +23,7 @@ class LiveView {
     }
   }
   /// Which processes a table shows. A killed process's last status (transient-local) still says what it was doing,
-  /// so once a launcher is heard, a process it no longer runs is left out and counted: at once (Run: `tandem
+  /// so once a launcher is heard, a world, robot, supervisor or coordinator it no longer runs is left out and counted: at once (Run: `tandem
   /// status`, whose statuses all arrive at its start), or once not heard for kGoneAfter (Recent: the launcher's own
   /// table every second). All: the final table, every process heard.
   enum class Rows { All, Run, Recent };

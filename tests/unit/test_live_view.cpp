@@ -46,6 +46,7 @@ TEST_CASE("the process table leaves out a killed process that the launcher no lo
   // Without a launcher heard, nothing is left out.
   CHECK(printed(v, LiveView::Rows::Run, t0).find("m1/left   ") != std::string::npos);
   v.update(status("launcher", "launcher", {"m1/left@49", "other/x"}), t0 + seconds(3));
+  v.update(status("agent/b", "agent"), t0);  // not a process the launcher starts: always shown
   v.update(status("m1/left@49", "robot"), t0 + seconds(3));
   // The launcher's own table: gone after kGoneAfter without a status.
   const std::string recent_early = printed(v, LiveView::Rows::Recent, t0 + seconds(1));
@@ -57,6 +58,7 @@ TEST_CASE("the process table leaves out a killed process that the launcher no lo
   // `tandem status`: at once (its statuses all arrive together when it joins).
   const std::string run = printed(v, LiveView::Rows::Run, t0);
   CHECK(run.find("  m1/left ") == std::string::npos);
+  CHECK(run.find("agent/b") != std::string::npos);
   CHECK(run.find("m1/left@49") != std::string::npos);
   // The final table shows every process heard.
   const std::string all = printed(v, LiveView::Rows::All, t0 + seconds(60));

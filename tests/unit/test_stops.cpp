@@ -609,3 +609,35 @@ TEST_CASE("a serving robot back from a stall answers nothing until it has the pl
     }
   }
 }
+
+TEST_CASE("a failed module's standby takes over from a silent leader whatever its replica, and reports the module failed", "[stops]") {
+  // A soak-small hour: the leader of a module whose object had been dropped was killed; the standby refused to lead
+  // ("this replica is 67524539.7 mm off the object": the object had fallen), and 18 s later the module was restarted
+  // as if its plan were lost. A failed module stays out, reported failed, until it is cleared.
+  const ts::ModuleSetup& m = sosm_module();
+  SupervisorCore leader(m, SupervisorOptions{"m1/supervisor", 100, true, 0.1}, 0);
+  SupervisorCore standby(m, SupervisorOptions{"m1/supervisor@50", 50, true, 0.1}, 0);
+  std::string log;
+  standby.set_log([&](const std::string& l) { log += l + "\n"; });
+  for (long k = 0; k < 3000; k += 10) {
+    const int64_t now = k * kMs;
+    tandem::supervisor::ReportIn r;
+    r.tick = k;
+    r.normal_min = k < 1000 ? 29.0 : 0.0;
+    r.failed = k >= 1000;
+    r.object_xy = k < 1000 ? m.path.sample(0.0).pose.head<2>() : tmo::Vec2(0.0, -6.7e4);
+    r.object_known = true;
+    if (k < 1500) {  // the leader dies at 1500
+      leader.on_report(r, now);
+      leader.update(now);
+      if (auto p = leader.take_plan()) standby.on_plan(*p, now);
+    }
+    standby.on_report(r, now);
+    standby.update(now);
+  }
+  INFO(log);
+  CHECK(standby.active());
+  CHECK(standby.state() == tp::TaskStateCode::Failed);
+  CHECK_FALSE(standby.no_plan());
+  CHECK(log.find("taking over") != std::string::npos);
+}

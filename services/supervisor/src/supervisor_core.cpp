@@ -220,8 +220,12 @@ void SupervisorCore::update(int64_t now_ns) {
   // where this supervisor's own (initial) plan has it now: otherwise the module follows a plan this one never
   // heard, and leading with its own would jump the references (robots and world would refuse it anyway).
   const bool behind = behind_world();
-  const bool alone_ok = heard_tick_ > kTakeOverTicks && !behind &&
-                        (plan_.sample(heard_tick_).pose.head<2>() - object_xy_).norm() < kAloneMatch;
+  // A failed module (the world reports its object dropped, both arms braked for good) has no object to keep on a
+  // plan: any supervisor may lead it, to report it failed until it is cleared. (A soak saw a failed module's standby
+  // refuse the lead because the fallen object was "67 km off" its replica; the module was restarted as if its plan
+  // were lost, which is not the "out until cleared" rule.)
+  const bool alone_ok = failed_ || (heard_tick_ > kTakeOverTicks && !behind &&
+                                    (plan_.sample(heard_tick_).pose.head<2>() - object_xy_).norm() < kAloneMatch);
   if (!heard_stronger_ && !active_ && now_ns - t_start_ > kTakeOverAloneNs && !alone_ok && !alone_refused_ && !deaf_) {
     if (world_moved_on(first_world_)) {
       deaf_ = true;
@@ -237,7 +241,7 @@ void SupervisorCore::update(int64_t now_ns) {
   // A silent leader is replaced only by a replica that has its plan: the object is where the replica's plan has it.
   const double replica_off =
       object_known_ && heard_tick_ >= 0 ? (plan_.sample(heard_tick_).pose.head<2>() - object_xy_).norm() : 0.0;
-  const bool replica_ok = replica_off < kReplicaMatch && !behind;
+  const bool replica_ok = failed_ || (replica_off < kReplicaMatch && !behind);
   if (!active_ && flowing && leader_silent && !replica_ok) {
     if (stale_since_ < 0) {
       stale_since_ = now_ns;

@@ -27,6 +27,7 @@
 #include <vector>
 
 #include "tandem/dds/bus.hpp"
+#include "tandem/launcher/agent_core.hpp"
 #include "tandem/launcher/spawn.hpp"
 #include "tandem/runtime/deployment.hpp"
 #include "tandem/runtime/security.hpp"
@@ -79,96 +80,76 @@ std::vector<std::string> local_addresses() {
   return out;
 }
 
-struct AgentChildRun {
-  unsigned long long spawn_id = 0;
-  std::string label;
-  pid_t pid = -1;
-  bool running = false;
-  int status = -1;
-  Clock::time_point term_at{};
+/// Processes of this machine: fork/exec (launcher::spawn), kill, waitpid.
+class OsProcesses : public launcher::Processes {
+ public:
+  int start(const Spec& s) override {
+    launcher::SpawnOptions opt;
+    opt.rt_priority = s.rt_priority;
+    opt.participant_id = s.participant_id;
+    opt.identity = s.identity;
+    return launcher::spawn("tandem agent", s.exe, s.args, opt);
+  }
+  void signal(int pid, int sig) override { ::kill(pid, sig); }
+  int reap(int pid) override {
+    int st = 0;
+    if (::waitpid(pid, &st, WNOHANG) != pid) return -1;
+    return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+  }
 };
 
+launcher::AgentRequestIn from_wire(const msg::AgentRequest& r) {
+  using Kind = launcher::AgentRequestIn::Kind;
+  launcher::AgentRequestIn in;
+  switch (r.kind()) {
+    case msg::AGENT_START: in.kind = Kind::Start; break;
+    case msg::AGENT_SIGNAL: in.kind = Kind::Signal; break;
+    case msg::AGENT_HEARTBEAT: in.kind = Kind::Heartbeat; break;
+    case msg::AGENT_END: in.kind = Kind::End; break;
+    default: in.kind = Kind::Unknown; break;
+  }
+  in.raw_kind = static_cast<int>(r.kind());
+  in.run = r.run();
+  in.spawn_id = r.spawn_id();
+  in.label = r.label();
+  in.role = r.role();
+  in.args.assign(r.args().begin(), r.args().end());
+  in.rt_priority = r.rt_priority();
+  in.participant_id = r.participant_id();
+  in.signal = r.signal();
+  in.identity = r.identity();
+  in.host_lost = r.host_lost();
+  return in;
+}
+
+/// The agent process around launcher::AgentCore: its clock, its state on the wire, and the one-agent-per-host rule.
 class Agent {
  public:
-  Agent(runtime::Deployment d, std::string host, std::string address)
-      : d_(std::move(d)), host_(std::move(host)), address_(std::move(address)), dir_(launcher::self_dir()) {}
-
+  Agent(const runtime::Deployment& d, std::string host, std::string address)
+      : d_(d), host_(std::move(host)), address_(std::move(address)),
+        core_(procs_, launcher::self_dir(), d.host_timeout, now()) {
+    core_.set_log([this](const std::string& line) { std::printf("tandem agent %s: %s\n", host_.c_str(), line.c_str()); });
+  }
+  launcher::AgentCore& core() { return core_; }
+  double now() const { return std::chrono::duration<double>(Clock::now() - t0_).count(); }
   void on_request(const msg::AgentRequest& r) {
     if (r.host() != host_ || r.deployment() != d_.name) return;
-    if (r.run() == 0) return;
-    if (r.run() != run_) {
-      if (r.kind() == msg::AGENT_END) return;  // the end of a run this agent does not serve
-      // First come, first served: another launcher of this deployment while the one served lives is refused.
-      if (run_ != 0 && !run_over_ && silent() <= d_.host_timeout) {
-        if (refused_runs_.insert(r.run()).second) {
-          note("refused requests of another launcher run (" + std::to_string(r.run()) + ") while serving run " +
-               std::to_string(run_) + ": is a second `tandem up` of this deployment running?");
-        }
-        return;
-      }
-      new_run(r.run());
-    }
-    launcher_heard_ = Clock::now();
-    if (r.kind() == msg::AGENT_HEARTBEAT) {
-      if (r.host_lost()) {
-        // One-way partition: this agent hears the launcher, but the launcher does not hear it.
-        fence("the launcher counts this host as lost (it does not hear this agent)");
-      } else {
-        heard_again();
-      }
-    } else if (r.kind() == msg::AGENT_START) {
-      start(r);
-    } else if (r.kind() == msg::AGENT_SIGNAL) {
-      signal(r);
-    } else if (r.kind() == msg::AGENT_END) {
-      if (!run_over_) {
-        run_over_ = true;
-        if (running() > 0) {
-          std::printf("tandem agent %s: the launcher's run is over; stopping %d leftover process(es)\n", host_.c_str(), running());
-          stop_all(SIGTERM);
-        }
-      }
-    } else {
-      note("refused a request of unknown kind " + std::to_string(static_cast<int>(r.kind())) + " (accepted: start, signal, heartbeat, end)");
-    }
+    core_.on_request(from_wire(r), now());
   }
-
-  /// Seconds since the served launcher was last heard.
-  double silent() const { return std::chrono::duration<double>(Clock::now() - launcher_heard_).count(); }
-
-  /// Reaps children, enforces SIGKILL 5 s after SIGTERM, and fences when the launcher is silent.
   void poll() {
-    for (auto& c : children_) {
-      if (!c.running) continue;
-      int st = 0;
-      if (::waitpid(c.pid, &st, WNOHANG) == c.pid) {
-        c.running = false;
-        c.status = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
-        std::printf("tandem agent %s: %s (pid %d) exited with code %d\n", host_.c_str(), c.label.c_str(), c.pid, c.status);
-        if (c.status >= 128) killed_ = true;
-      } else if (c.term_at != Clock::time_point{} && Clock::now() - c.term_at > std::chrono::seconds(5)) {
-        std::printf("tandem agent %s: %s did not stop within 5 s of SIGTERM; SIGKILL\n", host_.c_str(), c.label.c_str());
-        ::kill(c.pid, SIGKILL);
-        c.term_at = Clock::time_point{};
-      }
-    }
-    if (!run_over_ && silent() > d_.host_timeout) {
-      char why[96];
-      std::snprintf(why, sizeof why, "the launcher has been silent for %.1f s", silent());
-      fence(why);
-    }
+    core_.poll(now());
     std::fflush(stdout);
   }
-
-  void publish(bus::Writer<msg::AgentState, msg::AgentStatePubSubType>& out) {
+  void stop_all(int sig) { core_.stop_all(sig, now()); }
+  void publish(bus::Writer<msg::AgentState, msg::AgentStatePubSubType>& out) const {
     msg::AgentState st;
     st.host(host_);
     st.deployment(d_.name);
     st.address(address_);
     st.pid(::getpid());
     st.started(started_);
-    st.run(run_);
-    for (const auto& c : children_) {
+    st.run(core_.run());
+    for (const auto& c : core_.children()) {
       msg::AgentChild ac;
       ac.spawn_id(c.spawn_id);
       ac.label(c.label);
@@ -177,158 +158,22 @@ class Agent {
       ac.status(c.status);
       st.children().push_back(ac);
     }
-    st.detail(detail_);
+    st.detail(core_.detail());
     out.write(st);
   }
-
-  void stop_all(int sig) {
-    for (auto& c : children_) {
-      if (!c.running) continue;
-      ::kill(c.pid, sig);
-      if (sig == SIGTERM && c.term_at == Clock::time_point{}) c.term_at = Clock::now();
-      if (sig == SIGKILL) killed_ = true;
-    }
-  }
-
-  int running() const {
-    int n = 0;
-    for (const auto& c : children_) n += c.running ? 1 : 0;
-    return n;
-  }
-  bool run_over() const { return run_over_; }
-  /// It killed its processes because the launcher fell silent (it serves it again when heard again).
-  bool fenced() const { return fenced_; }
-  bool served() const { return run_ != 0; }
   /// Another agent's state for the same host: the one that started later leaves (true: this one).
   bool yields_to(const msg::AgentState& other) const {
     if (other.host() != host_ || other.deployment() != d_.name || other.pid() == ::getpid()) return false;
     return other.started() < started_ || (other.started() == started_ && other.pid() < ::getpid());
   }
-  /// A child was killed by a signal: its shared-memory files may be left (removed by the caller).
-  bool take_killed() {
-    const bool k = killed_;
-    killed_ = false;
-    return k;
-  }
 
  private:
-  void new_run(unsigned long long run) {
-    if (running() > 0) {
-      std::printf("tandem agent %s: a new launcher run (%llu); stopping the %d process(es) of the previous one\n",
-                  host_.c_str(), run, running());
-      stop_all(SIGKILL);
-    }
-    std::printf("tandem agent %s: serving launcher run %llu\n", host_.c_str(), run);
-    run_ = run;
-    run_over_ = false;
-    fenced_ = false;
-    // The previous run's children are forgotten (their spawn ids are the old run's); running ones until reaped.
-    std::vector<AgentChildRun> keep;
-    for (auto& c : children_) {
-      if (c.running) {
-        c.spawn_id = 0;
-        keep.push_back(c);
-      }
-    }
-    children_ = keep;
-    tombstones_.clear();
-    seen_.clear();
-  }
-
-  /// Fencing: this host counts as lost (standbys elsewhere serve its slots), so what it runs is killed, so that
-  /// no primary comes back beside its replacement.
-  void fence(const std::string& why) {
-    if (fenced_ || running() == 0) return;
-    std::printf("tandem agent %s: %s: this host counts as lost, standbys elsewhere serve its slots; SIGKILL to its "
-                "%d process(es) (fencing)\n", host_.c_str(), why.c_str(), running());
-    stop_all(SIGKILL);
-    fenced_ = true;
-  }
-
-  void start(const msg::AgentRequest& r) {
-    if (!seen_.insert(r.spawn_id()).second) return;  // re-sent: done already
-    AgentChildRun c;
-    c.spawn_id = r.spawn_id();
-    c.label = r.label();
-    const auto tomb = tombstones_.find(r.spawn_id());
-    if (tomb != tombstones_.end()) {  // signalled before it was started: it never runs
-      c.status = 128 + tomb->second;
-      children_.push_back(c);
-      return;
-    }
-    static const std::set<std::string> kRoles{"world", "supervisor", "robot", "coordinator"};
-    if (kRoles.count(r.role()) == 0) {
-      note("refused to start '" + r.label() + "': unknown role '" + r.role() + "' (accepted: world, supervisor, robot, coordinator)");
-      c.status = 127;
-      children_.push_back(c);
-      return;
-    }
-    if (run_over_) {
-      note("refused to start '" + r.label() + "': the launcher's run is over");
-      c.status = 127;
-      children_.push_back(c);
-      return;
-    }
-    const std::string exe = dir_ + "/tandem-" + r.role();
-    std::vector<std::string> args(r.args().begin(), r.args().end());
-    launcher::SpawnOptions opt;
-    opt.rt_priority = rt_permitted_ ? r.rt_priority() : 0;
-    opt.participant_id = r.participant_id();
-    opt.identity = r.identity();
-    c.pid = launcher::spawn("tandem agent", exe, args, opt);
-    c.running = c.pid > 0;
-    c.status = c.running ? -1 : 127;
-    if (!c.running) note("could not start '" + r.label() + "' (" + exe + ")");
-    std::printf("tandem agent %s: started %-22s pid %d\n", host_.c_str(), c.label.c_str(), c.pid);
-    children_.push_back(c);
-  }
-
-  void signal(const msg::AgentRequest& r) {
-    const int sig = r.signal();
-    if (sig != SIGTERM && sig != SIGKILL && sig != SIGINT) {
-      note("refused signal " + std::to_string(sig) + " for '" + r.label() + "' (accepted: 2, 9, 15)");
-      return;
-    }
-    for (auto& c : children_) {
-      if (c.spawn_id != r.spawn_id()) continue;
-      if (c.running) {
-        ::kill(c.pid, sig);
-        if (sig == SIGTERM && c.term_at == Clock::time_point{}) c.term_at = Clock::now();
-      }
-      return;
-    }
-    tombstones_[r.spawn_id()] = sig;
-  }
-
-  /// The launcher is heard again after this host fenced itself (a healed partition): it may place processes here
-  /// again (it counted the fenced ones as failed).
-  void heard_again() {
-    if (!fenced_) return;
-    fenced_ = false;
-    std::printf("tandem agent %s: the launcher is heard again; serving it again\n", host_.c_str());
-  }
-
-  void note(const std::string& text) {
-    detail_ = text;
-    std::printf("tandem agent %s: %s\n", host_.c_str(), text.c_str());
-  }
-
- public:
-  bool rt_permitted_ = false;
-
- private:
-  runtime::Deployment d_;
-  std::string host_, address_, dir_, detail_;
-  std::vector<AgentChildRun> children_;
-  std::set<unsigned long long> seen_;
-  std::map<unsigned long long, int> tombstones_;
-  unsigned long long run_ = 0;  ///< the launcher run served (AgentRequest.run), 0: none yet
+  const runtime::Deployment& d_;
+  std::string host_, address_;
+  Clock::time_point t0_ = Clock::now();
   double started_ = static_cast<double>(std::time(nullptr));
-  std::set<unsigned long long> refused_runs_;
-  Clock::time_point launcher_heard_ = Clock::now();
-  bool run_over_ = false;  ///< the launcher's run is over (it said so)
-  bool fenced_ = false;    ///< the launcher fell silent and this agent killed its processes
-  bool killed_ = false;
+  OsProcesses procs_;
+  launcher::AgentCore core_;
 };
 
 }  // namespace
@@ -404,8 +249,8 @@ int agent_command(const std::vector<std::string>& args) {
   Agent agent(d, host, spec->address);
   {
     std::string why;
-    agent.rt_permitted_ = launcher::fifo_permitted(std::max(1, d.realtime_priority), why);
-    if (!agent.rt_permitted_ && d.timing == "realtime" && d.realtime_priority > 0) {
+    agent.core().rt_permitted = launcher::fifo_permitted(std::max(1, d.realtime_priority), why);
+    if (!agent.core().rt_permitted && d.timing == "realtime" && d.realtime_priority > 0) {
       std::printf("tandem agent %s: note: SCHED_FIFO is not permitted here (%s); processes run with normal "
                   "scheduling\n", host.c_str(), why.c_str());
     }
@@ -453,15 +298,16 @@ int agent_command(const std::vector<std::string>& args) {
       return 2;
     }
     agent.poll();
-    if (agent.take_killed()) runtime::clean_stale_shm(started, static_cast<int>(d.domain_id));
+    if (agent.core().take_killed()) runtime::clean_stale_shm(started, static_cast<int>(d.domain_id));
     if (Clock::now() - published >= std::chrono::milliseconds(100)) {
       agent.publish(state);
-      own.msg().detail("runs " + std::to_string(agent.running()) + " process(es)");
+      own.msg().detail("runs " + std::to_string(agent.core().running()) + " process(es)");
       own.publish();
       published = Clock::now();
     }
     // --once: the run is over, or its launcher is gone (silent: this host was cut off, or it died).
-    if (once && agent.served() && agent.running() == 0 && (agent.run_over() || agent.silent() > d.host_timeout)) {
+    const launcher::AgentCore& core = agent.core();
+    if (once && core.served() && core.running() == 0 && (core.run_over() || core.silent(agent.now()) > d.host_timeout)) {
       std::printf("tandem agent %s: the run is over; exiting (--once)\n", host.c_str());
       agent.publish(state);
       own.set(runtime::Lifecycle::Finalized, "run over");
@@ -469,10 +315,10 @@ int agent_command(const std::vector<std::string>& args) {
     }
     requests.wait(0.02);
   }
-  std::printf("tandem agent %s: stopping; %d process(es) left\n", host.c_str(), agent.running());
+  std::printf("tandem agent %s: stopping; %d process(es) left\n", host.c_str(), agent.core().running());
   agent.stop_all(SIGTERM);
   const auto asked = Clock::now();
-  while (agent.running() > 0) {
+  while (agent.core().running() > 0) {
     agent.poll();  // SIGKILL 5 s after SIGTERM
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
     if (Clock::now() - asked > std::chrono::seconds(7)) agent.stop_all(SIGKILL);

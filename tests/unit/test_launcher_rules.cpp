@@ -2,6 +2,12 @@
 // means, rule by rule, as Launcher::on_exit carries them out (docs/failure-model.md, "Failure tiers").
 #include <catch2/catch.hpp>
 
+#include <map>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "tandem/launcher/agent_core.hpp"
 #include "tandem/launcher/drain_watch.hpp"
 #include "tandem/launcher/exit_rules.hpp"
 
@@ -175,4 +181,140 @@ TEST_CASE("drain bounds: re-sent every second until acknowledged, a deaf leader 
   CHECK(a.active());
   CHECK_FALSE(a.step(50.5, false).resend);
   CHECK(a.step(51.0, false).resend);
+}
+
+namespace {
+// Processes that only record what is asked of them; a test decides when one exits.
+struct RecordedProcesses : Processes {
+  int next_pid = 1000;
+  std::vector<Spec> started;
+  std::vector<std::pair<int, int>> signals;  // (pid, signal)
+  std::map<int, int> exits;                  // pid -> status, once exited
+  int start(const Spec& s) override {
+    started.push_back(s);
+    return s.exe.find("coordinator") != std::string::npos && s.args.empty() ? -1 : next_pid++;
+  }
+  void signal(int pid, int sig) override {
+    signals.emplace_back(pid, sig);
+    if (sig == 9) exits[pid] = 128 + 9;  // SIGKILL always ends it
+  }
+  int reap(int pid) override {
+    const auto it = exits.find(pid);
+    if (it == exits.end()) return -1;
+    const int st = it->second;
+    exits.erase(it);
+    return st;
+  }
+};
+
+AgentRequestIn req(AgentRequestIn::Kind kind, unsigned long long run, unsigned long long spawn_id = 0,
+                   const std::string& role = "robot") {
+  AgentRequestIn r;
+  r.kind = kind;
+  r.run = run;
+  r.spawn_id = spawn_id;
+  r.label = "m1/left";
+  r.role = role;
+  r.args = {"--arm", "left"};
+  return r;
+}
+}  // namespace
+
+TEST_CASE("agent: a re-sent start runs once, a signal before its start makes it never run, only known roles and signals", "[launcher]") {
+  using K = AgentRequestIn::Kind;
+  RecordedProcesses p;
+  AgentCore a(p, "/opt/tandem/bin", 100.0, 0.0);  // a launcher silent for longer than this test
+  a.on_request(req(K::Start, 7, 1), 0.1);
+  a.on_request(req(K::Start, 7, 1), 0.2);  // the launcher re-sends until acknowledged
+  REQUIRE(p.started.size() == 1);
+  CHECK(p.started[0].exe == "/opt/tandem/bin/tandem-robot");  // from its own directory, never from the wire
+  CHECK(a.running() == 1);
+  // A signal for a start that has not arrived yet: the start, when it comes, never runs.
+  AgentRequestIn kill = req(K::Signal, 7, 2);
+  kill.signal = 9;
+  a.on_request(kill, 0.3);
+  a.on_request(req(K::Start, 7, 2), 0.4);
+  CHECK(p.started.size() == 1);
+  REQUIRE(a.children().size() == 2);
+  CHECK(a.children()[1].status == 128 + 9);
+  CHECK_FALSE(a.children()[1].running);
+  // Unknown role, bad signal, unknown kind: refused with what is accepted, nothing started or sent.
+  a.on_request(req(K::Start, 7, 3, "/bin/sh"), 0.5);
+  CHECK(p.started.size() == 1);
+  CHECK(a.detail().find("accepted: world, supervisor, robot, coordinator") != std::string::npos);
+  AgentRequestIn odd = req(K::Signal, 7, 1);
+  odd.signal = 19;  // SIGSTOP
+  a.on_request(odd, 0.6);
+  CHECK(p.signals.empty());
+  CHECK(a.detail().find("accepted: 2, 9, 15") != std::string::npos);
+  AgentRequestIn unknown = req(K::Unknown, 7);
+  unknown.raw_kind = 42;
+  a.on_request(unknown, 0.7);
+  CHECK(a.detail().find("unknown kind 42") != std::string::npos);
+  // SIGTERM, then SIGKILL 5 s later if it is still there.
+  AgentRequestIn term = req(K::Signal, 7, 1);
+  term.signal = 15;
+  a.on_request(term, 1.0);
+  a.poll(1.5);
+  a.poll(5.9);
+  CHECK(p.signals.size() == 1);
+  a.poll(6.1);
+  REQUIRE(p.signals.size() == 2);
+  CHECK(p.signals[1].second == 9);
+  a.poll(6.2);
+  CHECK(a.running() == 0);
+  CHECK(a.take_killed());
+}
+
+TEST_CASE("agent: fencing when the launcher falls silent or counts the host lost, and serving again after a healed partition", "[launcher]") {
+  using K = AgentRequestIn::Kind;
+  RecordedProcesses p;
+  AgentCore a(p, "/bin", 2.0, 0.0);
+  a.on_request(req(K::Start, 7, 1), 0.0);
+  for (double t = 0.1; t < 1.5; t += 0.1) {
+    a.on_request(req(K::Heartbeat, 7), t);
+    a.poll(t);
+  }
+  CHECK(a.running() == 1);
+  a.poll(3.6);  // silent for 2.1 s: a cut link
+  CHECK(a.fenced());
+  REQUIRE(p.signals.size() == 1);
+  CHECK(p.signals[0].second == 9);
+  a.poll(3.7);
+  CHECK(a.running() == 0);
+  a.on_request(req(K::Heartbeat, 7), 4.0);  // the partition heals
+  CHECK_FALSE(a.fenced());
+  a.on_request(req(K::Start, 7, 2), 4.1);  // the launcher places a process here again
+  CHECK(a.running() == 1);
+  // One-way partition: the launcher says it does not hear this host.
+  AgentRequestIn lost = req(K::Heartbeat, 7);
+  lost.host_lost = true;
+  a.on_request(lost, 4.2);
+  CHECK(a.fenced());
+  CHECK(p.signals.back().second == 9);
+}
+
+TEST_CASE("agent: one launcher run at a time; a new run after the old one is over or silent; the end stops leftovers", "[launcher]") {
+  using K = AgentRequestIn::Kind;
+  RecordedProcesses p;
+  AgentCore a(p, "/bin", 2.0, 0.0);
+  a.on_request(req(K::Start, 7, 1), 0.0);
+  a.on_request(req(K::Start, 8, 1), 0.5);  // a second `tandem up` while run 7 is heard
+  CHECK(p.started.size() == 1);
+  CHECK(a.run() == 7);
+  CHECK(a.detail().find("refused requests of another launcher run (8)") != std::string::npos);
+  a.on_request(req(K::End, 8), 0.6);  // the end of a run it does not serve: nothing
+  CHECK(a.running() == 1);
+  a.on_request(req(K::End, 7), 1.0);  // run 7 over: its leftovers get SIGTERM
+  CHECK(a.run_over());
+  REQUIRE(p.signals.size() == 1);
+  CHECK(p.signals[0].second == 15);
+  a.on_request(req(K::Start, 7, 5), 1.1);  // a start after the end is refused
+  CHECK(p.started.size() == 1);
+  p.exits[1000] = 0;
+  a.poll(1.2);
+  a.on_request(req(K::Start, 8, 1), 1.5);  // now run 8 is served, with its own spawn ids
+  CHECK(a.run() == 8);
+  CHECK(p.started.size() == 2);
+  CHECK(a.running() == 1);
 }

@@ -57,8 +57,8 @@ void usage(std::FILE* f) {
       "seconds with no task finished (default 30); --id: process id in status (default coordinator);\n"
       "--standby: assign nothing until the primary falls silent, then take over its queue.\n"
       "--resume (a restart): take over only with a queue state heard, never with a fresh queue.\n"
-      "Exit: 0 every task done or stopped, 1 a task done twice, 2 bad arguments or deployment, 4 no\n"
-      "progress.\n");
+      "Exit: 0 every task done or stopped, 1 a task done twice, 2 bad arguments or deployment, 3 left after a\n"
+      "stall (another one leads), 4 no progress, 6 a restart (--resume) that heard no queue state in 10 s.\n");
 }
 
 /// Parses the command line; on error prints the problem and the usage and returns false with `exit_code`

@@ -27,7 +27,8 @@ void usage(const char* role, bool needs_arm, std::FILE* f) {
                "       [--deployment NAME] [--continuous] [--no-overload-brake] [--observers N]%s\n"
                "Started by 'tandem up'; one Fast DDS participant. Exit: 0 done, 2 bad arguments or\n"
                "configuration, 3 peers not found in time, 4 a tick timed out, 5 (supervisor) no plan to\n"
-               "follow, 6 (robot) cut off from the module's leader (the world followed a newer plan for 500 ticks).\n",
+               "follow, 6 cut off from the module's leader (robot: the world followed a newer plan for 2000 ticks;\n"
+               "supervisor: a standby that cannot hear the live leader).\n",
                role, needs_arm ? " --arm ROBOT" : "",
                needs_arm || std::string(role) == "supervisor" ? " [--strength N (100 primary)]" : "");
 }

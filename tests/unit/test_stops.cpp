@@ -641,3 +641,71 @@ TEST_CASE("a failed module's standby takes over from a silent leader whatever it
   CHECK_FALSE(standby.no_plan());
   CHECK(log.find("taking over") != std::string::npos);
 }
+
+TEST_CASE("a standby that never heard the leader the world follows leads only an object at rest where its replica has it", "[stops]") {
+  // A soak-small hour: a standby deaf to a takeover (epoch 4) stepped down; when epoch 4's leader was killed, it took
+  // over with its replica of epoch 3 while the object, on the dead leader's last task, was still 5 mm from the
+  // replica's rest pose: the references jumped 5 mm. Here a leader the standby never hears (epoch 1) takes over at
+  // tick 1500, starts task 2 and dies; the leader the standby hears dies at 1600; the world follows task 2 to its
+  // end. Task 2 ends where the replica rests (a takeover then is safe), or 0.1 m away (the module has lost its plan:
+  // restarted).
+  const ts::ModuleSetup& m = sosm_module();
+  for (const bool same_end : {true, false}) {
+    SupervisorCore leader(m, SupervisorOptions{"m1/supervisor", 100, true, 0.1}, 0);
+    SupervisorCore standby(m, SupervisorOptions{"m1/supervisor@50", 50, true, 0.1}, 0);
+    tp::PlanFollower world(m, true);
+    std::string log;
+    standby.set_log([&](const std::string& l) { log += l + "\n"; });
+    long took_over_at = -1;
+    double jump = 0.0;
+    for (long k = 0; k < 9000; k += 10) {
+      const int64_t now = k * kMs;
+      tandem::supervisor::ReportIn r;
+      r.tick = k;
+      r.normal_min = 29.0;
+      r.object_xy = world.plan().sample(k).pose.head<2>();
+      r.object_known = true;
+      r.world_rank = world.has_plan() ? world.rank() : tp::SupervisorRank{};
+      r.world_plan_version = world.version();
+      if (k < 1600) {
+        leader.on_report(r, now);
+        if (k == 200) leader.on_assignment(1, "t1", {0.0, 0.8, 0.0, 1.0});
+        leader.update(now);
+        if (auto p = leader.take_plan()) {
+          world.offer(*p);
+          standby.on_plan(*p, now);
+        }
+      }
+      if (k == 1500) {  // the unheard leader: epoch 1, task 2 from where task 1 left the object
+        tp::PlanData base;
+        leader.plan().export_to(base);
+        tp::ModulePlan unheard(m, true);
+        REQUIRE(unheard.import_from(base));
+        unheard.assign(2, same_end ? std::vector<double>{0.1, 0.8, 0.0, 1.0, 0.0, 0.8, 0.0, 1.0}
+                                   : std::vector<double>{0.1, 0.8, 0.0, 1.0},
+                       1500);
+        tp::PlanData q;
+        unheard.export_to(q);
+        q.supervisor_id = "m1/supervisor@49";
+        q.strength = 49;
+        q.epoch = 1;
+        REQUIRE(world.offer(q) == tp::PlanFollower::Offer::Adopted);
+      }
+      standby.on_report(r, now);
+      standby.update(now);
+      if (standby.active() && took_over_at < 0) {
+        took_over_at = k;
+        jump = (standby.plan().sample(k + 20).pose.head<2>() - world.plan().sample(k + 20).pose.head<2>()).norm();
+      }
+    }
+    INFO((same_end ? "task 2 ends where task 1 did" : "task 2 ends 0.1 m away") << "\n" << log);
+    CHECK(log.find("that this replica never heard") != std::string::npos);
+    if (same_end) {
+      CHECK(took_over_at >= 3500);  // not while the object moves on the dead leader's task
+      CHECK(jump < SupervisorCore::kAloneMatch);
+    } else {
+      CHECK(took_over_at < 0);
+      CHECK(standby.no_plan());  // the module has lost its plan: restarted
+    }
+  }
+}

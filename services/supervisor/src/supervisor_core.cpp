@@ -174,6 +174,7 @@ void SupervisorCore::on_report(const ReportIn& r, int64_t now_ns) {
   } else {
     outranked_since_ = -1;
   }
+  if (r.object_known && (!object_known_ || (r.object_xy - object_xy_).norm() > kStillStepM)) still_since_ = r.tick;
   heard_tick_ = std::max(heard_tick_, r.tick);
   braked_ = r.braked;
   hold_ = r.hold;
@@ -241,13 +242,24 @@ void SupervisorCore::update(int64_t now_ns) {
   // A silent leader is replaced only by a replica that has its plan: the object is where the replica's plan has it.
   const double replica_off =
       object_known_ && heard_tick_ >= 0 ? (plan_.sample(heard_tick_).pose.head<2>() - object_xy_).norm() : 0.0;
-  const bool replica_ok = failed_ || (replica_off < kReplicaMatch && !behind);
+  // The world follows a leader this replica never heard (a takeover it missed, whose leader then died): its replica
+  // is the plan of before, right only if the object rests where it has it (the dead leader's plan ran its task to
+  // the end meanwhile). A soak-small hour saw such a standby take over with the object still 5 mm from its rest
+  // pose: the references jumped 5 mm.
+  const bool unheard = world_rank_.strength != 0 && world_rank_.outranks(followed_);
+  const bool at_rest_there = !object_known_ || (heard_tick_ - still_since_ >= kStillTicks && replica_off < kAloneMatch);
+  const bool replica_ok = failed_ || (replica_off < kReplicaMatch && !behind && (!unheard || at_rest_there));
   if (!active_ && flowing && leader_silent && !replica_ok) {
     if (stale_since_ < 0) {
       stale_since_ = now_ns;
       stale_world_ = {world_rank_, world_version_};
       char line[300];
-      if (behind) {
+      if (unheard && !behind) {
+        std::snprintf(line, sizeof line, "the leader is silent, and the world follows a plan of epoch %llu (strength %d) "
+                      "that this replica never heard; the object is %.1f mm from where the replica has it%s: not taking "
+                      "over", static_cast<unsigned long long>(world_rank_.epoch), world_rank_.strength, replica_off * 1e3,
+                      heard_tick_ - still_since_ >= kStillTicks ? "" : " and moving");
+      } else if (behind) {
         std::snprintf(line, sizeof line, "the leader is silent, but the world follows plan version %llu of epoch %llu "
                       "(strength %d) and this replica has version %llu of epoch %llu (it missed the leader's newest "
                       "plan): not taking over", static_cast<unsigned long long>(world_version_),

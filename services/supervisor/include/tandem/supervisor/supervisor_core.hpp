@@ -73,6 +73,9 @@ class SupervisorCore {
   /// kTakeOverAloneNs the module has lost its plan (no_plan(): the launcher restarts the module).
   static constexpr double kReplicaMatch = 5e-3;
   static constexpr long kOthersRecentTicks = 100;
+  /// The object counts as at rest when no report has moved it more than kStillStepM for kStillTicks.
+  static constexpr double kStillStepM = 5e-5;
+  static constexpr long kStillTicks = 100;
   static constexpr int64_t kSuspectMaxNs = 200'000'000;
 
   SupervisorCore(const sim::ModuleSetup& m, const SupervisorOptions& o, int64_t now_ns);
@@ -155,6 +158,7 @@ class SupervisorCore {
   int64_t last_update_ns_ = 0;  // the previous update(): a standby that stood still does not take over at once
   bool heard_stronger_ = false, stronger_now_ = false, alone_refused_ = false;
   bool object_known_ = false;
+  long still_since_ = 0;  ///< the tick of the last report that found the object moved
   int64_t stale_since_ = -1;  ///< the leader is silent and this replica is off the object since then (ns), or -1
   uint64_t max_epoch_ = 0;
   plan::SupervisorRank followed_{0, plan::kPrimaryStrength};

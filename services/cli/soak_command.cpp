@@ -719,7 +719,12 @@ int soak_command(const std::vector<std::string>& args) {
   std::set<std::string> own_shm;
   Soak soak(d, sched, report, log_path, launcher);
   {
-    bus::Participant part(d.domain_id, "soak/" + d.name, runtime::transport_of(d));
+    // The observer and nemesis over UDP only, whatever the deployment's transport: no shared-memory port and no
+    // data-sharing segment of its own. In a soak-small hour (2026-11-25) the observer's participant went deaf to
+    // every process started after about 1140 s (174 faults skipped for want of a target, tasks seen stuck at 593
+    // while the coordinator counted 754), with one of its Fast DDS threads spinning in shm_open at about 55% of a
+    // core; the deployment itself ran on. An observer needs no shared-memory speed.
+    bus::Participant part(d.domain_id, "soak/" + d.name, bus::Transport::Udp);
     soak.setup(part);
     double last_progress = 0.0, last_log = -10.0;
     const double progress_every = duration > 300 ? 30.0 : 10.0;

@@ -709,3 +709,30 @@ TEST_CASE("a standby that never heard the leader the world follows leads only an
     }
   }
 }
+
+// Found by a soak-small hour (m1, 2026-11-25, commit 97dede3): the right robot died as the plan passed the zero
+// speed between a task's two segments, with the leader just taken over (and starved): the world found the object
+// "at rest after 0 ms" and braked the arm at once, the plan moved on with the left arm, and the object slipped
+// and was dropped 148 ticks later. The world now brakes an arm it drives only once the plan has stopped too.
+TEST_CASE("an arm whose controller dies where the plan's speed passes zero is braked only once the plan has stopped", "[stops]") {
+  for (const int j : {0, 1}) {
+    for (const long off : {-40L, 0L, 40L}) {
+      for (const long starved : {0L, 400L}) {
+        Rig rig(false, true);
+        rig.sup[0]->on_assignment(1, "t1", {0.15, 0.8, 0.0, 1.5, 0.0, 0.85, 0.0, 1.5});
+        const long kill = 20 + 1500 - 100 + off;  // the segments meet at tick 1520; the stop begins 100 ms after the kill
+        rig.run_to(kill);
+        rig.robot[static_cast<size_t>(j)].reset();
+        if (starved > 0) rig.sup_alive[0] = false;  // the leader stands still meanwhile
+        rig.run_to(kill + starved);
+        rig.sup_alive[0] = true;
+        rig.run_to(kill + 3000);
+        INFO("arm " << j << " killed at " << kill << ", leader starved " << starved << " ticks\n" << rig.log);
+        CHECK(rig.slips() == 0);
+        CHECK_FALSE(rig.w.failed());
+        CHECK(rig.w.braked(j));
+        CHECK(rig.min_normal >= rig.m.safe_grasp_force);
+      }
+    }
+  }
+}

@@ -198,6 +198,16 @@ void WorldCore::begin_tick(long k, int64_t /*now_ns*/, std::array<SampleOut, 2>&
   }
 }
 
+bool WorldCore::plan_at_rest(long k, double still_speed) const {
+  if (!follower_.has_plan()) return true;
+  const plan::ModulePlan& p = follower_.plan();
+  if (p.paused_at(k)) return true;
+  const model::PoseSample now = p.sample(k);
+  if (now.vel.head<2>().norm() >= still_speed) return false;
+  // Slow now, and still so kPlanRestLookTicks on (not a segment boundary, nor a task about to start).
+  return (p.sample(k + kPlanRestLookTicks).pose - now.pose).head<2>().norm() < kPlanRestM;
+}
+
 ReportOut WorldCore::take_report() {
   ReportOut r;
   r.tick = k_;
@@ -486,7 +496,10 @@ bool WorldCore::end_tick(int64_t now_ns) {
     ArmLink& L = link_[static_cast<size_t>(j)];
     if (!L.stopping) continue;
     const double stopped_s = static_cast<double>(k_ - L.stop_tick) * m_.period;
-    if (still_count_ >= rule.still_ticks || stopped_s > kStopMaxS) {
+    // Braked once the object is still and the plan has stopped too: where the plan's speed passes zero (between a
+    // task's segments) the object is still for a few ticks while the plan goes on, and a brake then leaves the
+    // other arm to move the object against it (soak-small hour: dropped 148 ticks later).
+    if ((still_count_ >= rule.still_ticks && plan_at_rest(k_, rule.still_speed)) || stopped_s > kStopMaxS) {
       L.stopping = false;
       ++stops;
       char why[160];

@@ -188,6 +188,11 @@ class WorldCore {
   static constexpr double kDriveKp = 2500.0, kDriveKd = 100.0;
   /// A stop of an arm without a controller brakes it once the object is still, or after this long.
   static constexpr double kStopMaxS = 10.0;
+  /// The plan counts as stopped when it is paused and settled, or slower than the still speed now and within
+  /// kPlanRestM of where it is kPlanRestLookTicks on.
+  static constexpr long kPlanRestLookTicks = 200;
+  static constexpr double kPlanRestM = 1e-4;
+  bool plan_at_rest(long k, double still_speed) const;
   /// A drop (docs/failure-model.md, "A drop is a failure"): a contact that carries no force for this many ticks
   /// in a row, or the contacts sliding more than kDropSlideM along the faces since the start. Then the world
   /// brakes both arms for good, reports the module failed, and no robot releases them.

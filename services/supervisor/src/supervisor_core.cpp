@@ -228,14 +228,8 @@ void SupervisorCore::update(int64_t now_ns) {
   const bool alone_ok = failed_ || (heard_tick_ > kTakeOverTicks && !behind &&
                                     (plan_.sample(heard_tick_).pose.head<2>() - object_xy_).norm() < kAloneMatch);
   if (!heard_stronger_ && !active_ && now_ns - t_start_ > kTakeOverAloneNs && !alone_ok && !alone_refused_ && !deaf_) {
-    if (world_moved_on(first_world_)) {
-      deaf_ = true;
-      log("never heard a leader, but the world's plan changed meanwhile (" + world_plan_text() +
-          "): a leader lives that this supervisor cannot hear; not taking over");
-    } else {
-      alone_refused_ = true;
-      log("never heard a leader, and the object is not where the initial plan has it: not taking over");
-    }
+    give_up(first_world_, "never heard a leader, but the world's plan changed meanwhile",
+            "never heard a leader, and the object is not where the initial plan has it: not taking over");
   }
   const bool leader_silent =
       heard_stronger_ && now_ns - last_stronger_ > kTakeOverAfterNs && heard_tick_ - stronger_tick_ > kTakeOverTicks;
@@ -271,15 +265,8 @@ void SupervisorCore::update(int64_t now_ns) {
       }
       log(line);
     } else if (now_ns - stale_since_ > kTakeOverAloneNs && !alone_refused_ && !deaf_) {
-      if (world_moved_on(stale_world_)) {
-        // The world's plan changed while this one heard nothing: its leader lives, this supervisor is deaf to it.
-        deaf_ = true;
-        log("the world's plan changed while this replica heard nothing (" + world_plan_text() +
-            "): a leader lives that this supervisor cannot hear");
-      } else {
-        alone_refused_ = true;
-        log("no leader and no replica that has the module's plan: the module has lost its plan");
-      }
+      give_up(stale_world_, "the world's plan changed while this replica heard nothing",
+              "no leader and no replica that has the module's plan: the module has lost its plan");
     }
   } else if (!leader_silent || replica_ok) {
     stale_since_ = -1;
@@ -369,6 +356,17 @@ bool SupervisorCore::world_moved_on(const WorldPlan& since) const {
   if (world_rank_.strength == 0) return false;
   return world_rank_.epoch != since.rank.epoch || world_rank_.strength != since.rank.strength ||
          world_version_ != since.version;
+}
+
+void SupervisorCore::give_up(const WorldPlan& since, const std::string& changed, const std::string& lost) {
+  if (world_moved_on(since)) {
+    // The world's plan changed while this one heard nothing: its leader lives, this supervisor is deaf to it.
+    deaf_ = true;
+    log(changed + " (" + world_plan_text() + "): a leader lives that this supervisor cannot hear; not taking over");
+  } else {
+    alone_refused_ = true;
+    log(lost);
+  }
 }
 
 std::string SupervisorCore::world_plan_text() const {

@@ -132,6 +132,8 @@ class SupervisorCore {
   /// The plan the world follows is not `since` any more: a leader publishes, whether or not this one hears it.
   bool world_moved_on(const WorldPlan& since) const;
   std::string world_plan_text() const;
+  /// No lead after kTakeOverAloneNs: deaf (the world's plan changed since `since`: exit 6) or the plan is lost (exit 5).
+  void give_up(const WorldPlan& since, const std::string& changed, const std::string& lost);
 
   const sim::ModuleSetup& m_;
   SupervisorOptions o_;

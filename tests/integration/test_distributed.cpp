@@ -905,6 +905,10 @@ TEST_CASE("an unplugged module whose task cannot end is stopped after the drain 
   const std::string t = kBin + "/tandem ";
   const std::string cmd = t + "up " + path + " --summary " + summary + " > " + up_log + " 2>&1 & up=$!; " +
                           "for i in $(seq 200); do grep -q \"task .* -> m1\" " + up_log + " && break; sleep 0.05; done; " +
+                          // Mid-task: after m1's first tick (a robot killed before it leaves the module waiting at
+                          // tick 0, which the launcher repairs by a restart: another path, seen in a full run).
+                          "for i in $(seq 200); do grep -q \"tandem-world m1: first tick\" " + up_log +
+                          " && break; sleep 0.05; done; " +
                           t + "kill " + path + " m1/left; echo kill_rc=$?; " +
                           "for i in $(seq 100); do grep -q \"m1/left braked\" " + up_log + " && break; sleep 0.05; done; " +
                           t + "unplug " + path + " module m1; echo unplug_rc=$?; " +

@@ -111,7 +111,10 @@ TEST_CASE("a plan follower keeps the highest-ranked plan and rejects malformed o
   tp::PlanData standby = leader;                                 // took over: epoch 1, strength 50
   standby.epoch = 1;
   standby.strength = 50;
-  standby.version = 0;
+  standby.version = 2;  // a replica that missed the leader's version 3: an older takeover, refused
+  CHECK(f.offer(standby) == tp::PlanFollower::Offer::Ignored);
+  CHECK(f.rank().epoch == 0);
+  standby.version = 3;  // a replica carries the leader's version on
   CHECK(f.offer(standby) == tp::PlanFollower::Offer::Adopted);
   leader.version = 99;  // the stalled former leader comes back with its old epoch
   CHECK(f.offer(leader) == tp::PlanFollower::Offer::Ignored);
@@ -320,6 +323,52 @@ TEST_CASE("a robot behind the world's plan answers nothing, and is cut off after
   RobotCore early(m, 1, true, paper().transient);
   for (long t = 0; t < 5000; ++t) early.world_rank(tp::SupervisorRank{}, t);
   CHECK_FALSE(early.cut_off());
+}
+
+TEST_CASE("a robot that followed a takeover the world refused answers nothing until the leader retakes", "[components]") {
+  // plan::PlanFollower refuses a takeover older than the plan it follows. A robot that missed the leader's version 2
+  // hears the standby's takeover with version 1 and follows it; the world holds version 2 and refuses it. The robot
+  // answers nothing (it would drive against its partner), and goes on once the leader retakes in epoch 2.
+  const ts::ModuleSetup& m = sosm();
+  RobotCore r(m, 0, true, paper().transient);
+  tp::PlanFollower world(m, true);
+  tmo::ArmSensors in;
+  in.q = m.initial.q[0];
+  tp::PlanData v1 = initial_plan(m, true);
+  v1.version = 1;
+  tp::PlanData v2 = v1;
+  v2.version = 2;
+  tp::PlanData stale = v1;  // the standby's takeover, with its replica's version 1
+  stale.epoch = 1;
+  stale.strength = 50;
+  stale.supervisor_id = "m1/supervisor@50";
+  tp::PlanData retake = v2;
+  retake.epoch = 2;
+  REQUIRE(r.offer_plan(v1) == tp::PlanFollower::Offer::Adopted);
+  REQUIRE(world.offer(v1) == tp::PlanFollower::Offer::Adopted);
+  REQUIRE(world.offer(v2) == tp::PlanFollower::Offer::Adopted);  // the robot misses v2
+  std::string why;
+  CHECK(world.offer(stale, &why) == tp::PlanFollower::Offer::Ignored);
+  CHECK(why.find("older than the one followed was refused") != std::string::npos);
+  why.clear();
+  CHECK(world.offer(stale, &why) == tp::PlanFollower::Offer::Ignored);  // its heartbeats: said once
+  CHECK(why.empty());
+  CHECK(r.offer_plan(stale) == tp::PlanFollower::Offer::Adopted);  // the robot had only v1
+  long answered = 0;
+  for (long k = 0; k < 100; ++k) {
+    r.world_plan(world.rank(), world.version(), 0, k);
+    if (r.on_sample(k, in, false).has_value()) ++answered;
+  }
+  CHECK(answered == 0);
+  CHECK(r.behind());
+  REQUIRE(world.offer(retake) == tp::PlanFollower::Offer::Adopted);  // as new as the world's: adopted
+  REQUIRE(r.offer_plan(retake) == tp::PlanFollower::Offer::Adopted);
+  for (long k = 100; k < 200; ++k) {
+    r.world_plan(world.rank(), world.version(), 100, k);
+    if (r.on_sample(k, in, false).has_value()) ++answered;
+  }
+  CHECK(answered == 100);
+  CHECK_FALSE(r.cut_off());
 }
 
 TEST_CASE("the world component rejects bad commands and tells a failover from a takeover", "[components]") {

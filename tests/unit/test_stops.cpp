@@ -736,3 +736,112 @@ TEST_CASE("an arm whose controller dies where the plan's speed passes zero is br
     }
   }
 }
+
+TEST_CASE("a takeover older than the live leader's plan is refused by the followers, and the leader retakes", "[stops]") {
+  // Found by a soak-small hour (seed 11, m2 at 2778 s): the standby took over from a leader silent for 50 ms with plan
+  // version 4; the leader, only stalled, started the next task in version 5 which the world followed; the standby's
+  // takeover reached the world 320 ticks later, the references jumped 9.99 mm and the object slid out. Here the
+  // leader stands still from tick 1940, the standby takes over at 2000 on a report of before the leader's next task,
+  // its takeover plans reach the others only from 2300 on. Cases: the leader lives on (the world refuses the older
+  // takeover, the leader retakes above it, the standby steps down to it); the leader dies at 2000 right after its
+  // newest plan (refused, no one retakes: the module has lost its plan, no_plan); the world has not heard the
+  // leader's newest plan when the takeover arrives (the world follows the taker, the leader steps down to it).
+  const ts::ModuleSetup& m = sosm_module();
+  enum Case { Lives, Dies, WorldBehind };
+  for (const Case c : {Lives, Dies, WorldBehind}) {
+    SupervisorCore leader(m, SupervisorOptions{"m1/supervisor", 100, true, 0.1}, 0);
+    SupervisorCore standby(m, SupervisorOptions{"m1/supervisor@50", 50, true, 0.1}, 0);
+    tp::PlanFollower world(m, true);
+    tp::PlanFollower robot(m, true);  // a robot that heard every plan, in the order the world did
+    std::string log, world_log;
+    leader.set_log([&](const std::string& l) { log += "leader: " + l + "\n"; });
+    standby.set_log([&](const std::string& l) { log += "standby: " + l + "\n"; });
+    std::optional<tp::PlanData> leader_newest_held;  // WorldBehind: the leader's plan of t2, late to the world
+    std::optional<tp::PlanData> taker_held;           // the standby's plans, delayed until 2300
+    double max_step = 0.0;                            // the world's object reference, tick to tick [m]
+    tmo::Vec2 prev = world.plan().sample(0).pose.head<2>();
+    auto to_followers = [&](const tp::PlanData& p, long k) {
+      std::string why;
+      world.offer(p, &why, k);
+      if (!why.empty()) world_log += why + "\n";
+      robot.offer(p, nullptr, k);
+    };
+    for (long k = 0; k < 12000; ++k) {
+      const int64_t now = k * kMs;
+      const tmo::Vec2 xy = world.plan().sample(k).pose.head<2>();
+      max_step = std::max(max_step, (xy - prev).norm());
+      prev = xy;
+      if (k % 10 != 0) continue;
+      tandem::supervisor::ReportIn r;
+      r.tick = k;
+      r.normal_min = 29.0;
+      r.object_xy = xy;  // the robots hold the object where the world's plan has it
+      r.object_known = true;
+      r.world_rank = world.has_plan() ? world.rank() : tp::SupervisorRank{};
+      r.world_plan_version = world.version();
+      // The standby: it hears the world's report of this tick before the leader's plan of this tick.
+      standby.on_report(r, now);
+      standby.update(now);
+      if (auto p = standby.take_plan()) {
+        if (k < 2300) {
+          taker_held = *p;  // the takeover (and its heartbeats) reach the others late
+        } else {
+          to_followers(*p, k);
+          leader.on_plan(*p, now);
+        }
+      }
+      if (k == 2300 && taker_held) {
+        to_followers(*taker_held, k);
+        leader.on_plan(*taker_held, now);
+      }
+      const bool leader_runs = (k < 1940 || k >= 2000) && (c != Dies || k <= 2000);
+      if (leader_runs) {
+        leader.on_report(r, now);
+        if (k == 500) {
+          leader.on_assignment(1, "t1", {0.0, 0.8, 0.0, 1.0});
+          standby.on_assignment(1, "t1", {0.0, 0.8, 0.0, 1.0});
+        }
+        if (k == 2000) {
+          leader.on_assignment(2, "t2", {-0.1, 0.8, 0.0, 1.0});
+          standby.on_assignment(2, "t2", {-0.1, 0.8, 0.0, 1.0});
+        }
+        leader.update(now);
+        if (auto p = leader.take_plan()) {
+          if (c == WorldBehind && k >= 2000 && k < 2400 && p->task_id == 2 && p->epoch == 0) {
+            leader_newest_held = *p;  // reaches the world after the takeover
+          } else {
+            to_followers(*p, k);
+          }
+          if (k < 1940) standby.on_plan(*p, now);  // from 1940 on the standby hears nothing of this leader
+          else if (p->epoch > 0) standby.on_plan(*p, now);  // a retake (a new writer's sample) it hears
+        }
+      }
+      if (k == 2400 && leader_newest_held) to_followers(*leader_newest_held, k);
+    }
+    INFO("case " << c << "\n" << log << "world:\n" << world_log);
+    // No reference jump under the object at any time: under the path's own speed (0.2 m/s peak: 0.2 mm a tick).
+    CHECK(max_step < 0.5e-3);
+    CHECK(robot.rank().epoch == world.rank().epoch);
+    CHECK(robot.version() == world.version());
+    if (c == Lives) {
+      CHECK(world_log.find("a takeover plan older than the one followed was refused") != std::string::npos);
+      CHECK(log.find("retaking in epoch 2") != std::string::npos);
+      CHECK(leader.active());
+      CHECK_FALSE(standby.active());
+      CHECK(world.rank().epoch == 2);
+      CHECK(leader.plan().done() == 2);  // t2 ran to its end under the leader
+    } else if (c == Dies) {
+      CHECK(world_log.find("was refused") != std::string::npos);
+      CHECK(log.find("the world refuses this takeover") != std::string::npos);
+      CHECK(standby.no_plan());  // the launcher restarts the module; the object rests at t2's end meanwhile
+      CHECK(world.rank().epoch == 0);
+    } else {
+      CHECK(log.find("waiting for the world") != std::string::npos);
+      CHECK(log.find("leader: stepping down") != std::string::npos);
+      CHECK(standby.active());
+      CHECK_FALSE(leader.active());
+      CHECK(world.rank().epoch == 1);
+      CHECK(standby.plan().done() == 2);  // the taker started t2 itself (its assignment) and ended it
+    }
+  }
+}

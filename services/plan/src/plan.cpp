@@ -144,6 +144,17 @@ PlanFollower::Offer PlanFollower::offer(const PlanData& p, std::string* why, lon
   }
   const SupervisorRank r = p.rank();
   if (have_ && (rank_.outranks(r) || (!r.outranks(rank_) && p.version <= version_))) return Offer::Ignored;
+  if (have_ && p.version < version_) {
+    const bool said = refused_rank_.epoch == r.epoch && refused_rank_.strength == r.strength && refused_version_ == p.version;
+    if (why != nullptr && !said) {
+      *why = "a takeover plan older than the one followed was refused (from " + p.supervisor_id + ", epoch " +
+             std::to_string(p.epoch) + ", version " + std::to_string(p.version) + "; following epoch " +
+             std::to_string(rank_.epoch) + ", version " + std::to_string(version_) + ")";
+    }
+    refused_rank_ = r;
+    refused_version_ = p.version;
+    return Offer::Ignored;
+  }
   if (have_ && now_tick >= 0 && (r.outranks(rank_) || rank_.outranks(r))) {
     ModulePlan next = plan_;
     next.import_from(p);

@@ -21,7 +21,11 @@ void RobotCore::world_plan(const plan::SupervisorRank& world, uint64_t version, 
   const plan::SupervisorRank own = follower_.rank();
   const bool same_rank = world.epoch == own.epoch && world.strength == own.strength;
   const bool older = same_rank && version > follower_.version() && k - since > kVersionGraceTicks;
-  behind_ = follower_.has_plan() && (world.outranks(own) || older);
+  // This robot follows a takeover the world refused (plan::PlanFollower: its version is older than the world's):
+  // it missed the leader's newest plan before it heard the stale takeover. It answers nothing until the leader
+  // that made the newer plan retakes, in an epoch above both.
+  const bool refused = own.outranks(world) && world.strength != 0 && version > follower_.version();
+  behind_ = follower_.has_plan() && (world.outranks(own) || older || refused);
   if (behind_ || planless) {
     if (behind_since_ < 0) behind_since_ = k;
   } else {

@@ -97,6 +97,23 @@ void SupervisorCore::on_plan(const plan::PlanData& p, int64_t now_ns) {
   max_epoch_ = std::max(max_epoch_, p.epoch);
   const plan::SupervisorRank r = p.rank();
   if (!r.outranks(rank_)) return;
+  if (active_ && p.version < plan_.version()) {
+    // A takeover older than this leader's plan: a standby that missed this one's newest version took over (this
+    // one was only stalled). Followers that hold the newer version refuse it (plan::PlanFollower); update() steps
+    // down if the world followed it all the same, and retakes above it if the world refused it.
+    if (stale_taker_tick_ < 0 || r.outranks(stale_taker_)) {
+      stale_taker_ = r;
+      stale_taker_tick_ = std::max(heard_tick_, 0L);
+      char line[256];
+      std::snprintf(line, sizeof line, "%s took over in epoch %llu with plan version %llu, older than this leader's "
+                    "version %llu; waiting for the world to refuse it (then retaking) or follow it (then stepping down)",
+                    p.supervisor_id.c_str(), static_cast<unsigned long long>(p.epoch),
+                    static_cast<unsigned long long>(p.version), static_cast<unsigned long long>(plan_.version()));
+      log(line);
+    }
+    if (!latest_plan_ || r.outranks(latest_plan_->rank()) || p.version != latest_plan_->version) latest_plan_ = p;
+    return;
+  }
   heard_stronger_ = true;
   last_stronger_ = now_ns;
   stronger_tick_ = std::max(stronger_tick_, static_cast<long>(p.heard_tick));
@@ -154,6 +171,7 @@ void SupervisorCore::on_report(const ReportIn& r, int64_t now_ns) {
   if (rank_known) max_epoch_ = std::max(max_epoch_, r.world_rank.epoch);
   world_rank_ = rank_known ? r.world_rank : plan::SupervisorRank{};
   world_version_ = rank_known ? r.world_plan_version : 0;
+  if (!rank_known || (world_rank_.epoch == rank_.epoch && world_rank_.strength == rank_.strength)) confirmed_ = true;
   if (!first_world_heard_) {
     first_world_heard_ = true;
     first_world_ = {world_rank_, world_version_};
@@ -217,6 +235,30 @@ void SupervisorCore::update(int64_t now_ns) {
     suspect_from_ = -1;
   }
   const bool flowing = now_ns - last_report_ < kTakeOverAfterNs;
+  bool step_down = stronger;
+  if (active_ && stale_taker_tick_ >= 0) {
+    if (world_rank_.epoch == stale_taker_.epoch && world_rank_.strength == stale_taker_.strength) {
+      // The world followed it (it had not had this one's newest version yet): the module follows the taker.
+      step_down = true;
+      heard_stronger_ = true;
+      last_stronger_ = now_ns;
+      stronger_tick_ = std::max(stronger_tick_, heard_tick_);
+      stale_taker_tick_ = -1;
+    } else if (world_rank_.epoch == rank_.epoch && world_rank_.strength == rank_.strength &&
+               heard_tick_ - stale_taker_tick_ >= kRetakeTicks) {
+      // The world still follows this leader's plan kRetakeTicks after the stale takeover: it refused it. Retake in an
+      // epoch above it, with the newer plan: every follower adopts that, the stale taker steps down to it.
+      rank_.epoch = max_epoch_ + 1;
+      max_epoch_ = rank_.epoch;
+      plan_sent_version_ = ~0ULL;  // publish the plan now, under the new epoch
+      confirmed_ = false;
+      refused_since_ = -1;
+      log("the world refused the older takeover (it follows this leader's plan version " + std::to_string(world_version_) +
+          "); retaking in epoch " + std::to_string(rank_.epoch) + " with plan version " + std::to_string(plan_.version()));
+      stale_taker_tick_ = -1;
+      latest_plan_.reset();
+    }
+  }
   // Never heard a leader: take over after kTakeOverAloneNs of the world's reports, and only if the object is
   // where this supervisor's own (initial) plan has it now: otherwise the module follows a plan this one never
   // heard, and leading with its own would jump the references (robots and world would refuse it anyway).
@@ -276,6 +318,13 @@ void SupervisorCore::update(int64_t now_ns) {
     active_ = true;
     rank_.epoch = max_epoch_ + 1;
     max_epoch_ = rank_.epoch;
+    // A replica of a plan the world follows under a rank it never heard (accepted above only with the object at rest
+    // where the replica has it), or of a failed module: its plan continues the world's, so it must not count as older
+    // (plan::PlanFollower refuses an older takeover).
+    if (unheard || failed_) plan_.raise_version(world_version_);
+    confirmed_ = world_rank_.strength == 0;
+    refused_since_ = -1;
+    stale_taker_tick_ = -1;
     plan_sent_version_ = ~0ULL;  // publish the plan now, under the new epoch
     latest_plan_.reset();
     char line[256];
@@ -290,7 +339,7 @@ void SupervisorCore::update(int64_t now_ns) {
     log(line);
     reported_ = TaskStateCode::Idle;
     publish_state(true, now_ns);
-  } else if (active_ && stronger) {
+  } else if (active_ && step_down) {
     // A higher rank leads: a standby that took over in a later epoch while this one was stalled, or a
     // stronger one of the same epoch. It decides from now on; this one follows its plan.
     active_ = false;
@@ -304,6 +353,27 @@ void SupervisorCore::update(int64_t now_ns) {
     }
   }
   if (heard_tick_ < 0 || suspect_from_ >= 0) return;
+  if (active_ && !confirmed_) {
+    // A new leader plans nothing until the world follows its plan: the world refuses a takeover older than the
+    // plan it holds (the leader this one took over from was alive, stalled, and had moved on), and a plan made on
+    // top of a refused one would then be a newer version of a stale plan.
+    const bool refused = rank_.outranks(world_rank_) && world_version_ > plan_.version();
+    if (refused && refused_since_ < 0) {
+      refused_since_ = heard_tick_;
+      refused_world_ = {world_rank_, world_version_};
+      log("the world refuses this takeover: it follows " + world_plan_text() + ", newer than this replica's version " +
+          std::to_string(plan_.version()) + "; planning nothing until its leader retakes");
+    } else if (!refused) {
+      refused_since_ = -1;
+    }
+    if (refused_since_ >= 0 && heard_tick_ - refused_since_ > kOutrankedTicks && !alone_refused_ && !deaf_) {
+      give_up(refused_world_, "no leader retook after the world refused this takeover, and the world's plan changed",
+              "the world refused this takeover (its plan is newer than this replica's) and no leader retook: the module "
+              "has lost its plan");
+    }
+    publish_state(false, now_ns);
+    return;
+  }
   if (!active_) {
     // A replica: it follows the leader's plan (on_plan) and plans nothing itself, so its plan never drifts from
     // the leader's. Assignments wait for a takeover (the leader may die before it starts one).

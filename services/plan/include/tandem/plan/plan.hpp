@@ -103,6 +103,9 @@ class ModulePlan {
   uint64_t task_id() const { return task_id_; }
   uint64_t done() const { return done_; }
   uint64_t version() const { return version_; }
+  /// Raises the version to at least `v` (a takeover that continues a plan this replica only saw in the world's
+  /// reports: its plan must not count as older than the one the followers hold, see PlanFollower).
+  void raise_version(uint64_t v) { version_ = v > version_ ? v : version_; }
   /// The plan's content (the latest 64 retargets of the time scale); rank, flags and ids are the caller's.
   void export_to(PlanData& p) const;
   /// Adopts a published plan; false (and nothing changed) if it is malformed (see `check`).
@@ -143,7 +146,15 @@ class PlanFollower {
   /// refused its leader's next task, drove against its partner, and the object was dropped. Continuity is the
   /// supervisors' duty: standbys are replicas, and one that never heard a leader does not lead a moved object.
   static constexpr double kMaxJump = 1e-3;  ///< [m] on the object's (x, y); [rad] on its angle
-  /// Ignored: lower rank, or an old version of the current rank. Rejected: malformed (`why` says how). With
+  /// One refusal all followers make alike, from the plans alone: a takeover plan (a higher rank) whose version
+  /// is older than the plan followed. Versions continue across takeovers (a standby's replica carries the
+  /// leader's version), so such a plan comes from a standby that missed the leader's newest plan: following it
+  /// would move the object back to where that older plan has it. Found by a soak-small hour (m2 at 2778 s): a
+  /// standby took over with version 4 while the live leader had just started a task in version 5, the takeover
+  /// reached the world 320 ticks later, the references jumped 9.99 mm and the object slid out. The leader
+  /// that made the newer plan retakes (supervisor::SupervisorCore), and the stale one steps down to it.
+  /// Ignored: lower rank, an old version of the current rank, or an older takeover (then `why` says so, once per
+  /// plan). Rejected: malformed (`why` says how). With
   /// `now_tick` >= 0, a takeover plan's jump at that tick is measured (`jump()`, and `why` when over kMaxJump).
   Offer offer(const PlanData& p, std::string* why = nullptr, long now_tick = -1);
   /// The jump of the last plan of a new rank adopted, at the follower's tick then [m] (0: none measured).
@@ -160,6 +171,8 @@ class PlanFollower {
   SupervisorRank rank_{};
   uint64_t version_ = 0;
   double jump_ = 0.0;
+  SupervisorRank refused_rank_{};  ///< the last older takeover refused (said once)
+  uint64_t refused_version_ = 0;
 };
 
 }  // namespace tandem::plan

@@ -26,6 +26,7 @@
 #include <thread>
 #include <vector>
 
+#include "tandem/launcher/exit_codes.hpp"
 #include "tandem/runtime/deployment.hpp"
 #include "tandem/runtime/role.hpp"
 #include "tandem/runtime/status.hpp"
@@ -64,12 +65,12 @@ void usage(std::FILE* f) {
 /// Parses the command line; on error prints the problem and the usage and returns false with `exit_code`
 /// 2 (0 for --help).
 bool parse_options(int argc, char** argv, Options& o, int& exit_code) {
-  exit_code = 2;
+  exit_code = launcher::exit_code::kBadArgs;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--help" || a == "-h") {
       usage(stdout);
-      exit_code = 0;
+      exit_code = launcher::exit_code::kDone;
       return false;
     }
     if (a == "--standby") {
@@ -171,12 +172,12 @@ int run(int argc, char** argv) {
     d = runtime::load_deployment(opt.file);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "tandem-coordinator: %s\n", e.what());
-    return 2;
+    return launcher::exit_code::kBadArgs;
   }
   if (!d.coordinator) {
     std::fprintf(stderr, "tandem-coordinator: %s has no coordinator section (no tasks to hand out)\n",
                  opt.file.c_str());
-    return 2;
+    return launcher::exit_code::kBadArgs;
   }
   // Log lines name the process when it is not the default one (a standby or a restarted coordinator).
   const std::string who = opt.id == "coordinator" ? "coordinator" : "coordinator " + opt.id;
@@ -277,7 +278,7 @@ int run(int argc, char** argv) {
                      "one coordinator leads (restarted as a standby by the policy)\n", opt.id.c_str(),
                      ps.process_id().c_str());
         status.set(runtime::Lifecycle::Error, "stalled and replaced: left so that one coordinator leads");
-        return 3;
+        return launcher::exit_code::kReplaced;
       }
     }
     msg::TaskState ts;
@@ -314,12 +315,12 @@ int run(int argc, char** argv) {
     if (step == coordinator::Leadership::Step::Deaf) {
       status.set(runtime::Lifecycle::Error, "cannot hear the queue state");
       std::this_thread::sleep_for(std::chrono::milliseconds(100));
-      return 6;
+      return launcher::exit_code::kCutOff;
     }
     if (step == coordinator::Leadership::Step::AllDone) {
       status.set(runtime::Lifecycle::Finalized, "every task done (by the primary)");
       std::this_thread::sleep_for(std::chrono::milliseconds(100));
-      return 0;
+      return launcher::exit_code::kDone;
     }
     if (step == coordinator::Leadership::Step::Wait) {
       if (!lead.primary() && t - last_beat >= kHeartbeatS) heartbeat(t);
@@ -361,7 +362,7 @@ int run(int argc, char** argv) {
     if (t - last_progress > opt.timeout) {
       std::fprintf(stderr, "tandem-coordinator: no task finished for %.0f s; giving up\n", opt.timeout);
       status.set(runtime::Lifecycle::Error, "no progress");
-      return 4;
+      return launcher::exit_code::kNoInput;
     }
     states.wait(0.02);
   }
@@ -370,7 +371,7 @@ int run(int argc, char** argv) {
     if (lead.primary()) publish_state(now());
     status.set(runtime::Lifecycle::Finalized, "stopped");
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    return 0;
+    return launcher::exit_code::kDone;
   }
   publish_state(now());  // every task done: standbys see it and exit
   for (const auto& [module, tasks] : queue.done_by_module()) {

@@ -15,6 +15,7 @@
 #include <thread>
 #include <unistd.h>
 
+#include "tandem/launcher/exit_codes.hpp"
 #include "tandem/robot/robot_core.hpp"
 #include "tandem/runtime/plan_wire.hpp"
 #include "tandem/runtime/role.hpp"
@@ -39,7 +40,7 @@ int run(int argc, char** argv) {
   if (j < 0) {
     std::fprintf(stderr, "tandem-robot: unknown arm '%s'; robots of %s: %s, %s\n", opt.arm.c_str(),
                  opt.scenario.c_str(), ctx.scenario.robots[0].name.c_str(), ctx.scenario.robots[1].name.c_str());
-    return 2;
+    return launcher::exit_code::kBadArgs;
   }
   const sim::ModuleSetup& m = ctx.module;
   const std::string my_arm = ctx.arm_id(j);
@@ -165,7 +166,7 @@ int run(int argc, char** argv) {
       std::fprintf(stderr, "tandem-robot %s: the launcher was not found within %.1f s (summary readers 0/1)\n",
                    robot_id.c_str(), opt.timeout);
       status.set(runtime::Lifecycle::Error, "launcher not found");
-      return 3;
+      return launcher::exit_code::kPeersNotFound;
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
@@ -179,7 +180,7 @@ int run(int argc, char** argv) {
   // exit 3, and the launcher restarts the module if it had not ticked yet (docs/security.md, "Start-up").
   if (check_ready) status.set(runtime::Lifecycle::Inactive, "waiting for the world's samples and a plan");
   for (const auto r0 = Clock::now(); check_ready;) {
-    if (runtime::g_stop) return 0;
+    if (runtime::g_stop) return launcher::exit_code::kDone;
     {
       std::lock_guard<std::mutex> lock(mu);
       take_plans();
@@ -192,7 +193,7 @@ int run(int argc, char** argv) {
         std::fprintf(stderr, "tandem-robot %s: not ready within %.1f s (world's sensor writer %s, plan %s)\n",
                      robot_id.c_str(), opt.timeout, matched ? "matched" : "not matched", planned ? "heard" : "not heard");
         status.set(runtime::Lifecycle::Error, "peers not found");
-        return 3;
+        return launcher::exit_code::kPeersNotFound;
       }
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
@@ -275,7 +276,7 @@ int run(int argc, char** argv) {
   }
   lock.unlock();
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
-  return (finished || runtime::g_stop) ? 0 : cut_off ? 6 : 4;
+  return (finished || runtime::g_stop) ? launcher::exit_code::kDone : cut_off ? launcher::exit_code::kCutOff : launcher::exit_code::kNoInput;
 }
 
 }  // namespace

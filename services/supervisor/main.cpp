@@ -30,6 +30,7 @@
 #include <cstdio>
 #include <thread>
 
+#include "tandem/launcher/exit_codes.hpp"
 #include "tandem/runtime/plan_wire.hpp"
 #include "tandem/runtime/role.hpp"
 #include "tandem/runtime/status.hpp"
@@ -164,7 +165,7 @@ int run(int argc, char** argv) {
                    "standby heard none of it); exiting, to come back with a fresh participant\n", opt.module.c_str());
       status.set(runtime::Lifecycle::Error, "cannot hear the leader");
       std::this_thread::sleep_for(std::chrono::milliseconds(100));
-      return 6;
+      return launcher::exit_code::kCutOff;
     }
     if (core.no_plan()) {
       // Never heard a leader and cannot lead the moved object with the initial plan: the module has lost its
@@ -173,24 +174,24 @@ int run(int argc, char** argv) {
                    "the initial plan has it); the module must be restarted\n", opt.module.c_str());
       status.set(runtime::Lifecycle::Error, "no plan to follow");
       std::this_thread::sleep_for(std::chrono::milliseconds(100));
-      return 5;
+      return launcher::exit_code::kLostPlan;
     }
     if (std::chrono::duration<double>(std::chrono::steady_clock::now() - last_report).count() > opt.timeout) {
       std::fprintf(stderr, "tandem-supervisor %s: no report from the world for %.1f s; stopping\n", opt.module.c_str(),
                    opt.timeout);
       status.set(runtime::Lifecycle::Error, "no world reports");
-      return 4;
+      return launcher::exit_code::kNoInput;
     }
     reports.wait(0.01);
   }
   if (core.leaving()) {
     status.set(runtime::Lifecycle::Finalized, "drained");
     std::this_thread::sleep_for(std::chrono::milliseconds(300));  // let the state reach the coordinator
-    return 0;
+    return launcher::exit_code::kDone;
   }
   status.set(runtime::Lifecycle::Finalized, runtime::g_stop ? "stopped" : "task done");
   std::this_thread::sleep_for(std::chrono::milliseconds(100));
-  return 0;
+  return launcher::exit_code::kDone;
 }
 
 }  // namespace

@@ -18,6 +18,7 @@
 #include <thread>
 #include <vector>
 
+#include "tandem/launcher/exit_codes.hpp"
 #include "tandem/runtime/histogram.hpp"
 #include "tandem/runtime/inbox.hpp"
 #include "tandem/runtime/plan_wire.hpp"
@@ -97,7 +98,7 @@ int run(int argc, char** argv) {
                    "supervisor %d/1, launcher %d/1)\n", opt.timeout, sensors0.matched(), sensors1.matched(),
                    torques0.matched() + torques1.matched(), report.matched(), summary.matched());
       status.set(runtime::Lifecycle::Error, "peers not found");
-      return 3;
+      return launcher::exit_code::kPeersNotFound;
     }
     if (readers > readers_min && std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() > 0.5 * opt.timeout) {
       std::fprintf(stderr, "tandem-world %s: %d of %d sensor readers after %.1f s; starting with %d\n", opt.module.c_str(),
@@ -303,7 +304,7 @@ int run(int argc, char** argv) {
               core.stale, opt.realtime ? "late arm-ticks" : "brakings", opt.realtime ? core.late : core.timeouts,
               clock.overruns, core.load_pauses);
   std::this_thread::sleep_for(std::chrono::milliseconds(300));  // let the summary reach the launcher
-  return never_answered && !runtime::g_stop ? 4 : 0;
+  return never_answered && !runtime::g_stop ? launcher::exit_code::kNoInput : launcher::exit_code::kDone;
 }
 
 }  // namespace

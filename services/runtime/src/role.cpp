@@ -1,4 +1,5 @@
 #include <exception>
+#include "tandem/launcher/exit_codes.hpp"
 #include "tandem/runtime/role.hpp"
 
 #include <sched.h>
@@ -41,12 +42,12 @@ void install_stop_handlers() {
 
 bool parse_role_options(const char* role, int argc, char** argv, bool needs_arm, RoleOptions& o,
                         int& exit_code) {
-  exit_code = 2;
+  exit_code = launcher::exit_code::kBadArgs;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--help" || a == "-h") {
       usage(role, needs_arm, stdout);
-      exit_code = 0;
+      exit_code = launcher::exit_code::kDone;
       return false;
     }
     if (a == "--continuous") {
@@ -125,7 +126,7 @@ bool parse_role_options(const char* role, int argc, char** argv, bool needs_arm,
     usage(role, needs_arm, stderr);
     return false;
   }
-  exit_code = 0;
+  exit_code = launcher::exit_code::kDone;
   return true;
 }
 
@@ -164,7 +165,7 @@ bool start_role(const char* role, int argc, char** argv, bool needs_arm, RoleOpt
     ctx = load_context(opt);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "tandem-%s: %s\n", role, e.what());
-    exit_code = 2;
+    exit_code = launcher::exit_code::kBadArgs;
     return false;
   }
   return true;
@@ -185,7 +186,7 @@ int run_guarded(const char* program, int (*body)(int, char**), int argc, char** 
   } catch (...) {
     std::fprintf(stderr, "%s: unknown exception\n", program);
   }
-  return 1;
+  return launcher::exit_code::kError;
 }
 
 int raise_to_realtime_from_env() {

@@ -8,6 +8,8 @@
 #include <optional>
 #include <string_view>
 
+#include "tandem/launcher/exit_codes.hpp"
+
 namespace tandem::launcher {
 
 enum class Role { Coordinator, World, Supervisor, Robot };
@@ -15,14 +17,6 @@ enum class Role { Coordinator, World, Supervisor, Robot };
 /// "coordinator", "world", "supervisor", "robot"; nothing for anything else.
 std::optional<Role> parse_role(std::string_view role);
 
-/// Exit codes the processes use (services/*/main.cpp).
-namespace exit_code {
-inline constexpr int kDone = 0;         ///< task done, drained, or (coordinator) every task done
-inline constexpr int kPeersNotFound = 3;  ///< world: its peers were not found in time
-inline constexpr int kNoInput = 4;      ///< world, robot, supervisor: no tick, input or report in time
-inline constexpr int kLostPlan = 5;     ///< supervisor: no leader and no replica has the module's plan
-inline constexpr int kCutOff = 6;       ///< robot or supervisor: cut off from the module's leader (a fresh participant may hear it)
-}  // namespace exit_code
 
 struct ExitFacts {
   Role role = Role::Robot;

@@ -42,6 +42,7 @@
 #include "tandem/launcher/capacity.hpp"
 #include "tandem/launcher/drain_watch.hpp"
 #include "tandem/launcher/exit_rules.hpp"
+#include "tandem/launcher/plug_rules.hpp"
 #include "tandem/launcher/governor.hpp"
 #include "tandem/launcher/host_watch.hpp"
 #include "tandem/launcher/restart_policy.hpp"
@@ -339,112 +340,72 @@ class Launcher {
     if (!found) say(false, "'kill %s': no such running process or module\n", target.c_str());
   }
 
+  /// What the plug and unplug rules need to know of a module (launcher::ModuleFacts).
+  launcher::ModuleFacts module_facts(const std::string& name) const {
+    launcher::ModuleFacts f;
+    const auto it = modules_.find(name);
+    if (it == modules_.end()) return f;
+    f.known = true;
+    f.started = it->second.started;
+    f.end = it->second.end;
+    const auto ts = task_states_.find(name);
+    f.failed = ts != task_states_.end() && ts->second.state() == static_cast<uint8_t>(plan::TaskStateCode::Failed);
+    for (size_t i = 0; i < 2 && i < it->second.robots.size(); ++i) f.arms[i] = it->second.robots[i];
+    return f;
+  }
+
   void plug(const msg::ControlRequest& req) {
     const std::string& name = req.target();
-    if (req.target_kind() == msg::TARGET_ROBOT) {
-      const auto slash = name.find('/');
-      const std::string module = name.substr(0, slash), robot = slash == std::string::npos ? "" : name.substr(slash + 1);
-      const auto it = modules_.find(module);
-      if (it == modules_.end() || !it->second.started || !it->second.end.empty()) {
-        say(false, "'plug robot %s': no running module '%s'\n", name.c_str(), module.c_str());
-        return;
-      }
-      if (std::find(it->second.robots.begin(), it->second.robots.end(), robot) == it->second.robots.end()) {
-        say(false, "'plug robot %s': module %s has no arm '%s' (arms: %s, %s)\n", name.c_str(),
-                    module.c_str(), robot.c_str(), it->second.robots[0].c_str(), it->second.robots[1].c_str());
-        return;
-      }
-      int strength = 0;
-      if (req.standby()) {
-        strength = standby_strength(name);
-        if (strength < 1) {
-          say(false, "'plug robot %s --standby': no ownership strength left below the live ones\n", name.c_str());
-          return;
-        }
-      } else {
-        if (const Child* p = primary_of(name)) {
-          say(false, "'plug robot %s': the arm has a primary already (pid %d); plug a standby or "
-                      "unplug it first\n", name.c_str(), p->pid);
-          return;
-        }
-        strength = runtime::RoleOptions::kPrimaryStrength;
-      }
-      if (!start_robot(module, robot, strength, " (plugged)")) {
-        say(false, "'plug robot %s': the process could not be started\n", name.c_str());
-        return;
-      }
-      say(true, "plugged a robot into %s as %s (ownership strength %d)\n", name.c_str(),
-          req.standby() ? "a standby" : "the primary", strength);
-      resume_if_paused_for_unplug(module);
-    } else if (req.target_kind() == msg::TARGET_MODULE) {
+    if (req.target_kind() == msg::TARGET_MODULE) {
       plug_module(name, req.scenario(), req.case_name(), req.host());
-    } else {
-      say(false, "'plug %s': expected a robot for an arm (<module>/<arm>) or a module\n", name.c_str());
+      return;
     }
+    if (req.target_kind() != msg::TARGET_ROBOT) {
+      say(false, "'plug %s': expected a robot for an arm (<module>/<arm>) or a module\n", name.c_str());
+      return;
+    }
+    const auto slash = name.find('/');
+    const std::string module = name.substr(0, slash), robot = slash == std::string::npos ? "" : name.substr(slash + 1);
+    const Child* primary = primary_of(name);
+    const launcher::PlugDecision dec = launcher::plug_robot(name, robot, req.standby(), module_facts(module),
+                                                            primary != nullptr ? primary->pid : 0, standby_strength(name));
+    if (dec.action == launcher::PlugDecision::Action::Refuse) {
+      say(false, "%s\n", dec.text.c_str());
+      return;
+    }
+    if (!start_robot(module, robot, dec.strength, " (plugged)")) {
+      say(false, "'plug robot %s': the process could not be started\n", name.c_str());
+      return;
+    }
+    say(true, "%s\n", dec.text.c_str());
+    resume_if_paused_for_unplug(module);
   }
 
   /// Plugs a module in again (one of the deployment, or one failed by a drop: cleared), or a new one from a
   /// scenario and case (on `host` in a multi-host deployment).
   void plug_module(const std::string& name, const std::string& scenario, const std::string& case_name,
                    const std::string& host) {
-    auto it = modules_.find(name);
-    const auto ts = task_states_.find(name);
-    const bool failed = ts != task_states_.end() && ts->second.state() == 6;
-    if (it != modules_.end() && it->second.started && it->second.end.empty() && failed) {
-      // A module failed by a drop (its world brakes both arms for good): a person clears it. Its processes are
-      // stopped and the module starts again from its initial grasp once they are gone (docs/failure-model.md).
-      say(true, "clearing module %s (failed: object dropped): its processes stop, then it starts again\n", name.c_str());
-      task_states_.erase(name);
-      it->second.end = "cleared";
-      if (governor_) governor_->set_available(name, true);
-      stop_module(name);
-      pending_clears_.push_back(name);
-      return;
-    }
-    if (it != modules_.end() && it->second.started && it->second.end.empty()) {
-      say(false, "'plug module %s': it is running already\n", name.c_str());
-      return;
-    }
-    if (it != modules_.end() && it->second.started && it->second.end == "draining") {
-      // Its processes still run (finishing the task): a second set would simulate the module twice.
-      say(false, "'plug module %s': it is draining (finishing its task before it leaves); plug it in again once it "
-                 "has left\n", name.c_str());
-      return;
-    }
-    if (it == modules_.end() || !scenario.empty()) {
-      if (name.empty() || name.find('/') != std::string::npos || scenario.empty() || case_name.empty()) {
-        say(false, "'plug module %s': not a module of %s; give its scenario and case "
-                    "(tandem plug module NAME --scenario FILE --case CASE)\n", name.c_str(), file_.c_str());
+    using Action = launcher::PlugDecision::Action;
+    const launcher::PlugDecision dec = launcher::plug_module(name, module_facts(name), !scenario.empty(),
+                                                             !case_name.empty(), file_);
+    switch (dec.action) {
+      case Action::Refuse:
+        say(false, "%s\n", dec.text.c_str());
         return;
-      }
-      runtime::ModuleDeployment cfg;
-      cfg.name = name;
-      cfg.scenario = scenario;
-      cfg.case_name = case_name;
-      if (!d_.hosts.empty()) {
-        if (host.empty() || runtime::find_host(d_, host) == nullptr) {
-          std::string list;
-          for (const auto& x : d_.hosts) list += (list.empty() ? "" : ", ") + x.name;
-          say(false, "'plug module %s': a multi-host deployment places a new module on a host: give --host (hosts: %s)\n",
-              name.c_str(), list.c_str());
-          return;
-        }
-        cfg.host = host;
-      }
-      try {
-        prepare_module(cfg);
-      } catch (const std::exception& e) {
-        say(false, "'plug module %s': %s\n", name.c_str(), e.what());
+      case Action::ClearModule:
+        say(true, "%s\n", dec.text.c_str());
+        task_states_.erase(name);
+        modules_.at(name).end = "cleared";
+        if (governor_) governor_->set_available(name, true);
+        stop_module(name);
+        pending_clears_.push_back(name);  // started again once its processes are gone
         return;
-      }
-      bool found = false;
-      for (const auto& c : sim::load_scenario(cfg.scenario).cases) found = found || c.name == cfg.case_name;
-      if (!found) {
-        modules_.erase(name);
-        say(false, "'plug module %s': no case '%s' in %s\n", name.c_str(), cfg.case_name.c_str(),
-                    cfg.scenario.c_str());
-        return;
-      }
+      case Action::AddModule:
+        if (!add_module(name, scenario, case_name, host)) return;
+        break;
+      case Action::StartModule:
+      case Action::StartRobot:
+        break;
     }
     say(true, "plugging module %s (%s, case %s)\n", name.c_str(), modules_.at(name).cfg.scenario.c_str(),
                 modules_.at(name).cfg.case_name.c_str());
@@ -455,18 +416,49 @@ class Launcher {
     start_module(name);
   }
 
+  /// A new module from a scenario and case: its host checked (multi-host), its scenario loaded and its case found.
+  bool add_module(const std::string& name, const std::string& scenario, const std::string& case_name,
+                  const std::string& host) {
+    runtime::ModuleDeployment cfg;
+    cfg.name = name;
+    cfg.scenario = scenario;
+    cfg.case_name = case_name;
+    if (!d_.hosts.empty()) {
+      if (host.empty() || runtime::find_host(d_, host) == nullptr) {
+        std::string list;
+        for (const auto& x : d_.hosts) list += (list.empty() ? "" : ", ") + x.name;
+        say(false, "'plug module %s': a multi-host deployment places a new module on a host: give --host (hosts: %s)\n",
+            name.c_str(), list.c_str());
+        return false;
+      }
+      cfg.host = host;
+    }
+    try {
+      prepare_module(cfg);
+    } catch (const std::exception& e) {
+      say(false, "'plug module %s': %s\n", name.c_str(), e.what());
+      return false;
+    }
+    bool found = false;
+    for (const auto& c : sim::load_scenario(cfg.scenario).cases) found = found || c.name == cfg.case_name;
+    if (!found) {
+      modules_.erase(name);
+      say(false, "'plug module %s': no case '%s' in %s\n", name.c_str(), cfg.case_name.c_str(), cfg.scenario.c_str());
+      return false;
+    }
+    return true;
+  }
+
   void unplug(const msg::ControlRequest& req) {
     const std::string& name = req.target();
+    using Action = launcher::UnplugDecision::Action;
     if (req.target_kind() == msg::TARGET_MODULE) {
-      const auto it = modules_.find(name);
-      if (it == modules_.end() || !it->second.started || !it->second.end.empty()) {
-        say(false, "'unplug module %s': no running module of that name\n", name.c_str());
-        return;
-      }
-      // Drain: the supervisor finishes the module's task, takes no new one, and exits; then the rest stops.
-      say(true, "unplugging module %s: draining (it finishes its task first)\n", name.c_str());
-      it->second.end = "draining";
-      it->second.drain.start(seconds());
+      const launcher::UnplugDecision dec = launcher::unplug_module(name, module_facts(name));
+      say(dec.action != Action::Refuse, "%s\n", dec.text.c_str());
+      if (dec.action == Action::Refuse) return;
+      ModuleRun& mr = modules_.at(name);
+      mr.end = "draining";
+      mr.drain.start(seconds());
       if (governor_) governor_->set_available(name, false);
       send(name, msg::CMD_DRAIN);
       return;
@@ -476,24 +468,16 @@ class Launcher {
       return;
     }
     Child* c = find_running(name);
-    if (c == nullptr || c->role != "robot") {
-      say(false, "'unplug robot %s': no such running robot (labels as in 'tandem status', e.g. "
-                  "m1/left or m1/left@50)\n", name.c_str());
-      return;
-    }
-    if (live_robots(c->arm, c) > 0) {
-      // Graceful: another robot serves the arm; this one deletes its torque writer first, so the world
-      // follows the next strongest at once (a standby computes in shadow: no transient).
-      say(true, "unplugging %s: another robot serves %s, handing over\n", c->label.c_str(), c->arm.c_str());
-      c->expected = true;
-      terminate(*c);
-      return;
-    }
-    // The only robot of its arm: pause the module (object brought to rest), then let the robot go; the world
-    // brakes the arm; the module resumes when a robot is plugged in again.
-    say(true, "unplugging %s: no standby for %s; pausing %s first\n", c->label.c_str(), c->arm.c_str(),
-                c->module.c_str());
+    if (c != nullptr && c->role != "robot") c = nullptr;
+    const launcher::UnplugDecision dec = launcher::unplug_robot(name, c != nullptr, c ? c->arm : "", c ? c->module : "",
+                                                                c ? live_robots(c->arm, c) : 0);
+    say(dec.action != Action::Refuse, "%s\n", dec.text.c_str());
+    if (dec.action == Action::Refuse) return;
     c->expected = true;
+    if (dec.action == Action::HandOver) {
+      terminate(*c);  // it deletes its torque writer first: the world follows the next strongest at once
+      return;
+    }
     modules_.at(c->module).paused_for_unplug = true;
     send(c->module, msg::CMD_PAUSE);
     pending_unplugs_.push_back({c->label, c->module, Clock::now()});

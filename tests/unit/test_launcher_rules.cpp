@@ -10,6 +10,7 @@
 #include "tandem/launcher/agent_core.hpp"
 #include "tandem/launcher/drain_watch.hpp"
 #include "tandem/launcher/exit_rules.hpp"
+#include "tandem/launcher/plug_rules.hpp"
 
 using namespace tandem::launcher;
 
@@ -317,4 +318,96 @@ TEST_CASE("agent: one launcher run at a time; a new run after the old one is ove
   CHECK(a.run() == 8);
   CHECK(p.started.size() == 2);
   CHECK(a.running() == 1);
+}
+
+namespace {
+ModuleFacts module_running(bool failed = false) {
+  ModuleFacts m;
+  m.known = true;
+  m.started = true;
+  m.failed = failed;
+  m.arms = {"left", "right"};
+  return m;
+}
+}  // namespace
+
+TEST_CASE("plug rules: a robot joins a running module's arm as a standby below the live ones, or as its only primary", "[launcher]") {
+  using A = PlugDecision::Action;
+  const ModuleFacts m = module_running();
+  // A standby gets the strength the launcher computed (next_standby_strength); none left: refused.
+  PlugDecision d = plug_robot("m1/left", "left", true, m, 4242, 49);
+  CHECK(d.action == A::StartRobot);
+  CHECK(d.strength == 49);
+  CHECK(d.text == "plugged a robot into m1/left as a standby (ownership strength 49)");
+  d = plug_robot("m1/left", "left", true, m, 4242, 0);
+  CHECK(d.action == A::Refuse);
+  CHECK(d.text.find("no ownership strength left") != std::string::npos);
+  // A primary only where the arm has none.
+  d = plug_robot("m1/left", "left", false, m, 4242, 49);
+  CHECK(d.action == A::Refuse);
+  CHECK(d.text.find("has a primary already (pid 4242)") != std::string::npos);
+  d = plug_robot("m1/left", "left", false, m, 0, 49);
+  CHECK(d.action == A::StartRobot);
+  CHECK(d.strength == 100);
+  // An unknown arm names the arms accepted; a module that does not run is refused whatever the arm.
+  d = plug_robot("m1/middle", "middle", false, m, 0, 49);
+  CHECK(d.action == A::Refuse);
+  CHECK(d.text == "'plug robot m1/middle': module m1 has no arm 'middle' (arms: left, right)");
+  CHECK(plug_robot("m1", "", false, m, 0, 49).action == A::Refuse);
+  ModuleFacts ended = m;
+  ended.end = "unplugged";
+  d = plug_robot("m1/left", "left", false, ended, 0, 49);
+  CHECK(d.action == A::Refuse);
+  CHECK(d.text == "'plug robot m1/left': no running module 'm1'");
+  CHECK(plug_robot("m9/left", "left", false, ModuleFacts{}, 0, 49).action == A::Refuse);
+}
+
+TEST_CASE("plug rules: a module is cleared after a drop, started again once it has left, added from a scenario, never twice", "[launcher]") {
+  using A = PlugDecision::Action;
+  // Failed by a drop: cleared (stopped, then started again from its initial grasp).
+  CHECK(plug_module("m1", module_running(true), false, false, "d.yaml").action == A::ClearModule);
+  // Running, or still draining (its processes finish the task): a second set would simulate it twice.
+  PlugDecision d = plug_module("m1", module_running(), false, false, "d.yaml");
+  CHECK(d.action == A::Refuse);
+  CHECK(d.text == "'plug module m1': it is running already");
+  ModuleFacts m = module_running();
+  m.end = "draining";
+  d = plug_module("m1", m, false, false, "d.yaml");
+  CHECK(d.action == A::Refuse);
+  CHECK(d.text.find("it is draining") != std::string::npos);
+  // Gone (unplugged, failed, parked): started again as the deployment has it.
+  for (const char* end : {"unplugged", "failed: m1/world exited with code 4", "parked: admission"}) {
+    m.end = end;
+    CHECK(plug_module("m1", m, false, false, "d.yaml").action == A::StartModule);
+  }
+  // Unknown: only with a scenario and a case, and a plain name.
+  d = plug_module("m7", ModuleFacts{}, false, false, "d.yaml");
+  CHECK(d.action == A::Refuse);
+  CHECK(d.text.find("not a module of d.yaml; give its scenario and case") != std::string::npos);
+  CHECK(plug_module("m7", ModuleFacts{}, true, false, "d.yaml").action == A::Refuse);
+  CHECK(plug_module("m7/x", ModuleFacts{}, true, true, "d.yaml").action == A::Refuse);
+  CHECK(plug_module("", ModuleFacts{}, true, true, "d.yaml").action == A::Refuse);
+  CHECK(plug_module("m7", ModuleFacts{}, true, true, "d.yaml").action == A::AddModule);
+  // A known module that has left, plugged with a scenario: added anew from it.
+  m.end = "unplugged";
+  CHECK(plug_module("m1", m, true, true, "d.yaml").action == A::AddModule);
+}
+
+TEST_CASE("plug rules: unplug drains a module, hands an arm over to a live standby, or pauses the module first", "[launcher]") {
+  using A = UnplugDecision::Action;
+  UnplugDecision d = unplug_module("m1", module_running());
+  CHECK(d.action == A::DrainModule);
+  CHECK(d.text == "unplugging module m1: draining (it finishes its task first)");
+  ModuleFacts m = module_running();
+  m.end = "draining";
+  CHECK(unplug_module("m1", m).action == A::Refuse);  // once
+  CHECK(unplug_module("m9", ModuleFacts{}).action == A::Refuse);
+  d = unplug_robot("m1/left", true, "m1/left", "m1", 1);
+  CHECK(d.action == A::HandOver);
+  d = unplug_robot("m1/left@50", true, "m1/left", "m1", 0);
+  CHECK(d.action == A::PauseThenUnplug);
+  CHECK(d.text == "unplugging m1/left@50: no standby for m1/left; pausing m1 first");
+  d = unplug_robot("m1/lft", false, "", "", 0);
+  CHECK(d.action == A::Refuse);
+  CHECK(d.text.find("no such running robot") != std::string::npos);
 }

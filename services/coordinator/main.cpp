@@ -31,15 +31,12 @@
 #include "tandem/runtime/role.hpp"
 #include "tandem/runtime/status.hpp"
 #include "tandem/coordinator/leadership.hpp"
-#include "tandem/coordinator/task_queue.hpp"
+#include "tandem/coordinator/coordinator_core.hpp"
 
 using namespace tandem;
 namespace bus = tandem::dds;
-using coordinator::TaskQueue;
 
 namespace {
-
-constexpr double kHeartbeatS = 0.1;   // state and status are published at least this often
 
 struct Options {
   std::string file;
@@ -154,11 +151,6 @@ coordinator::Snapshot from_msg(const msg::CoordinatorState& m) {
   return s;
 }
 
-std::string fixed(double v, int decimals) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
-  return buf;
-}
 
 }  // namespace
 
@@ -181,10 +173,6 @@ int run(int argc, char** argv) {
   }
   // Log lines name the process when it is not the default one (a standby or a restarted coordinator).
   const std::string who = opt.id == "coordinator" ? "coordinator" : "coordinator " + opt.id;
-  auto say = [&who](const std::string& line) {
-    std::printf("%s: %s\n", who.c_str(), line.c_str());
-    std::fflush(stdout);  // the launcher interleaves the output of many processes
-  };
 
   bus::Participant part(opt.domain, opt.id + "/" + d.name, runtime::transport_of(d));
   bus::Reader<msg::TaskState, msg::TaskStatePubSubType> states(part, bus::kTaskStateTopic,
@@ -205,188 +193,84 @@ int run(int argc, char** argv) {
 
   std::vector<std::string> names;
   for (const auto& t : d.tasks) names.push_back(t.name);
-  TaskQueue queue(names,
-                  d.balance == "round_robin" ? coordinator::Balance::RoundRobin : coordinator::Balance::Wear);
-  std::map<std::string, double> wear;   // robot process id -> joint travel [rad]
-  auto module_wear = [&wear](const std::string& module) {  // joint travel of a module's robots
-    double w = 0.0;
-    for (const auto& [id, v] : wear) {
-      if (id.rfind(module + "/", 0) == 0) w += v;
-    }
-    return w;
-  };
-
   const auto t0 = std::chrono::steady_clock::now();
   auto now = [t0] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
-  coordinator::Leadership lead({opt.id, opt.standby, opt.resume}, now());
-  uint64_t published = 0;   // revision of the queue last published
-  double last_beat = -1.0, last_progress = 0.0;
-  size_t progress_mark = 0;
-
-  auto detail = [&] {
-    std::string s;
-    if (lead.primary()) {
-      s = std::to_string(queue.done_count()) + "/" + std::to_string(queue.task_count()) + " tasks done, " +
-          std::to_string(queue.running_count()) + " running, " + std::to_string(queue.pending_count()) +
-          " pending; " + std::to_string(queue.module_count()) + " module(s), " +
-          std::to_string(queue.lost_count()) + " lost";
-    } else {
-      s = lead.last_state() ? "standby, primary at " + std::to_string(queue.count_done(*lead.last_state())) + "/" +
-                                  std::to_string(queue.task_count()) + " tasks done"
-                            : "standby, no primary heard yet";
-    }
-    if (queue.rejected() > 0) s += "; " + std::to_string(queue.rejected()) + " invalid task state(s) ignored";
-    if (lead.malformed_states() > 0) {
-      s += "; " + std::to_string(lead.malformed_states()) + " malformed coordinator state(s) ignored";
-    }
-    return s;
-  };
+  coordinator::CoordinatorOptions co;
+  co.lead = {opt.id, opt.standby, opt.resume};
+  co.balance = d.balance == "round_robin" ? coordinator::Balance::RoundRobin : coordinator::Balance::Wear;
+  co.timeout = opt.timeout;
+  coordinator::CoordinatorCore core(co, names, now());
+  core.set_log([&who](const std::string& line) {
+    std::printf("%s: %s\n", who.c_str(), line.c_str());
+    std::fflush(stdout);  // the launcher interleaves the output of many processes
+  });
   auto heartbeat = [&](double t) {
-    status.msg().detail(detail());
+    status.msg().serving(core.primary() ? msg::ROLE_PRIMARY : msg::ROLE_STANDBY);
+    status.msg().detail(core.detail());
     status.publish();
-    last_beat = t;
+    core.heartbeat_sent(t);
   };
-  auto publish_state = [&](double t) {
-    msg::CoordinatorState m = to_msg(d.name, queue.snapshot());
-    state_out.write(m);
-    published = queue.revision();
-    heartbeat(t);
-  };
-  auto send = [&](const coordinator::Assignment& a) {
-    msg::TaskAssignment m;
-    m.module_id(a.module);
-    m.task_id(a.id);
-    m.task_name(d.tasks[a.task].name);
-    m.waypoints(d.tasks[a.task].waypoints);
-    assign.write(m);
+  auto carry_out = [&](double t) {
+    for (const coordinator::CoordinatorAction& a : core.take_actions()) {
+      if (a.kind == coordinator::CoordinatorAction::Kind::PublishState) {
+        msg::CoordinatorState m = to_msg(d.name, a.state);
+        state_out.write(m);
+        heartbeat(t);
+      } else {
+        msg::TaskAssignment m;
+        m.module_id(a.assignment.module);
+        m.task_id(a.assignment.id);
+        m.task_name(d.tasks[a.assignment.task].name);
+        m.waypoints(d.tasks[a.assignment.task].waypoints);
+        assign.write(m);
+      }
+    }
   };
 
-  while (!runtime::g_stop) {
+  while (!runtime::g_stop && !core.end()) {
     const double t = now();
-    if (const std::string line = lead.on_loop(t); !line.empty()) {
-      say(line);
-      queue.forgive_silence(t);  // its own stall, not the modules'
-    }
+    core.on_loop(t);
     msg::ProcessStatus ps;
     while (status_in.take(ps)) {
       if (ps.deployment() != d.name) continue;
-      if (ps.role() == "robot") wear[ps.process_id()] = ps.wear();
-      if (ps.role() == "coordinator" &&
-          lead.on_peer(ps.process_id(), ps.state() == static_cast<uint8_t>(runtime::Lifecycle::Active),
-                       ps.serving() == msg::ROLE_PRIMARY, t)) {
-        std::fprintf(stderr, "tandem-coordinator %s: %s took over while this one was stalled; leaving so that only "
-                     "one coordinator leads (restarted as a standby by the policy)\n", opt.id.c_str(),
-                     ps.process_id().c_str());
-        status.set(runtime::Lifecycle::Error, "stalled and replaced: left so that one coordinator leads");
-        return launcher::exit_code::kReplaced;
+      if (ps.role() == "robot") core.on_wear(ps.process_id(), ps.wear());
+      if (ps.role() == "coordinator") {
+        core.on_peer(ps.process_id(), ps.state() == static_cast<uint8_t>(runtime::Lifecycle::Active),
+                     ps.serving() == msg::ROLE_PRIMARY, t);
       }
     }
     msg::TaskState ts;
     while (states.take(ts)) {
-      if (ts.deployment() != d.name) continue;
-      const auto events = queue.report({ts.module_id(), ts.task_id(), ts.state()}, t);
-      for (const auto& e : events) {
-        if (lead.primary()) say(queue.describe(e));  // a standby only keeps the latest reports
-      }
+      if (ts.deployment() == d.name) core.on_task_state({ts.module_id(), ts.task_id(), ts.state()}, t);
     }
-    if (!lead.primary() || lead.recently_stalled(t)) {
+    if (core.wants_states(t)) {
       msg::CoordinatorState cs;
       while (state_in.take(cs)) {
-        if (cs.deployment() == d.name) lead.on_state(from_msg(cs), t);
+        if (cs.deployment() == d.name) core.on_state(from_msg(cs), t);
       }
     }
-    if (lead.primary() && lead.recently_stalled(t) && lead.last_state() &&
-        lead.last_state()->next_task_id > queue.snapshot().next_task_id) {
-      // A successor led while this one was stalled, and died before this one heard it: its queue state is more
-      // advanced than ours (it assigned tasks we never saw). Adopt it, as a takeover would, so that no task is
-      // lost or done twice and the modules it assigned are not held as busy with our stale tasks (found by the
-      // hour-long soak: no task was done for 63 s).
-      queue.restore(*lead.last_state(), t);
-      const TaskQueue::Reconciled r = queue.reconcile(t);
-      say("a successor led while this one was stalled: adopting its queue state (" + std::to_string(queue.done_count()) +
-          " done, " + std::to_string(queue.running_count()) + " running)");
-      for (const auto& e : r.events) say(queue.describe(e));
-      publish_state(t);
-      for (const auto& a : r.resend) send(a);
-    }
-    std::string line;
-    const coordinator::Leadership::Step step = lead.step(t, queue.task_count(), &line);
-    if (!line.empty() && step != coordinator::Leadership::Step::TakeOver) say(line);
-    if (step == coordinator::Leadership::Step::Deaf) {
-      status.set(runtime::Lifecycle::Error, "cannot hear the queue state");
-      std::this_thread::sleep_for(std::chrono::milliseconds(100));
-      return launcher::exit_code::kCutOff;
-    }
-    if (step == coordinator::Leadership::Step::AllDone) {
-      status.set(runtime::Lifecycle::Finalized, "every task done (by the primary)");
-      std::this_thread::sleep_for(std::chrono::milliseconds(100));
-      return launcher::exit_code::kDone;
-    }
-    if (step == coordinator::Leadership::Step::Wait) {
-      if (!lead.primary() && t - last_beat >= kHeartbeatS) heartbeat(t);
-      states.wait(0.02);
-      continue;
-    }
-    if (step == coordinator::Leadership::Step::TakeOver) {
-      // Take over: the primary's queue, checked against what the modules report.
-      const double silent = lead.silent(t);
-      if (lead.last_state()) queue.restore(*lead.last_state(), t);
-      say("primary silent for " + fixed(silent * 1e3, 0) + " ms; taking over with " +
-          std::to_string(queue.done_count()) + " done, " + std::to_string(queue.running_count()) +
-          " running, " + std::to_string(queue.pending_count()) + " pending");
-      const TaskQueue::Reconciled r = queue.reconcile(t);
-      for (const auto& e : r.events) say(queue.describe(e));
-      status.msg().serving(msg::ROLE_PRIMARY);
-      publish_state(t);  // what is in flight, before any assignment
-      for (const auto& a : r.resend) {
-        send(a);
-        say("sending task " + d.tasks[a.task].name + " to " + a.module + " again (id " +
-            std::to_string(a.id) + ")");
-      }
-      last_progress = t;
-      progress_mark = queue.done_count();
-    }
-    for (const auto& e : queue.expire(t)) say(queue.describe(e));
-    while (const auto a = queue.assign_next(module_wear)) {
-      publish_state(t);  // the state with the task in flight first: a standby that takes over knows of it
-      send(*a);
-      say("task " + d.tasks[a->task].name + " -> " + a->module + " (id " + std::to_string(a->id) + ", wear " +
-          fixed(a->wear, 3) + " rad)");
-    }
-    if (queue.revision() != published || t - last_beat >= kHeartbeatS) publish_state(t);
-    if (queue.done_count() != progress_mark) {
-      progress_mark = queue.done_count();
-      last_progress = t;
-    }
-    if (queue.complete()) break;
-    if (t - last_progress > opt.timeout) {
-      std::fprintf(stderr, "tandem-coordinator: no task finished for %.0f s; giving up\n", opt.timeout);
-      status.set(runtime::Lifecycle::Error, "no progress");
-      return launcher::exit_code::kNoInput;
-    }
-    states.wait(0.02);
+    core.update(t);
+    carry_out(t);
+    if (!core.end() && core.heartbeat_due(t)) heartbeat(t);
+    if (!core.end()) states.wait(0.02);
   }
-
-  if (runtime::g_stop) {
-    if (lead.primary()) publish_state(now());
+  if (!core.end()) {  // stopped
+    core.on_stop();
+    carry_out(now());
     status.set(runtime::Lifecycle::Finalized, "stopped");
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
     return launcher::exit_code::kDone;
   }
-  publish_state(now());  // every task done: standbys see it and exit
-  for (const auto& [module, tasks] : queue.done_by_module()) {
-    std::string list;
-    for (const auto& n : tasks) list += (list.empty() ? "" : ", ") + n;
-    say(module + " did " + std::to_string(tasks.size()) + " task(s) [" + list + "], joint travel " +
-        fixed(module_wear(module), 3) + " rad");
+  const coordinator::CoordinatorEnd& end = *core.end();
+  if (!end.message.empty()) std::fprintf(stderr, "tandem-coordinator %s: %s\n", opt.id.c_str(), end.message.c_str());
+  if (core.queue().complete() && core.primary()) {
+    for (const std::string& line : core.summary_lines()) std::printf("%s: %s\n", who.c_str(), line.c_str());
+    std::printf("coordinator: %s\n", end.status.c_str());
+    std::fflush(stdout);
   }
-  const std::string total = std::to_string(queue.done_count()) + "/" + std::to_string(queue.task_count()) +
-                            " tasks done, " + std::to_string(queue.duplicates()) + " duplicates";
-  std::printf("coordinator: %s\n", total.c_str());
-  std::fflush(stdout);
-  status.set(runtime::Lifecycle::Finalized, total);
-  std::this_thread::sleep_for(std::chrono::milliseconds(200));
-  return queue.duplicates() == 0 ? 0 : 1;
+  status.set(end.error ? runtime::Lifecycle::Error : runtime::Lifecycle::Finalized, end.status);
+  std::this_thread::sleep_for(std::chrono::milliseconds(core.queue().complete() ? 200 : 100));
+  return end.code;
 }
 
 int main(int argc, char** argv) { return runtime::run_guarded("tandem-coordinator", run, argc, argv); }

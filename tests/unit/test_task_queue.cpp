@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "tandem/coordinator/coordinator_core.hpp"
 #include "tandem/coordinator/leadership.hpp"
 #include "tandem/coordinator/task_queue.hpp"
 
@@ -627,4 +628,146 @@ TEST_CASE("leadership: a primary back from a stall keeps the most advanced queue
   CHECK(p.last_state()->next_task_id == 9);
   CHECK_FALSE(p.on_state(state_with(7, {1, 1, 0, 0}, 2), 2.4));  // its own older one is not kept
   CHECK_FALSE(p.recently_stalled(12.5));
+}
+
+// The coordinator process's loop rules as a component (CoordinatorCore): its process only carries the actions out.
+namespace {
+using tandem::coordinator::CoordinatorAction;
+using tandem::coordinator::CoordinatorCore;
+using tandem::coordinator::CoordinatorOptions;
+
+CoordinatorOptions core_options(const std::string& id, bool standby, bool resume = false) {
+  CoordinatorOptions o;
+  o.lead = {id, standby, resume};
+  o.timeout = 30.0;
+  return o;
+}
+
+// The primary's actions as the wire would carry them to a standby (the state) and to the modules (assignments).
+struct Wire {
+  std::vector<Snapshot> states;
+  std::vector<Assignment> sent;
+  std::vector<CoordinatorAction::Kind> order;
+  void take(CoordinatorCore& c) {
+    for (const auto& a : c.take_actions()) {
+      order.push_back(a.kind);
+      if (a.kind == CoordinatorAction::Kind::PublishState) states.push_back(a.state);
+      else sent.push_back(a.assignment);
+    }
+  }
+};
+}  // namespace
+
+TEST_CASE("coordinator: every assignment goes out after a state that holds it; all done ends with exit 0", "[coordinator]") {
+  CoordinatorCore c(core_options("coordinator", false), task_names(3), 0.0);
+  Wire w;
+  double t = 0.0;
+  for (int pass = 0; pass < 200 && !c.end(); ++pass, t += 0.02) {
+    c.on_loop(t);
+    for (const char* m : {"m1", "m2"}) {
+      // Each module takes what was sent to it and reports it done at once.
+      uint64_t id = 0;
+      for (const auto& a : w.sent) {
+        if (a.module == m) id = a.id;
+      }
+      c.on_task_state({m, id, id == 0 ? kIdle : kDone}, t);
+    }
+    c.update(t);
+    const size_t before = w.sent.size();
+    w.take(c);
+    for (size_t i = before; i < w.sent.size(); ++i) {
+      // The last state published before this assignment has it in flight (a standby that takes over knows of it).
+      REQUIRE_FALSE(w.states.empty());
+      const Snapshot& s = w.states.back();
+      bool held = false;
+      for (size_t k = 0; k < s.running_id.size(); ++k) held = held || s.running_id[k] == w.sent[i].id;
+      CHECK(held);
+    }
+  }
+  REQUIRE(c.end().has_value());
+  CHECK(c.end()->code == 0);
+  CHECK(c.end()->status == "3/3 tasks done, 0 duplicates");
+  CHECK(w.sent.size() == 3);
+  CHECK_FALSE(c.summary_lines().empty());
+  CHECK(w.states.back().done_count() == 3);  // the last state says every task done: standbys exit with it
+}
+
+TEST_CASE("coordinator: a standby takes over from the primary's state, sends again what no module took, and leads", "[coordinator]") {
+  CoordinatorCore primary(core_options("coordinator", false), task_names(4), 0.0);
+  CoordinatorCore standby(core_options("coordinator@r1", true), task_names(4), 0.0);
+  Wire w;
+  primary.on_task_state({"m1", 0, kIdle}, 0.0);
+  standby.on_task_state({"m1", 0, kIdle}, 0.0);
+  primary.update(0.0);
+  w.take(primary);
+  REQUIRE(w.sent.size() == 1);
+  for (const auto& s : w.states) standby.on_state(s, 0.0);
+  // The primary dies; m1 never took its task (it still reports idle with id 0).
+  double t = 0.0;
+  for (; t < 1.0 && !standby.primary(); t += 0.02) {
+    standby.on_loop(t);
+    standby.on_task_state({"m1", 0, kIdle}, t);
+    standby.update(t);
+  }
+  CHECK(standby.primary());
+  CHECK(t > tandem::coordinator::Leadership::kTakeoverS);
+  Wire after;
+  after.take(standby);
+  REQUIRE(after.order.size() >= 2);
+  CHECK(after.order[0] == CoordinatorAction::Kind::PublishState);  // what is in flight, before any assignment
+  REQUIRE_FALSE(after.sent.empty());
+  CHECK(after.sent[0].id == w.sent[0].id);  // the same id again: a supervisor that has it ignores it
+  CHECK(after.sent[0].module == "m1");
+  CHECK(standby.detail().find("0/4 tasks done, 1 running") != std::string::npos);
+}
+
+TEST_CASE("coordinator: a primary back from a stall adopts its successor's more advanced state, or leaves if it leads", "[coordinator]") {
+  CoordinatorCore old(core_options("coordinator", false), task_names(6), 0.0);
+  old.on_task_state({"m1", 0, kIdle}, 0.0);
+  old.update(0.0);
+  Wire w;
+  w.take(old);
+  REQUIRE(w.sent.size() == 1);
+  // A successor that led during the stall (and died) assigned ids 2 and 3: its state is more advanced.
+  Snapshot succ = w.states.back();
+  succ.next_task_id = 4;
+  old.on_loop(2.0);  // stood still for 2 s
+  REQUIRE(old.wants_states(2.0));
+  old.on_state(succ, 2.0);
+  old.on_task_state({"m1", 1, kRunning}, 2.0);
+  old.update(2.0);
+  CHECK(old.queue().snapshot().next_task_id >= 4);
+  CHECK_FALSE(old.end().has_value());
+  // A successor that still leads: the stalled one leaves (kReplaced, 3), so that one leads.
+  CoordinatorCore stalled(core_options("coordinator", false), task_names(6), 0.0);
+  stalled.on_loop(3.0);
+  stalled.on_peer("coordinator@r1", true, true, 3.0);
+  REQUIRE(stalled.end().has_value());
+  CHECK(stalled.end()->code == 3);
+  CHECK(stalled.end()->error);
+}
+
+TEST_CASE("coordinator: a restarted standby that hears no state exits 6; a primary with no task finished gives up with 4", "[coordinator]") {
+  CoordinatorCore late(core_options("coordinator@r2", true, true), task_names(2), 0.0);
+  double t = 0.0;
+  for (; t < 20.0 && !late.end(); t += 0.1) {
+    late.on_loop(t);
+    late.update(t);
+  }
+  REQUIRE(late.end().has_value());
+  CHECK(late.end()->code == 6);
+  CHECK_FALSE(late.primary());  // never led a fresh queue
+  CHECK(late.take_actions().empty());
+  CoordinatorOptions o = core_options("coordinator", false);
+  o.timeout = 5.0;
+  CoordinatorCore stuck(o, task_names(2), 0.0);
+  for (t = 0.0; t < 10.0 && !stuck.end(); t += 0.1) {
+    stuck.on_loop(t);
+    stuck.on_task_state({"m1", stuck.queue().snapshot().next_task_id - 1, kRunning}, t);  // runs, never ends
+    stuck.update(t);
+  }
+  REQUIRE(stuck.end().has_value());
+  CHECK(stuck.end()->code == 4);
+  CHECK(t > 5.0);
+  CHECK(stuck.end()->message.find("no task finished for 5 s") != std::string::npos);
 }

@@ -1,0 +1,169 @@
+#include "tandem/coordinator/coordinator_core.hpp"
+
+#include <cmath>
+#include <cstdio>
+
+#include "tandem/launcher/exit_codes.hpp"
+
+namespace tandem::coordinator {
+
+namespace {
+std::string fixed(double v, int decimals) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
+  return buf;
+}
+}  // namespace
+
+CoordinatorCore::CoordinatorCore(const CoordinatorOptions& o, std::vector<std::string> task_names, double now)
+    : o_(o), queue_(std::move(task_names), o.balance), lead_(o.lead, now), last_progress_(now) {}
+
+void CoordinatorCore::on_loop(double now) {
+  if (const std::string line = lead_.on_loop(now); !line.empty()) {
+    log(line);
+    queue_.forgive_silence(now);  // its own stall, not the modules'
+  }
+}
+
+void CoordinatorCore::on_peer(const std::string& id, bool active, bool claims_primary, double now) {
+  if (end_ || !lead_.on_peer(id, active, claims_primary, now)) return;
+  end_ = CoordinatorEnd{launcher::exit_code::kReplaced, true, "stalled and replaced: left so that one coordinator leads",
+                        id + " took over while this one was stalled; leaving so that only one coordinator leads "
+                             "(restarted as a standby by the policy)"};
+}
+
+void CoordinatorCore::on_task_state(const ModuleReport& r, double now) {
+  for (const auto& e : queue_.report(r, now)) {
+    if (lead_.primary()) log(queue_.describe(e));  // a standby only keeps the latest reports
+  }
+}
+
+double CoordinatorCore::module_wear(const std::string& module) const {
+  double w = 0.0;
+  for (const auto& [id, v] : wear_) {
+    if (id.rfind(module + "/", 0) == 0) w += v;
+  }
+  return w;
+}
+
+void CoordinatorCore::publish(double now) {
+  actions_.push_back({CoordinatorAction::Kind::PublishState, queue_.snapshot(), {}});
+  published_ = queue_.revision();
+  last_beat_ = now;
+}
+
+void CoordinatorCore::update(double now) {
+  if (end_) return;
+  if (lead_.primary() && lead_.recently_stalled(now) && lead_.last_state() &&
+      lead_.last_state()->next_task_id > queue_.snapshot().next_task_id) {
+    // A successor led while this one was stalled, and died before this one heard it: its queue state is more
+    // advanced than ours (it assigned tasks we never saw). Adopt it, as a takeover would, so that no task is lost or
+    // done twice and the modules it assigned are not held as busy with our stale tasks (found by the hour-long soak:
+    // no task was done for 63 s).
+    queue_.restore(*lead_.last_state(), now);
+    const TaskQueue::Reconciled r = queue_.reconcile(now);
+    log("a successor led while this one was stalled: adopting its queue state (" + std::to_string(queue_.done_count()) +
+        " done, " + std::to_string(queue_.running_count()) + " running)");
+    for (const auto& e : r.events) log(queue_.describe(e));
+    publish(now);
+    for (const auto& a : r.resend) assign(a);
+  }
+  std::string line;
+  const Leadership::Step step = lead_.step(now, queue_.task_count(), &line);
+  if (!line.empty() && step != Leadership::Step::TakeOver) log(line);
+  switch (step) {
+    case Leadership::Step::Deaf:
+      end_ = CoordinatorEnd{launcher::exit_code::kCutOff, true, "cannot hear the queue state", ""};
+      return;
+    case Leadership::Step::AllDone:
+      end_ = CoordinatorEnd{launcher::exit_code::kDone, false, "every task done (by the primary)", ""};
+      return;
+    case Leadership::Step::Wait:
+      return;
+    case Leadership::Step::TakeOver: {
+      // The primary's queue, checked against what the modules report.
+      const double silent = lead_.silent(now);
+      if (lead_.last_state()) queue_.restore(*lead_.last_state(), now);
+      log("primary silent for " + fixed(silent * 1e3, 0) + " ms; taking over with " + std::to_string(queue_.done_count()) +
+          " done, " + std::to_string(queue_.running_count()) + " running, " + std::to_string(queue_.pending_count()) +
+          " pending");
+      const TaskQueue::Reconciled r = queue_.reconcile(now);
+      for (const auto& e : r.events) log(queue_.describe(e));
+      publish(now);  // what is in flight, before any assignment
+      for (const auto& a : r.resend) {
+        assign(a);
+        log("sending task " + queue_.task_name(a.task) + " to " + a.module + " again (id " + std::to_string(a.id) + ")");
+      }
+      last_progress_ = now;
+      progress_mark_ = queue_.done_count();
+      break;
+    }
+    case Leadership::Step::Lead:
+      break;
+  }
+  for (const auto& e : queue_.expire(now)) log(queue_.describe(e));
+  while (const auto a = queue_.assign_next([this](const std::string& m) { return module_wear(m); })) {
+    publish(now);  // the state with the task in flight first: a standby that takes over knows of it
+    assign(*a);
+    log("task " + queue_.task_name(a->task) + " -> " + a->module + " (id " + std::to_string(a->id) + ", wear " +
+        fixed(a->wear, 3) + " rad)");
+  }
+  if (queue_.revision() != published_ || now - last_beat_ >= kHeartbeatS) publish(now);
+  if (queue_.done_count() != progress_mark_) {
+    progress_mark_ = queue_.done_count();
+    last_progress_ = now;
+  }
+  if (queue_.complete()) {
+    publish(now);  // every task done: standbys see it and exit
+    const std::string total = std::to_string(queue_.done_count()) + "/" + std::to_string(queue_.task_count()) +
+                              " tasks done, " + std::to_string(queue_.duplicates()) + " duplicates";
+    end_ = CoordinatorEnd{queue_.duplicates() == 0 ? launcher::exit_code::kDone : launcher::exit_code::kError, false,
+                          total, ""};
+    return;
+  }
+  if (now - last_progress_ > o_.timeout) {
+    end_ = CoordinatorEnd{launcher::exit_code::kNoInput, true, "no progress",
+                          "no task finished for " + fixed(o_.timeout, 0) + " s; giving up"};
+  }
+}
+
+void CoordinatorCore::on_stop() {
+  if (lead_.primary()) actions_.push_back({CoordinatorAction::Kind::PublishState, queue_.snapshot(), {}});
+}
+
+std::vector<CoordinatorAction> CoordinatorCore::take_actions() {
+  std::vector<CoordinatorAction> out;
+  out.swap(actions_);
+  return out;
+}
+
+std::string CoordinatorCore::detail() const {
+  std::string s;
+  if (lead_.primary()) {
+    s = std::to_string(queue_.done_count()) + "/" + std::to_string(queue_.task_count()) + " tasks done, " +
+        std::to_string(queue_.running_count()) + " running, " + std::to_string(queue_.pending_count()) + " pending; " +
+        std::to_string(queue_.module_count()) + " module(s), " + std::to_string(queue_.lost_count()) + " lost";
+  } else {
+    s = lead_.last_state() ? "standby, primary at " + std::to_string(queue_.count_done(*lead_.last_state())) + "/" +
+                                 std::to_string(queue_.task_count()) + " tasks done"
+                           : "standby, no primary heard yet";
+  }
+  if (queue_.rejected() > 0) s += "; " + std::to_string(queue_.rejected()) + " invalid task state(s) ignored";
+  if (lead_.malformed_states() > 0) {
+    s += "; " + std::to_string(lead_.malformed_states()) + " malformed coordinator state(s) ignored";
+  }
+  return s;
+}
+
+std::vector<std::string> CoordinatorCore::summary_lines() const {
+  std::vector<std::string> lines;
+  for (const auto& [module, tasks] : queue_.done_by_module()) {
+    std::string list;
+    for (const auto& n : tasks) list += (list.empty() ? "" : ", ") + n;
+    lines.push_back(module + " did " + std::to_string(tasks.size()) + " task(s) [" + list + "], joint travel " +
+                    fixed(module_wear(module), 3) + " rad");
+  }
+  return lines;
+}
+
+}  // namespace tandem::coordinator

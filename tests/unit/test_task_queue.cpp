@@ -187,6 +187,26 @@ TEST_CASE("a late done of a re-assigned task is ignored and the task is counted 
   CHECK(q.done_by_module().at("m1") == std::vector<std::string>{"t1"});
 }
 
+TEST_CASE("a module that took a newer id than the one in flight on it is free again, and that task goes back, not done", "[coordinator]") {
+  // Another coordinator led while this one stood still: it saw m1 finish id 1 and gave m1 id 7. This one still holds
+  // id 1 in flight on m1 and hears only m1's newest state.
+  TaskQueue q(task_names(3), Balance::Wear);
+  q.report({"m1", 0, kIdle}, 0.0);
+  const auto a = q.assign_next(no_wear);  // t0 -> m1, id 1
+  REQUIRE(a);
+  auto events = q.report({"m1", 7, kRunning}, 1.0);
+  CHECK(has(events, EventKind::Requeued));
+  CHECK(q.done_count() == 0);  // never counted without a report of it
+  CHECK(q.pending().front() == "t0");
+  CHECK_FALSE(q.assign_next(no_wear));  // m1 runs id 7
+  q.report({"m1", 7, kDone}, 2.0);
+  const auto b = q.assign_next(no_wear);  // free again: t0 once more, with an id above 7
+  REQUIRE(b);
+  CHECK(b->module == "m1");
+  CHECK(q.task_name(b->task) == "t0");
+  CHECK(b->id > 7);
+}
+
 TEST_CASE("a module that leaves is removed, its unfinished task back at the front", "[coordinator]") {
   TaskQueue q(task_names(3), Balance::Wear);
   q.report({"m1", 0, kIdle}, 0.0);
@@ -770,4 +790,55 @@ TEST_CASE("coordinator: a restarted standby that hears no state exits 6; a prima
   CHECK(stuck.end()->code == 4);
   CHECK(t > 5.0);
   CHECK(stuck.end()->message.find("no task finished for 5 s") != std::string::npos);
+}
+
+TEST_CASE("coordinator: a primary back from a stall adopts its successor's state though a module reported the successor's id first", "[coordinator]") {
+  // The soak-small hour's case: r12 stalled 1.7 s, r13 took over and gave soak-451 to m1 as id 454; back, r12 heard m1
+  // report id 454 before r13's state, its queue's next id rose to 455 with it, so r13's state (next id 455) did not
+  // look more advanced, and r12 gave soak-451 to m2 as id 455: one task on two modules.
+  CoordinatorCore old(core_options("coordinator@r12", false), task_names(6), 0.0);
+  CoordinatorCore succ(core_options("coordinator@r13", true), task_names(6), 0.0);
+  Wire w, ws;
+  for (const char* m : {"m1", "m2"}) {
+    old.on_task_state({m, 0, kIdle}, 0.0);
+    succ.on_task_state({m, 0, kIdle}, 0.0);
+  }
+  old.update(0.0);
+  w.take(old);
+  REQUIRE(w.sent.size() == 2);  // ids 1 (m1) and 2 (m2)
+  for (const auto& s : w.states) succ.on_state(s, 0.0);
+  // m1 finishes id 1; the old primary stands still; the successor takes over and gives the next task to m1.
+  double t = 0.02;
+  for (; t < 1.0 && !succ.primary(); t += 0.02) {
+    succ.on_loop(t);
+    succ.on_task_state({"m1", 1, kDone}, t);
+    succ.on_task_state({"m2", 2, kRunning}, t);
+    succ.update(t);
+  }
+  REQUIRE(succ.primary());
+  ws.take(succ);
+  REQUIRE_FALSE(ws.sent.empty());
+  const Assignment given = ws.sent.back();
+  CHECK(given.module == "m1");
+  CHECK(given.id == 3);
+  // The old primary is back: m1's report of id 3 comes first, then the successor's state.
+  old.on_loop(t + 1.2);
+  old.on_task_state({"m1", given.id, kRunning}, t + 1.2);
+  old.on_task_state({"m2", 2, kDone}, t + 1.2);
+  REQUIRE(old.queue().snapshot().next_task_id == 4);  // raised by the report
+  old.on_state(ws.states.back(), t + 1.2);
+  old.update(t + 1.2);
+  // It adopted the successor's state: the task on m1 is known, and nothing gives that task to another module.
+  Wire after;
+  for (double u = t + 1.2; u < t + 3.0; u += 0.02) {
+    old.on_loop(u);
+    old.on_task_state({"m1", given.id, kRunning}, u);
+    old.update(u);
+    after.take(old);
+  }
+  for (const auto& a : after.sent) CHECK(a.task != given.task);
+  bool holds = false;
+  const Snapshot s = old.queue().snapshot();
+  for (size_t k = 0; k < s.running_id.size(); ++k) holds = holds || (s.running_id[k] == given.id && s.running_on[k] == "m1");
+  CHECK(holds);
 }

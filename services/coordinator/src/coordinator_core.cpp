@@ -1,5 +1,6 @@
 #include "tandem/coordinator/coordinator_core.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -54,13 +55,17 @@ void CoordinatorCore::publish(double now) {
 
 void CoordinatorCore::update(double now) {
   if (end_) return;
-  if (lead_.primary() && lead_.recently_stalled(now) && lead_.last_state() &&
-      lead_.last_state()->next_task_id > queue_.snapshot().next_task_id) {
+  // Compared with the ids this one assigned or adopted, not with its queue's next id: a module's report of the
+  // successor's assignment raises that too (TaskQueue::report), and hid the successor's state (a soak-small hour: the
+  // primary back from a 1.7 s stall heard m1 report the successor's id 454 first, kept its own state, and gave the
+  // successor's task to m2 as id 455).
+  if (lead_.primary() && lead_.recently_stalled(now) && lead_.last_state() && lead_.last_state()->next_task_id > own_next_) {
     // A successor led while this one was stalled, and died before this one heard it: its queue state is more
     // advanced than ours (it assigned tasks we never saw). Adopt it, as a takeover would, so that no task is lost or
     // done twice and the modules it assigned are not held as busy with our stale tasks (found by the hour-long soak:
     // no task was done for 63 s).
     queue_.restore(*lead_.last_state(), now);
+    own_next_ = lead_.last_state()->next_task_id;
     const TaskQueue::Reconciled r = queue_.reconcile(now);
     log("a successor led while this one was stalled: adopting its queue state (" + std::to_string(queue_.done_count()) +
         " done, " + std::to_string(queue_.running_count()) + " running)");
@@ -83,7 +88,10 @@ void CoordinatorCore::update(double now) {
     case Leadership::Step::TakeOver: {
       // The primary's queue, checked against what the modules report.
       const double silent = lead_.silent(now);
-      if (lead_.last_state()) queue_.restore(*lead_.last_state(), now);
+      if (lead_.last_state()) {
+        queue_.restore(*lead_.last_state(), now);
+        own_next_ = std::max(own_next_, lead_.last_state()->next_task_id);
+      }
       log("primary silent for " + fixed(silent * 1e3, 0) + " ms; taking over with " + std::to_string(queue_.done_count()) +
           " done, " + std::to_string(queue_.running_count()) + " running, " + std::to_string(queue_.pending_count()) +
           " pending");
@@ -104,6 +112,7 @@ void CoordinatorCore::update(double now) {
   for (const auto& e : queue_.expire(now)) log(queue_.describe(e));
   while (const auto a = queue_.assign_next([this](const std::string& m) { return module_wear(m); })) {
     publish(now);  // the state with the task in flight first: a standby that takes over knows of it
+    own_next_ = std::max(own_next_, a->id + 1);
     assign(*a);
     log("task " + queue_.task_name(a->task) + " -> " + a->module + " (id " + std::to_string(a->id) + ", wear " +
         fixed(a->wear, 3) + " rad)");

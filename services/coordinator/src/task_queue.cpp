@@ -134,6 +134,15 @@ std::vector<Event> TaskQueue::report(const ModuleReport& r, double now) {
     events.push_back(e);
     return events;
   }
+  if (m.running_id != 0 && r.task_id > m.running_id) {
+    // The module took a newer id than the one in flight on it: another coordinator gave it that while this one
+    // stood still (a soak-small hour: the stalled primary held id 452 in flight on m1, which its successor had seen
+    // finished before it gave m1 id 454; m1 was never free again for this one, and took no task for 100 s). Whether
+    // the old id was finished is not known here: it goes back to the front of the queue (never counted without a
+    // report of it), as a takeover's reconcile does.
+    events.push_back({EventKind::Requeued, r.module, names_[m.running_task], m.running_id, 0});
+    requeue(m);
+  }
   if (!finished_state(r.state)) return events;
   if (m.running_id != 0 && r.task_id == m.running_id) {
     finish(r.module, m, events);

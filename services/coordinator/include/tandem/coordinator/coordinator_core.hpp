@@ -95,6 +95,7 @@ class CoordinatorCore {
   uint64_t published_ = 0;              ///< revision of the queue last published
   double last_beat_ = -1.0, last_progress_ = 0.0;
   size_t progress_mark_ = 0;
+  uint64_t own_next_ = 1;  ///< one above the highest id this one assigned, or the next id of a state it adopted
   std::vector<CoordinatorAction> actions_;
   std::optional<CoordinatorEnd> end_;
 };

@@ -71,7 +71,7 @@ enum class EventKind {
   LateDoneIgnored,  ///< a module reports done a task taken from it when it was lost
   Lost,             ///< not heard for kModuleLostS (task: the one put back at the front of the queue)
   Left,             ///< reported "left": removed (task: the one put back at the front of the queue)
-  Requeued,         ///< takeover: the module no longer runs the task recorded for it
+  Requeued,         ///< the module no longer runs the task recorded for it (a takeover, or it took a newer id)
   Failed,           ///< the module dropped its object (task: back to the front of the queue, never done there)
 };
 struct Event {

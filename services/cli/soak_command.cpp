@@ -379,18 +379,23 @@ class Soak : public NemesisActions {
       // The most advanced state is kept (the done-set: a byte per task of the deployment's list). A state that
       // lacks tasks already heard done is an older copy (skipped), unless it also lists tasks not heard done
       // or lacks more than 8: then it comes from a coordinator that started without the queue's state.
-      size_t missing = 0, extra = 0;
+      size_t missing = 0, extra = 0, first_missing = d_.tasks.size();
       const size_t n = std::min(cs.done_by().size(), d_.tasks.size());
       for (size_t i = 0; i < n; ++i) {
         const bool now_done = cs.done_by()[i] != 0, was = i < done_seen_.size() && done_seen_[i];
         missing += was && !now_done;
         extra += now_done && !was;
+        if (was && !now_done && first_missing == d_.tasks.size()) first_missing = i;
       }
       for (size_t i = n; i < done_seen_.size(); ++i) missing += done_seen_[i];
       if (missing > 0) {
         if ((extra > 0 || missing > 8) && t - last_queue_back_ > 5.0) {
-          h_.events.push_back({t, Event::Type::QueueBack, std::to_string(h_.tasks_done.size()),
-                               std::to_string(h_.tasks_done.size() - missing + extra)});
+          // subject: the done count heard; text: the state's, with what it lacks and what it adds.
+          std::string text = std::to_string(h_.tasks_done.size() - missing + extra) + " (it lacks " +
+                             std::to_string(missing) + " task(s) heard done";
+          if (first_missing < d_.tasks.size()) text += ", first " + d_.tasks[first_missing].name;
+          text += ", and lists " + std::to_string(extra) + " not heard done)";
+          h_.events.push_back({t, Event::Type::QueueBack, std::to_string(h_.tasks_done.size()), text});
           last_queue_back_ = t;
         }
         continue;

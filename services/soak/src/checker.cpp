@@ -237,7 +237,8 @@ class Judge {
       if (e.type == Event::Type::QueueBack) {
         violate(inv, e.t, fault_before(e.t),
                 "the coordinator's queue went back from " + e.subject + " to " + e.text +
-                    " tasks done: a coordinator started without the queue's state (tasks will be done twice)");
+                    " tasks done: a coordinator started or went on without the queue's state (tasks will be done "
+                    "twice)");
       }
     }
     for (const auto& [name, t] : first_assigned) {

@@ -600,26 +600,25 @@ class Launcher {
       }
       Child c = it->child;
       it = pending_restarts_.erase(it);
+      const std::optional<launcher::Role> role = launcher::parse_role(c.role);
+      if (!role) continue;
+      launcher::DueRestart f;
+      f.role = *role;
+      f.strength = c.strength;
+      f.restart_as_standby = !c.module.empty() && modules_.at(c.module).cfg.restart_as == "standby";
+      f.primary_alive = c.role == "robot" && primary_of(c.arm) != nullptr;
+      f.standby_strength = c.arm.empty() ? 0 : standby_strength(c.arm);
+      f.live_in_slot = c.arm.empty() ? 0 : live_robots(c.arm);
+      f.task_over = !c.module.empty() && modules_.at(c.module).task_over;
+      const launcher::DueRestartDecision d = launcher::due_restart(f);
+      if (!d.start) {
+        std::printf("tandem up: not restarting %s: %s\n", c.label.c_str(), d.why.c_str());
+        continue;
+      }
       if (c.role == "robot") {
-        int strength = c.strength;
-        if (strength != runtime::RoleOptions::kPrimaryStrength || primary_of(c.arm) != nullptr) {
-          strength = standby_strength(c.arm);
-        }
-        if (strength < 1) {
-          std::printf("tandem up: cannot restart %s: no ownership strength left below the live robots\n", c.arm.c_str());
-          continue;
-        }
-        start_robot(c.module, c.arm.substr(c.arm.find('/') + 1), strength, " (restart)");
+        start_robot(c.module, c.arm.substr(c.arm.find('/') + 1), d.strength, " (restart)");
       } else if (c.role == "supervisor") {
-        // A restarted supervisor is a standby: it adopts the serving one's plan (a supervisor restarted with
-        // none serving would not know the plan; the module has failed then, see on_exit).
-        const int strength = standby_strength(c.arm);
-        if (live_robots(c.arm) == 0 || strength < 1) {
-          std::printf("tandem up: not restarting %s: %s\n", c.label.c_str(),
-                      strength < 1 ? "no strength left below the live supervisors" : "no supervisor serves the module");
-          continue;
-        }
-        start_supervisor(c.module, strength, " (restart)");
+        start_supervisor(c.module, d.strength, " (restart)");  // a standby: it adopts the serving one's plan
       } else {
         // No coordinator left: the queue's state lived only in their writers (transient-local), so hand the
         // newcomer the last state this launcher heard; it takes over from it.
@@ -767,9 +766,7 @@ class Launcher {
     const double delay = d.delay;
     std::printf("tandem up: restarting %s in %.2f s (restart %d of at most %d within %.0f s)\n", c.label.c_str(),
                 delay, d.count, limit, window);
-    Child next = c;
-    if (c.role == "robot" && modules_.at(c.module).cfg.restart_as == "standby") next.strength = 0;  // below the live ones
-    pending_restarts_.push_back({now + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(delay)), next});
+    pending_restarts_.push_back({now + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(delay)), c});
     return true;
   }
 

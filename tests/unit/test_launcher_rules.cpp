@@ -411,3 +411,49 @@ TEST_CASE("plug rules: unplug drains a module, hands an arm over to a live stand
   CHECK(d.action == A::Refuse);
   CHECK(d.text.find("no such running robot") != std::string::npos);
 }
+
+TEST_CASE("launcher rules: a due restart comes back as the primary only in its own empty slot, else as a standby, or not at all", "[launcher]") {
+  DueRestart r;
+  r.role = Role::Robot;
+  r.strength = 100;
+  r.standby_strength = 49;
+  DueRestartDecision d = due_restart(r);
+  CHECK(d.start);
+  CHECK(d.strength == 100);  // the primary, back in its empty slot
+  r.primary_alive = true;    // a primary was plugged meanwhile
+  CHECK(due_restart(r).strength == 49);
+  r.primary_alive = false;
+  r.restart_as_standby = true;  // restart_as: standby
+  CHECK(due_restart(r).strength == 49);
+  r.restart_as_standby = false;
+  r.strength = 49;  // a standby comes back as a standby
+  CHECK(due_restart(r).strength == 49);
+  r.standby_strength = 0;
+  d = due_restart(r);
+  CHECK_FALSE(d.start);
+  CHECK(d.why == "no ownership strength left below the live robots");
+  r.standby_strength = 49;
+  r.task_over = true;
+  CHECK_FALSE(due_restart(r).start);
+
+  DueRestart s;
+  s.role = Role::Supervisor;
+  s.strength = 100;
+  s.standby_strength = 50;
+  s.live_in_slot = 1;
+  d = due_restart(s);
+  CHECK(d.start);
+  CHECK(d.strength == 50);  // never back as the leader: it adopts the serving one's plan
+  s.live_in_slot = 0;
+  d = due_restart(s);
+  CHECK_FALSE(d.start);
+  CHECK(d.why == "no supervisor serves the module");
+
+  DueRestart c;
+  c.role = Role::Coordinator;
+  c.task_over = true;  // (a coordinator has no module)
+  CHECK(due_restart(c).start);
+  DueRestart w;
+  w.role = Role::World;
+  CHECK_FALSE(due_restart(w).start);
+}

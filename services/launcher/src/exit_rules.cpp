@@ -56,4 +56,26 @@ AfterRestart after_restart(const ExitFacts& f, bool restarting) {
   return AfterRestart::Fail;  // a world is never restarted alone (on_exit never says Restart for it)
 }
 
+DueRestartDecision due_restart(const DueRestart& f) {
+  constexpr int kPrimary = 100;
+  if (f.task_over && f.role != Role::Coordinator) return {false, 0, "its module is done with its task"};
+  switch (f.role) {
+    case Role::Robot: {
+      const bool primary = f.strength == kPrimary && !f.restart_as_standby && !f.primary_alive;
+      if (primary) return {true, kPrimary, ""};
+      if (f.standby_strength < 1) return {false, 0, "no ownership strength left below the live robots"};
+      return {true, f.standby_strength, ""};
+    }
+    case Role::Supervisor:
+      if (f.live_in_slot == 0) return {false, 0, "no supervisor serves the module"};
+      if (f.standby_strength < 1) return {false, 0, "no strength left below the live supervisors"};
+      return {true, f.standby_strength, ""};
+    case Role::Coordinator:
+      return {true, 0, ""};
+    case Role::World:
+      break;
+  }
+  return {false, 0, "a world is never restarted alone"};
+}
+
 }  // namespace tandem::launcher

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <optional>
+#include <string>
 #include <string_view>
 
 #include "tandem/launcher/exit_codes.hpp"
@@ -58,5 +59,27 @@ enum class AfterRestart {
 
 /// After a Restart verdict: `restarting` is the restart policy's answer (a restart is scheduled).
 AfterRestart after_restart(const ExitFacts& f, bool restarting);
+
+/// A restart that has come due: what the slot looks like now.
+struct DueRestart {
+  Role role = Role::Robot;
+  int strength = 0;              ///< the exited process's ownership strength (robots, supervisors)
+  bool restart_as_standby = false;  ///< robots: the module's `restart_as: standby` (never back as the primary)
+  bool primary_alive = false;    ///< robots: the arm has a live primary (strength 100)
+  int standby_strength = 0;      ///< next_standby_strength over the slot's live processes (below 1: none left)
+  int live_in_slot = 0;          ///< supervisors: live supervisors of the module
+  bool task_over = false;        ///< its module is done with its scenario's task
+};
+struct DueRestartDecision {
+  bool start = false;
+  int strength = 0;  ///< robots, supervisors: the strength it starts with
+  std::string why;   ///< not started: why (for the log)
+};
+/// A robot comes back as the primary (100) only if it was the primary, the module does not say
+/// `restart_as: standby`, and the arm has no live primary; else as a standby below the live ones. A supervisor
+/// comes back as a standby, and only while another supervisor serves the module (a restarted one with none
+/// serving would not know the plan: the module has failed then, see on_exit). A coordinator always comes back (as a
+/// standby that takes the queue state over). Nothing restarts in a module done with its task.
+DueRestartDecision due_restart(const DueRestart& f);
 
 }  // namespace tandem::launcher

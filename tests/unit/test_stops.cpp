@@ -812,8 +812,8 @@ TEST_CASE("a takeover older than the live leader's plan is refused by the follow
           } else {
             to_followers(*p, k);
           }
-          if (k < 1940) standby.on_plan(*p, now);  // from 1940 on the standby hears nothing of this leader
-          else if (p->epoch > 0) standby.on_plan(*p, now);  // a retake (a new writer's sample) it hears
+          // From 1940 on the standby hears nothing of this leader, but a retake (a new writer's sample) it hears.
+          if (k < 1940 || p->epoch > 0) standby.on_plan(*p, now);
         }
       }
       if (k == 2400 && leader_newest_held) to_followers(*leader_newest_held, k);

@@ -369,6 +369,21 @@ TEST_CASE("a robot that followed a takeover the world refused answers nothing un
   }
   CHECK(answered == 100);
   CHECK_FALSE(r.cut_off());
+
+  // The reverse: this robot heard a version the world never got (the leader died mid-send); the standby takes over
+  // with the world's version, which the world follows. The robot refuses it as older than its own, then follows it
+  // as soon as the world's samples say the world does: the world decides.
+  RobotCore ahead(m, 1, true, paper().transient);
+  tp::PlanFollower w2(m, true);
+  REQUIRE(ahead.offer_plan(v2) == tp::PlanFollower::Offer::Adopted);  // v2 reached this robot only
+  REQUIRE(w2.offer(v1) == tp::PlanFollower::Offer::Adopted);
+  tp::PlanData taker = stale;  // epoch 1 with version 1: what the world holds
+  REQUIRE(w2.offer(taker) == tp::PlanFollower::Offer::Adopted);
+  CHECK(ahead.offer_plan(taker) == tp::PlanFollower::Offer::Ignored);
+  ahead.world_plan(w2.rank(), w2.version(), 0, 300);
+  CHECK(ahead.adopted_refused() == 1);
+  CHECK_FALSE(ahead.behind());
+  CHECK(ahead.offer_plan(taker) == tp::PlanFollower::Offer::Ignored);  // now the same plan: a heartbeat
 }
 
 TEST_CASE("the world component rejects bad commands and tells a failover from a takeover", "[components]") {

@@ -833,7 +833,10 @@ TEST_CASE("a takeover older than the live leader's plan is refused by the follow
     } else if (c == Dies) {
       CHECK(world_log.find("was refused") != std::string::npos);
       CHECK(log.find("the world refuses this takeover") != std::string::npos);
-      CHECK(standby.no_plan());  // the launcher restarts the module; the object rests at t2's end meanwhile
+      // Not a lost plan (a leader made a newer one than this replica): the taker leaves the lead and comes back as a
+      // standby with a fresh participant (exit 6); the object rests at t2's end meanwhile.
+      CHECK(standby.deaf());
+      CHECK_FALSE(standby.no_plan());
       CHECK(world.rank().epoch == 0);
     } else {
       CHECK(log.find("waiting for the world") != std::string::npos);
@@ -842,6 +845,100 @@ TEST_CASE("a takeover older than the live leader's plan is refused by the follow
       CHECK_FALSE(leader.active());
       CHECK(world.rank().epoch == 1);
       CHECK(standby.plan().done() == 2);  // the taker started t2 itself (its assignment) and ended it
+    }
+  }
+}
+
+TEST_CASE("a leader whose reports lag does not retake over a takeover the world follows; a second standby with the newer plan leads instead of a stale taker", "[stops]") {
+  // From the review of the refusal rule. (1) The leader hears the stale taker before the world's reports of the
+  // meantime: its reports lag 60 ticks, the world adopted the taker (it lacked the leader's newest version). A retake
+  // on a timer would jump the references back to the leader's branch; the retake needs proof (the world follows the
+  // leader's rank in a version newer than the taker's). (2) The leader dies right after its newest plan; standby A
+  // missed it and takes over (refused), standby B has it: B does not follow A, takes over above A's epoch, and A
+  // steps down to B.
+  const ts::ModuleSetup& m = sosm_module();
+  for (const int c : {1, 2}) {
+    SupervisorCore leader(m, SupervisorOptions{"m1/supervisor", 100, true, 0.1}, 0);
+    SupervisorCore a(m, SupervisorOptions{"m1/supervisor@50", 50, true, 0.1}, 0);
+    SupervisorCore b(m, SupervisorOptions{"m1/supervisor@40", 40, true, 0.1}, 0);
+    tp::PlanFollower world(m, true);
+    std::string log;
+    leader.set_log([&](const std::string& l) { log += "leader: " + l + "\n"; });
+    a.set_log([&](const std::string& l) { log += "a: " + l + "\n"; });
+    b.set_log([&](const std::string& l) { log += "b: " + l + "\n"; });
+    std::vector<tandem::supervisor::ReportIn> reports;  // by tick / 10
+    std::optional<tp::PlanData> a_held, leader_held;
+    double max_step = 0.0;
+    tmo::Vec2 prev = world.plan().sample(0).pose.head<2>();
+    const long leader_dies = c == 2 ? 2000 : 1L << 40;
+    for (long k = 0; k < 9000; ++k) {
+      const int64_t now = k * kMs;
+      const tmo::Vec2 xy = world.plan().sample(k).pose.head<2>();
+      max_step = std::max(max_step, (xy - prev).norm());
+      prev = xy;
+      if (k % 10 != 0) continue;
+      tandem::supervisor::ReportIn r;
+      r.tick = k;
+      r.normal_min = 29.0;
+      r.object_xy = xy;
+      r.object_known = true;
+      r.world_rank = world.has_plan() ? world.rank() : tp::SupervisorRank{};
+      r.world_plan_version = world.version();
+      reports.push_back(r);
+      auto to_all = [&](const tp::PlanData& p, SupervisorCore* except) {
+        world.offer(p, nullptr, k);
+        for (SupervisorCore* s : {&leader, &a, &b}) {
+          if (s != except && (s != &leader || k <= leader_dies) && (s != &b || c == 2)) s->on_plan(p, now);
+        }
+      };
+      // Standby A: hears nothing of the leader from 1940; its takeover reaches the others from 2300 on.
+      a.on_report(r, now);
+      if (k == 500 || k == 2000) a.on_assignment(k == 500 ? 1 : 2, "t", {k == 500 ? 0.0 : -0.1, 0.8, 0.0, 1.0});
+      a.update(now);
+      if (auto p = a.take_plan()) {
+        if (k < 2300) a_held = *p;
+        else to_all(*p, &a);
+      }
+      if (k == 2300 && a_held) to_all(*a_held, &a);
+      if (c == 2) {  // standby B: only in case 2
+        b.on_report(r, now);
+        if (k == 500 || k == 2000) b.on_assignment(k == 500 ? 1 : 2, "t", {k == 500 ? 0.0 : -0.1, 0.8, 0.0, 1.0});
+        b.update(now);
+        if (auto p = b.take_plan()) to_all(*p, &b);
+      }
+      if (k <= leader_dies && (k < 1940 || k >= 2000)) {
+        // Case 1: the leader's reports lag 60 ticks from 2000 on.
+        const size_t lag = c == 1 && k >= 2000 ? 6 : 0;
+        leader.on_report(reports[reports.size() - 1 - lag], now);
+        if (k == 500) leader.on_assignment(1, "t", {0.0, 0.8, 0.0, 1.0});
+        if (k == 2000) leader.on_assignment(2, "t", {-0.1, 0.8, 0.0, 1.0});
+        leader.update(now);
+        if (auto p = leader.take_plan()) {
+          if (c == 1 && p->task_id == 2 && p->epoch == 0 && k < 2400) {
+            leader_held = *p;  // case 1: the world hears the leader's newest plan only after the takeover
+          } else {
+            world.offer(*p, nullptr, k);
+            if (c == 2) b.on_plan(*p, now);
+            if (k < 1940 || p->epoch > 0) a.on_plan(*p, now);
+          }
+        }
+      }
+      if (k == 2400 && leader_held) world.offer(*leader_held, nullptr, k);
+    }
+    INFO("case " << c << "\n" << log);
+    CHECK(max_step < 0.5e-3);  // no jump under the object, ever
+    if (c == 1) {
+      CHECK(log.find("retaking in epoch") == std::string::npos);
+      CHECK(log.find("leader: stepping down") != std::string::npos);
+      CHECK(a.active());
+      CHECK(world.rank().epoch == 1);
+    } else {
+      CHECK(log.find("b: m1/supervisor@50 took over in epoch 1 with plan version") != std::string::npos);
+      CHECK(b.active());
+      CHECK_FALSE(a.active());
+      CHECK(world.rank().epoch == 2);
+      CHECK(world.rank().strength == 40);
+      CHECK(b.plan().done() == 2);  // t2 ran to its end under B
     }
   }
 }

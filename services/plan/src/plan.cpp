@@ -151,6 +151,7 @@ PlanFollower::Offer PlanFollower::offer(const PlanData& p, std::string* why, lon
              std::to_string(p.epoch) + ", version " + std::to_string(p.version) + "; following epoch " +
              std::to_string(rank_.epoch) + ", version " + std::to_string(version_) + ")";
     }
+    if (!said) refused_ = p;
     refused_rank_ = r;
     refused_version_ = p.version;
     return Offer::Ignored;
@@ -171,6 +172,18 @@ PlanFollower::Offer PlanFollower::offer(const PlanData& p, std::string* why, lon
   rank_ = r;
   version_ = p.version;
   return Offer::Adopted;
+}
+
+bool PlanFollower::adopt_refused(const SupervisorRank& r, uint64_t version) {
+  if (refused_rank_.strength == 0 || refused_rank_.epoch != r.epoch || refused_rank_.strength != r.strength ||
+      refused_version_ != version || !r.outranks(rank_)) {
+    return false;
+  }
+  plan_.import_from(refused_);
+  rank_ = r;
+  version_ = version;
+  refused_rank_ = SupervisorRank{};
+  return true;
 }
 
 }  // namespace tandem::plan

@@ -18,6 +18,9 @@ void RobotCore::world_plan(const plan::SupervisorRank& world, uint64_t version, 
   // Without a plan a robot commands nothing (on_sample), so it cannot serve a stale one; it may still be
   // discovering the supervisor's writer (a robot that joins a running module): it gets kNoPlanTicks for that.
   const bool planless = !follower_.has_plan() && world.outranks(plan::SupervisorRank{});
+  // The world follows a takeover this robot refused as older than its own plan (the world had not heard the newer
+  // version): the world decides, the robot follows it too.
+  if (world.outranks(follower_.rank()) && follower_.adopt_refused(world, version)) ++adopted_refused_;
   const plan::SupervisorRank own = follower_.rank();
   const bool same_rank = world.epoch == own.epoch && world.strength == own.strength;
   const bool older = same_rank && version > follower_.version() && k - since > kVersionGraceTicks;

@@ -97,12 +97,27 @@ void SupervisorCore::on_plan(const plan::PlanData& p, int64_t now_ns) {
   max_epoch_ = std::max(max_epoch_, p.epoch);
   const plan::SupervisorRank r = p.rank();
   if (!r.outranks(rank_)) return;
+  if (!active_ && r.outranks(followed_) && p.version < plan_.version()) {
+    // A standby holds a newer version than another standby's takeover: the followers refuse that takeover (they hold
+    // the newer version too), so it neither replaces this replica nor counts as a live leader (this one takes over
+    // from a silent leader above its epoch, and the stale taker steps down to it).
+    if (stale_taker_tick_ < 0 || r.outranks(stale_taker_)) {
+      stale_taker_ = r;
+      stale_taker_version_ = p.version;
+      stale_taker_tick_ = std::max(heard_tick_, 0L);
+      log(p.supervisor_id + " took over in epoch " + std::to_string(p.epoch) + " with plan version " +
+          std::to_string(p.version) + ", older than this replica's version " + std::to_string(plan_.version()) +
+          ": not followed");
+    }
+    return;
+  }
   if (active_ && p.version < plan_.version()) {
     // A takeover older than this leader's plan: a standby that missed this one's newest version took over (this
     // one was only stalled). Followers that hold the newer version refuse it (plan::PlanFollower); update() steps
     // down if the world followed it all the same, and retakes above it if the world refused it.
     if (stale_taker_tick_ < 0 || r.outranks(stale_taker_)) {
       stale_taker_ = r;
+      stale_taker_version_ = p.version;
       stale_taker_tick_ = std::max(heard_tick_, 0L);
       char line[256];
       std::snprintf(line, sizeof line, "%s took over in epoch %llu with plan version %llu, older than this leader's "
@@ -245,14 +260,17 @@ void SupervisorCore::update(int64_t now_ns) {
       stronger_tick_ = std::max(stronger_tick_, heard_tick_);
       stale_taker_tick_ = -1;
     } else if (world_rank_.epoch == rank_.epoch && world_rank_.strength == rank_.strength &&
-               heard_tick_ - stale_taker_tick_ >= kRetakeTicks) {
-      // The world still follows this leader's plan kRetakeTicks after the stale takeover: it refused it. Retake in an
-      // epoch above it, with the newer plan: every follower adopts that, the stale taker steps down to it.
+               world_version_ > stale_taker_version_) {
+      // The world follows this leader's plan in a version newer than the taker's: it refuses the taker, now or when
+      // its plan arrives (proof, not a timer: a leader back from a stall hears the taker before the world's reports
+      // of the meantime). Retake in an epoch above it, with the newer plan: every follower adopts that, and the
+      // stale taker steps down to it.
       rank_.epoch = max_epoch_ + 1;
       max_epoch_ = rank_.epoch;
       plan_sent_version_ = ~0ULL;  // publish the plan now, under the new epoch
       confirmed_ = false;
-      refused_since_ = -1;
+      unconfirmed_since_ = -1;
+      refused_said_ = false;
       log("the world refused the older takeover (it follows this leader's plan version " + std::to_string(world_version_) +
           "); retaking in epoch " + std::to_string(rank_.epoch) + " with plan version " + std::to_string(plan_.version()));
       stale_taker_tick_ = -1;
@@ -323,7 +341,8 @@ void SupervisorCore::update(int64_t now_ns) {
     // (plan::PlanFollower refuses an older takeover).
     if (unheard || failed_) plan_.raise_version(world_version_);
     confirmed_ = world_rank_.strength == 0;
-    refused_since_ = -1;
+    unconfirmed_since_ = -1;
+    refused_said_ = false;
     stale_taker_tick_ = -1;
     plan_sent_version_ = ~0ULL;  // publish the plan now, under the new epoch
     latest_plan_.reset();
@@ -358,19 +377,23 @@ void SupervisorCore::update(int64_t now_ns) {
     // plan it holds (the leader this one took over from was alive, stalled, and had moved on), and a plan made on
     // top of a refused one would then be a newer version of a stale plan.
     const bool refused = rank_.outranks(world_rank_) && world_version_ > plan_.version();
-    if (refused && refused_since_ < 0) {
-      refused_since_ = heard_tick_;
-      refused_world_ = {world_rank_, world_version_};
-      log("the world refuses this takeover: it follows " + world_plan_text() + ", newer than this replica's version " +
-          std::to_string(plan_.version()) + "; planning nothing until its leader retakes");
-    } else if (!refused) {
-      refused_since_ = -1;
+    if (refused && !refused_said_) {
+      refused_said_ = true;
+      log("the world refuses this takeover (" + world_plan_text() + ", newer than this replica's version " +
+          std::to_string(plan_.version()) + "); planning nothing until its leader retakes");
     }
-    if (refused_since_ >= 0 && heard_tick_ - refused_since_ > kOutrankedTicks && !alone_refused_ && !deaf_) {
-      give_up(refused_world_, "no leader retook after the world refused this takeover, and the world's plan changed",
-              "the world refused this takeover (its plan is newer than this replica's) and no leader retook: the module "
-              "has lost its plan");
+    if (unconfirmed_since_ < 0) unconfirmed_since_ = heard_tick_;
+    if (heard_tick_ - unconfirmed_since_ > kOutrankedTicks && !alone_refused_ && !deaf_) {
+      // Refused (a leader made a newer plan than this replica: the module has a plan, this one lacks it) or never
+      // followed (the world does not hear this one's writer): not a lost plan, so not a module restart. The process
+      // exits 6 and comes back as a standby with a fresh participant; a live leader goes on, or another standby with
+      // the newer plan takes over (and if none has it, that one finds the plan lost).
+      deaf_ = true;
+      log(std::string(refused ? "no leader retook after the world refused this takeover"
+                              : "the world has not followed this takeover") +
+          " within " + std::to_string(kOutrankedTicks) + " ticks (" + world_plan_text() + "); leaving the lead");
     }
+    if (!o_.continuous && heard_tick_ + 1 >= m_.steps) world_done_ = true;
     publish_state(false, now_ns);
     return;
   }

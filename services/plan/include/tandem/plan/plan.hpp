@@ -157,6 +157,10 @@ class PlanFollower {
   /// plan). Rejected: malformed (`why` says how). With
   /// `now_tick` >= 0, a takeover plan's jump at that tick is measured (`jump()`, and `why` when over kMaxJump).
   Offer offer(const PlanData& p, std::string* why = nullptr, long now_tick = -1);
+  /// The world is the arbiter: a follower that refused an older takeover which the world follows all the same (the
+  /// world had not heard the newer version this follower holds) adopts it, so that the module follows one plan. True
+  /// if the last plan refused is of rank `r` and version `version` and was adopted now.
+  bool adopt_refused(const SupervisorRank& r, uint64_t version);
   /// The jump of the last plan of a new rank adopted, at the follower's tick then [m] (0: none measured).
   double jump() const { return jump_; }
   bool has_plan() const { return have_; }
@@ -173,6 +177,7 @@ class PlanFollower {
   double jump_ = 0.0;
   SupervisorRank refused_rank_{};  ///< the last older takeover refused (said once)
   uint64_t refused_version_ = 0;
+  PlanData refused_;  ///< that plan (valid while refused_rank_.strength != 0)
 };
 
 }  // namespace tandem::plan

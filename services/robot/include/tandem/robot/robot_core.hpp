@@ -77,6 +77,8 @@ class RobotCore {
   double workload() const { return workload_; }        ///< sum |tau| . |dq| [J]
   double tracking_error() const { return tracking_; }  ///< |x_d - x| (x, y) at the last tick [m]
   unsigned long long rejected() const { return rejected_; }
+  /// Takeovers this robot refused as older than its plan and then adopted because the world follows them.
+  unsigned long long adopted_refused() const { return adopted_refused_; }
   /// Ticks whose law output exceeded tau_max on some joint and was clipped; whether the last one was.
   unsigned long long saturated() const { return saturated_; }
   bool last_saturated() const { return last_saturated_; }
@@ -95,6 +97,7 @@ class RobotCore {
   model::Vec3 prev_q_ = model::Vec3::Zero();
   double wear_ = 0.0, workload_ = 0.0, tracking_ = 0.0;
   unsigned long long rejected_ = 0;
+  unsigned long long adopted_refused_ = 0;
   unsigned long long saturated_ = 0;
   bool last_saturated_ = false;
   bool behind_ = false;     ///< the world's plan outranks this robot's (world_rank)

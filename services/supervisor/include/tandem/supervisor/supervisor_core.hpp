@@ -65,9 +65,7 @@ class SupervisorCore {
   static constexpr long kTakeOverTicks = 20;
   /// A leader whose world follows a higher-ranked plan for this many ticks never heard that plan: it steps down.
   static constexpr long kOutrankedTicks = 500;
-  /// A leader that hears a takeover older than its own plan retakes once the world has gone on following its plan
-  /// this many ticks later (the world refused the takeover, plan::PlanFollower).
-  static constexpr long kRetakeTicks = 20;
+
   static constexpr int64_t kTakeOverAloneNs = 6'000'000'000;
   static constexpr double kAloneMatch = 2e-3;  ///< [m] object vs the initial plan for a takeover with no leader heard
   /// [m] Object vs this replica's plan at the world's tick, for a takeover from a silent leader (besides the version
@@ -175,10 +173,11 @@ class SupervisorCore {
   // A takeover's confirmation: a new leader plans nothing until the world follows its rank (confirmed_); the world
   // refuses a takeover older than the plan it holds (refused_since_: the first tick of a report that says so).
   bool confirmed_ = true;
-  long refused_since_ = -1;
-  WorldPlan refused_world_{};  ///< the world's plan when the refusal was first seen
+  long unconfirmed_since_ = -1;  ///< the first tick of a report while unconfirmed (-1: none yet)
+  bool refused_said_ = false;
   // Leading: the rank of a takeover older than this leader's plan, and the tick it was first heard (-1: none).
   plan::SupervisorRank stale_taker_{};
+  uint64_t stale_taker_version_ = 0;
   long stale_taker_tick_ = -1;
   std::optional<plan::PlanData> latest_plan_;
   // Publishing.

@@ -166,6 +166,32 @@ TEST_CASE("soak report: modules parked at start-up and during the run are listed
   CHECK(shed.find("None: the load always fitted") == std::string::npos);
 }
 
+TEST_CASE("soak checker: an arm served again by its own restarted robot (same label, new pid) counts as served") {
+  // Run 13: the serving m1/right@49 was killed; its restart, also m1/right@49, served the arm 2 s later, and the
+  // checker (by label) waited for another label for 136 s.
+  History h = quiet_history(60.0);
+  FaultRecord f = kill_left(20.0);
+  f.had_standby = false;  // no standby: the arm waits for the restart (bound: restart_s)
+  h.faults.push_back(f);
+  add_event(h, {20.2, Event::Type::Owners, "m1", "left=braked,right=m1/right", {{"left", ""}, {"right", "m1/right"}}});
+  add_event(h, {21.5, Event::Type::State, "m1/left", "2 333"});  // the restart: same label, new pid
+  add_event(h, {22.0, Event::Type::Owners, "m1", "left=m1/left,right=m1/right", {{"left", "m1/left"}, {"right", "m1/right"}}});
+  Bounds b;
+  b.restart_s = 10.0;
+  Verdict v = check(h, b);
+  INFO((find(v, "recovery") ? find(v, "recovery")->text : std::string()));
+  CHECK(find(v, "recovery") == nullptr);
+  // The same label before the restart is active (the old process's last word) does not count.
+  History old = quiet_history(60.0);
+  old.faults.push_back(f);
+  add_event(old, {20.2, Event::Type::Owners, "m1", "left=m1/left,right=m1/right", {{"left", "m1/left"}, {"right", "m1/right"}}});
+  add_event(old, {40.0, Event::Type::State, "m1/left", "2 333"});
+  add_event(old, {40.5, Event::Type::Owners, "m1", "left=m1/left,right=m1/right", {{"left", "m1/left"}, {"right", "m1/right"}}});
+  v = check(old, b);
+  REQUIRE(find(v, "recovery") != nullptr);
+  CHECK_THAT(find(v, "recovery")->text, Catch::Contains("no other robot served"));
+}
+
 TEST_CASE("soak checker: a slip is a violation at its time, after the fault before it") {
   History h = quiet_history(60.0);
   h.faults.push_back(kill_left(20.0));

@@ -251,11 +251,25 @@ class Judge {
 
   // ---- recovery evidence --------------------------------------------------------------------------------
   /// First time after t at which `module`'s world serves arm `robot` with neither `label` nor the brakes.
-  double arm_served_without(const std::string& module, const std::string& robot, const std::string& label, double t) const {
+  /// First time after t at which arm `robot` is served by another process than `label`'s pid `old_pid`: another
+  /// label, or the same label once a new process of it is active (a restart keeps its label: run 13 counted m1/right
+  /// unserved for 136 s while its restarted m1/right@49 served it).
+  double arm_served_without(const std::string& module, const std::string& robot, const std::string& label,
+                            long long old_pid, double t) const {
+    double back = -1.0;
+    for (const Event& e : h_.events) {
+      if (e.t < t || e.type != Event::Type::State || e.subject != label) continue;
+      if (state_of(e) == 2 && pid_of(e) != old_pid) {
+        back = e.t;
+        break;
+      }
+    }
     for (const Event& e : h_.events) {
       if (e.t < t || e.type != Event::Type::Owners || e.subject != module) continue;
       const auto it = e.owners.find(robot);
-      if (it != e.owners.end() && it->second != label && !it->second.empty()) return e.t;
+      if (it == e.owners.end() || it->second.empty()) continue;
+      if (it->second != label) return e.t;
+      if (back >= 0.0 && e.t >= back) return e.t;
     }
     return -1.0;
   }
@@ -346,7 +360,7 @@ class Judge {
         if (f.fault.target == Target::Robot || f.fault.target == Target::Standby) {
           if (served_before(module, robot, f.label, f.t)) {
             const double bound = f.had_standby ? b_.failover_s : b_.restart_s;
-            judge(inv, f, "kill robot: arm served again", arm_served_without(module, robot, f.label, f.t), f.t, bound,
+            judge(inv, f, "kill robot: arm served again", arm_served_without(module, robot, f.label, f.pid, f.t), f.t, bound,
                   "no other robot served " + arm);
           }
           judge(inv, f, "kill robot: replacement up", slot_active(arm, f.pid, f.t), f.t, b_.restart_s,
@@ -391,7 +405,7 @@ class Judge {
           }
         } else {
           if (f.had_standby && served_before(module, robot, f.label, f.t)) {
-            judge(inv, f, "unplug robot: hand-over", arm_served_without(module, robot, f.label, f.t), f.t, b_.failover_s,
+            judge(inv, f, "unplug robot: hand-over", arm_served_without(module, robot, f.label, f.pid, f.t), f.t, b_.failover_s,
                   "no other robot served " + arm);
           }
           if (f.end_t < 0.0) {

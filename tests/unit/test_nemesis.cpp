@@ -114,7 +114,7 @@ TEST_CASE("nemesis: faults fire at their time, a waiting one never releases a bu
   Recorder act;
   Nemesis n(s, {"m1", "m2"}, h, act);
   add_module(n, "m1", 100, 0.0);
-  run(n, 0.0, 25.0);
+  run(n, 0.0, 5.0 + Nemesis::kTargetWaitS + 5.0);
   REQUIRE(h.faults.size() == 4);
   // The kills: at 6, 7 and 9 s (within one pass), each a different process.
   std::vector<double> kill_times;
@@ -126,11 +126,11 @@ TEST_CASE("nemesis: faults fire at their time, a waiting one never releases a bu
   CHECK(kill_times[1] == Approx(7.0).margin(0.011));
   CHECK(kill_times[2] == Approx(9.0).margin(0.011));
   CHECK(act.of("kill").size() == 3);
-  // The unplug waited 15 s and was skipped: no second module came.
+  // The unplug waited kTargetWaitS and was skipped: no second module came.
   const FaultRecord& unplug = h.faults.back();
   CHECK(unplug.fault.kind == FaultKind::Unplug);
   CHECK(unplug.skipped);
-  CHECK(unplug.t == Approx(20.0).margin(0.011));
+  CHECK(unplug.t == Approx(5.0 + Nemesis::kTargetWaitS).margin(0.011));
   CHECK(act.of("unplug").empty());
 }
 
@@ -177,6 +177,8 @@ TEST_CASE("nemesis: one module always runs, and a settling module is left alone"
   CHECK(n.candidates(Target::World, 0.5).empty());  // the only module
   CHECK(n.candidates(Target::Robot, 0.5).empty());  // settling: its world turned active at 0 s
   heard(n, 3.5);
+  CHECK(n.candidates(Target::World, 3.5).empty());  // a kill: the only module always runs
+  CHECK(n.candidates(Target::World, 3.5, FaultKind::Stall) == std::vector<std::string>{"m1/world"});  // a stall takes nothing out
   CHECK(n.candidates(Target::Robot, 3.5).size() == 2);
   CHECK(n.candidates(Target::Standby, 3.5).size() == 2);
   CHECK(n.candidates(Target::Robot, 5.1).empty());  // not heard for 1.6 s

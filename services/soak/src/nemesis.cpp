@@ -21,7 +21,7 @@ void Nemesis::on_owners(const std::string& module, std::map<std::string, std::st
 void Nemesis::step(double t) {
   while (next_fault_ < sched_.faults.size() && sched_.faults[next_fault_].at_s <= t && !stopping_) {
     const Fault& f = sched_.faults[next_fault_++];
-    if (f.kind != FaultKind::Hog && f.label.empty() && candidates(f.target, t).empty()) {
+    if (f.kind != FaultKind::Hog && f.label.empty() && candidates(f.target, t, f.kind).empty()) {
       waiting_.push_back(&f);
     } else {
       fire(f, t);
@@ -32,7 +32,7 @@ void Nemesis::step(double t) {
     if (t - f.at_s >= kTargetWaitS) {
       fire(f, t);  // recorded as skipped if there is still no target
       it = waiting_.erase(it);
-    } else if (t - last_fired_ >= kWaitedGapS && !candidates(f.target, t).empty()) {
+    } else if (t - last_fired_ >= kWaitedGapS && !candidates(f.target, t, f.kind).empty()) {
       fire(f, t);
       waiting_.erase(it);
       break;  // one at a time
@@ -96,11 +96,12 @@ bool Nemesis::settling(const std::string& module, double t) const {
   return it != module_started_.end() && t - it->second < kSettleS;
 }
 
-std::vector<std::string> Nemesis::candidates(Target target, double t) const {
+std::vector<std::string> Nemesis::candidates(Target target, double t, FaultKind kind) const {
   std::vector<std::string> c;
   if (target == Target::World || target == Target::Module) {
     const auto up = modules_up(t);
-    if (up.size() < 2) return c;  // one module always runs
+    const bool takes_out = !(target == Target::World && kind == FaultKind::Stall);
+    if (up.empty() || (takes_out && up.size() < 2)) return c;  // one module always runs
     for (const auto& m : up) {
       if (!settling(m, t)) c.push_back(target == Target::World ? m + "/world" : m);
     }
@@ -140,7 +141,7 @@ void Nemesis::fire(const Fault& f, double t) {
   }
   std::string target = f.label;
   if (target.empty()) {
-    const auto c = candidates(f.target, t);
+    const auto c = candidates(f.target, t, f.kind);
     if (c.empty()) {
       r.skipped = true;
       r.note = "no live " + std::string(name(f.target)) + " within " + std::to_string(std::lround(kTargetWaitS)) + " s";

@@ -1,5 +1,7 @@
 #include "tandem/soak/report.hpp"
 
+#include "tandem/soak/nemesis.hpp"
+
 #include <sys/stat.h>
 
 #include <algorithm>
@@ -290,7 +292,7 @@ std::string summary_text(const RunInfo& info, const History& h, const Bounds& b,
     << v.slip_events << ".\n";
   int carried = 0;
   for (const auto& [k, n] : v.faults_by_kind) carried += n;
-  o << "\n## Faults\n\n" << carried << " carried out, " << v.skipped << " skipped (no live target within 15 s of when due).\n\n";
+  o << "\n## Faults\n\n" << carried << " carried out, " << v.skipped << " skipped (no live target within " << std::lround(Nemesis::kTargetWaitS) << " s of when due).\n\n";
   o << "| fault | count |\n|---|---:|\n";
   for (const auto& [k, n] : v.faults_by_kind) o << "| " << k << " | " << n << " |\n";
   o << "\n## Recovery times (measured from the recording)\n\n| recovery | n | p50 s | p99 s | max s |\n|---|---:|---:|---:|---:|\n";

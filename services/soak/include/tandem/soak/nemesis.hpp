@@ -66,7 +66,9 @@ class NemesisActions {
 
 class Nemesis {
  public:
-  static constexpr double kTargetWaitS = 15.0;  ///< a fault with no target waits this long, then is skipped
+  /// A fault with no target waits this long, then is skipped: longer than admission parks a module at start-up (it
+  /// comes back after 30 s of calm), so that a CI soak's world kill does not depend on the machine's calibration.
+  static constexpr double kTargetWaitS = 45.0;
   static constexpr double kWaitedGapS = 1.0;    ///< a fault that waited fires at least this long after the last
   static constexpr double kSettleS = 3.0;       ///< a module is left alone this long after its world turns active
   static constexpr double kSilentS = 1.5;       ///< a process not heard this long is not a candidate
@@ -90,8 +92,10 @@ class Nemesis {
   // ---- for the host's report and progress ----
   const std::map<std::string, ProcessView>& processes() const { return procs_; }
   size_t waiting() const { return waiting_.size(); }
-  /// Targets a fault of this kind could hit now (process labels; modules for unplug module).
-  std::vector<std::string> candidates(Target target, double t) const;
+  /// Targets a fault of this kind could hit now (process labels; modules for unplug module). A kill of a world or an
+  /// unplug of a module needs two modules up (one always runs); a stall of a world takes no module out, so the only
+  /// one running may be stalled (a CI soak skipped its world stall while admission had parked the other module).
+  std::vector<std::string> candidates(Target target, double t, FaultKind kind = FaultKind::Kill) const;
 
  private:
   bool live(const ProcessView& p, double t) const;

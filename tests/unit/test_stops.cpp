@@ -154,6 +154,19 @@ double a_max(const ts::ModuleSetup& m) {
   return tmo::stop_deceleration_bound(m.reference_force, m.safe_grasp_force, o.mass, o.mu_s, m.plant.g0);
 }
 
+// The world's report at tick k as the supervisors hear it, with the object where the world's plan has it (the robots
+// hold it there).
+tandem::supervisor::ReportIn report_of(const tp::PlanFollower& world, long k) {
+  tandem::supervisor::ReportIn r;
+  r.tick = k;
+  r.normal_min = 29.0;
+  r.object_xy = world.plan().sample(k).pose.head<2>();
+  r.object_known = true;
+  r.world_rank = world.has_plan() ? world.rank() : tp::SupervisorRank{};
+  r.world_plan_version = world.version();
+  return r;
+}
+
 }  // namespace
 
 TEST_CASE("the stop's deceleration bound follows from eq. (14) and the grasp's squeeze", "[stops]") {
@@ -772,13 +785,7 @@ TEST_CASE("a takeover older than the live leader's plan is refused by the follow
       max_step = std::max(max_step, (xy - prev).norm());
       prev = xy;
       if (k % 10 != 0) continue;
-      tandem::supervisor::ReportIn r;
-      r.tick = k;
-      r.normal_min = 29.0;
-      r.object_xy = xy;  // the robots hold the object where the world's plan has it
-      r.object_known = true;
-      r.world_rank = world.has_plan() ? world.rank() : tp::SupervisorRank{};
-      r.world_plan_version = world.version();
+      const tandem::supervisor::ReportIn r = report_of(world, k);
       // The standby: it hears the world's report of this tick before the leader's plan of this tick.
       standby.on_report(r, now);
       standby.update(now);
@@ -877,13 +884,7 @@ TEST_CASE("a leader whose reports lag does not retake over a takeover the world 
       max_step = std::max(max_step, (xy - prev).norm());
       prev = xy;
       if (k % 10 != 0) continue;
-      tandem::supervisor::ReportIn r;
-      r.tick = k;
-      r.normal_min = 29.0;
-      r.object_xy = xy;
-      r.object_known = true;
-      r.world_rank = world.has_plan() ? world.rank() : tp::SupervisorRank{};
-      r.world_plan_version = world.version();
+      const tandem::supervisor::ReportIn r = report_of(world, k);
       reports.push_back(r);
       auto to_all = [&](const tp::PlanData& p, SupervisorCore* except) {
         world.offer(p, nullptr, k);

@@ -101,10 +101,7 @@ void SupervisorCore::on_plan(const plan::PlanData& p, int64_t now_ns) {
     // A standby holds a newer version than another standby's takeover: the followers refuse that takeover (they hold
     // the newer version too), so it neither replaces this replica nor counts as a live leader (this one takes over
     // from a silent leader above its epoch, and the stale taker steps down to it).
-    if (stale_taker_tick_ < 0 || r.outranks(stale_taker_)) {
-      stale_taker_ = r;
-      stale_taker_version_ = p.version;
-      stale_taker_tick_ = std::max(heard_tick_, 0L);
+    if (note_stale_taker(p)) {
       log(p.supervisor_id + " took over in epoch " + std::to_string(p.epoch) + " with plan version " +
           std::to_string(p.version) + ", older than this replica's version " + std::to_string(plan_.version()) +
           ": not followed");
@@ -115,10 +112,7 @@ void SupervisorCore::on_plan(const plan::PlanData& p, int64_t now_ns) {
     // A takeover older than this leader's plan: a standby that missed this one's newest version took over (this
     // one was only stalled). Followers that hold the newer version refuse it (plan::PlanFollower); update() steps
     // down if the world followed it all the same, and retakes above it if the world refused it.
-    if (stale_taker_tick_ < 0 || r.outranks(stale_taker_)) {
-      stale_taker_ = r;
-      stale_taker_version_ = p.version;
-      stale_taker_tick_ = std::max(heard_tick_, 0L);
+    if (note_stale_taker(p)) {
       char line[256];
       std::snprintf(line, sizeof line, "%s took over in epoch %llu with plan version %llu, older than this leader's "
                     "version %llu; waiting for the world to refuse it (then retaking) or follow it (then stepping down)",
@@ -437,6 +431,14 @@ void SupervisorCore::update(int64_t now_ns) {
     log("drained; the module leaves");
     leaving_ = true;
   }
+}
+
+bool SupervisorCore::note_stale_taker(const plan::PlanData& p) {
+  if (stale_taker_tick_ >= 0 && !p.rank().outranks(stale_taker_)) return false;  // already noted
+  stale_taker_ = p.rank();
+  stale_taker_version_ = p.version;
+  stale_taker_tick_ = std::max(heard_tick_, 0L);
+  return true;
 }
 
 bool SupervisorCore::behind_world() const {

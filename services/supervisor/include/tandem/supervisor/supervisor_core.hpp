@@ -126,6 +126,8 @@ class SupervisorCore {
   /// that follows a higher rank is judged by the object's position: a leader that missed a takeover retakes.) A replica checked by the object's position alone can be a version behind
   /// at a task's start, when the object has not moved yet.
   bool behind_world() const;
+  /// Records a takeover older than this one's plan (stale_taker_*); true if it is a new one (to be logged).
+  bool note_stale_taker(const plan::PlanData& p);
   struct WorldPlan {
     plan::SupervisorRank rank{};
     uint64_t version = 0;

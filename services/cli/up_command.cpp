@@ -1579,6 +1579,21 @@ int up_command(const std::vector<std::string>& args) {
   ::sigaction(SIGINT, &sa, nullptr);
   ::sigaction(SIGTERM, &sa, nullptr);
 
+  // Real time: the per-tick processes raise themselves to SCHED_FIFO once active; the launcher and everything it
+  // starts run at kServiceNice meanwhile (before any thread or child exists, so that all inherit it).
+  if (d.timing == "realtime" && d.realtime_priority > 0) {
+    std::string why;
+    if (launcher::fifo_permitted(d.realtime_priority, why)) {
+      L.rt_priority_ = d.realtime_priority;
+      (void)launcher::raise_service_priority(why);  // permitted wherever SCHED_FIFO is
+    } else {
+      std::printf("tandem up: note: real-time priority %d not permitted here (%s); the per-tick processes run "
+                  "with normal scheduling and may miss more ticks (run as root, or grant CAP_SYS_NICE or an "
+                  "RLIMIT_RTPRIO; 'realtime_priority: 0' silences this)\n",
+                  d.realtime_priority, why.c_str());
+    }
+  }
+
   // discovery: server. The launcher starts the Discovery Server first (a child like the others: it dies with
   // the launcher) and makes itself and every process it starts a client of it.
   const std::time_t launcher_started = std::time(nullptr) - 1;  // shared-memory files of this run: newer
@@ -1658,17 +1673,6 @@ int up_command(const std::vector<std::string>& args) {
   launcher_status.msg().deployment(d.name);
   launcher_status.set(runtime::Lifecycle::Active, "");
   LiveView view(d.name);
-  if (d.timing == "realtime" && d.realtime_priority > 0) {
-    std::string why;
-    if (launcher::fifo_permitted(d.realtime_priority, why)) {
-      L.rt_priority_ = d.realtime_priority;
-    } else {
-      std::printf("tandem up: note: real-time priority %d not permitted here (%s); the per-tick processes run "
-                  "with normal scheduling and may miss more ticks (run as root, or grant CAP_SYS_NICE or an "
-                  "RLIMIT_RTPRIO; 'realtime_priority: 0' silences this)\n",
-                  d.realtime_priority, why.c_str());
-    }
-  }
   if (!d.hosts.empty()) {
     std::vector<std::string> names;
     for (const auto& h : d.hosts) names.push_back(h.name);

@@ -685,6 +685,8 @@ TEST_CASE("supervisor component: a standby takes over when the leader's plans st
   standby.set_log([&](const std::string& l) { log += l + "\n"; });
   CHECK(leader.active());
   CHECK_FALSE(standby.active());
+  // Its status says whether it holds the leader's plan (tandem soak tells a warm standby from a cold one by it).
+  CHECK(standby.take_detail() == std::optional<std::string>(SupervisorCore::kColdDetail));
   leader.on_assignment(1, "out", {0.0, 0.8, 0.0, 1.0});
   standby.on_assignment(1, "out", {0.0, 0.8, 0.0, 1.0});
   long k = 0;
@@ -699,6 +701,7 @@ TEST_CASE("supervisor component: a standby takes over when the leader's plans st
   }
   REQUIRE_FALSE(standby.active());
   CHECK(standby.plan().task_id() == 1);
+  CHECK(standby.take_detail() == std::optional<std::string>(SupervisorCore::kReplicaDetail));
   // The leader dies: no plan for 50 ms while the world ticks on.
   for (; k < 500; k += 10) {
     standby.on_report(report_at(k), k * ms);
@@ -721,6 +724,7 @@ TEST_CASE("supervisor component: a standby takes over when the leader's plans st
   leader.update(k * ms);
   CHECK_FALSE(leader.active());
   CHECK(llog.find("stepping down: a higher-ranked supervisor leads (m1/supervisor@50, epoch 1)") != std::string::npos);
+  CHECK(leader.take_detail() == std::optional<std::string>(SupervisorCore::kReplicaDetail));
   leader.update((k + 30) * ms);
   CHECK_FALSE(leader.take_plan().has_value());
   tp::PlanFollower robot(m, true);

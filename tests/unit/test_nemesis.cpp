@@ -272,3 +272,41 @@ TEST_CASE("nemesis: calm continues every stalled process and stops every hog") {
   CHECK(act.of("resume").size() == 1);
   CHECK(h.faults.size() == 2);
 }
+
+TEST_CASE("nemesis: a supervisor kill records whether a standby held the leader's plan") {
+  // Run 13: m1's only standby supervisor had been restarted 1.9 s before its leader's kill and never heard its plan;
+  // the checker judges such a kill by the lost-plan path's bound, and a warm standby's by the takeover bound.
+  Schedule s;
+  s.duration_s = 60;
+  s.faults = {fault(5.0, FaultKind::Kill, Target::Supervisor), fault(10.0, FaultKind::Kill, Target::Supervisor)};
+  History h;
+  Recorder act;
+  Nemesis n(s, {"m1"}, h, act);
+  add_module(n, "m1", 100, 0.0);
+  ProcessView standby;
+  standby.role = "supervisor";
+  standby.module = "m1";
+  standby.serving = "standby";
+  standby.pid = 150;
+  standby.state = 2;
+  standby.last_t = 0.0;
+  standby.replica = false;  // started, not yet a replica
+  n.on_status("m1/supervisor@50", standby);
+  run(n, 0.0, 5.5);
+  REQUIRE(h.faults.size() == 1);
+  CHECK(h.faults[0].label == "m1/supervisor");
+  CHECK_FALSE(h.faults[0].had_standby);
+  // The standby takes over; a new standby comes that holds the plan.
+  standby.serving = "primary";
+  standby.last_t = 5.5;
+  n.on_status("m1/supervisor@50", standby);
+  ProcessView warm = standby;
+  warm.serving = "standby";
+  warm.pid = 160;
+  warm.replica = true;
+  n.on_status("m1/supervisor@49", warm);
+  run(n, 5.5, 10.5);
+  REQUIRE(h.faults.size() == 2);
+  CHECK(h.faults[1].label == "m1/supervisor@50");
+  CHECK(h.faults[1].had_standby);
+}

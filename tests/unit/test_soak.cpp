@@ -370,3 +370,40 @@ TEST_CASE("svg: a plot has its series, reference lines and escaped text") {
   CHECK(ticks.back() <= 97.0);
   CHECK(ticks[1] - ticks[0] == Approx(20.0));
 }
+
+TEST_CASE("soak checker: a supervisor kill with no warm standby is judged by the lost-plan bound") {
+  auto kill_leader = [](bool warm) {
+    FaultRecord f;
+    f.fault.index = 1;
+    f.fault.kind = FaultKind::Kill;
+    f.fault.target = Target::Supervisor;
+    f.t = 20.0;
+    f.label = "m1/supervisor";
+    f.module = "m1";
+    f.pid = 111;
+    f.had_standby = warm;
+    return f;
+  };
+  // Another supervisor serves 6.2 s later (run 13: the standby found the plan lost, the module restarted).
+  auto history = [&](bool warm, double after) {
+    History h = quiet_history(60.0);
+    h.faults.push_back(kill_leader(warm));
+    add_event(h, {20.0 + after, Event::Type::Serving, "m1/supervisor@50", "primary"});
+    return h;
+  };
+  const Bounds b{};
+  // A warm standby: 2 s.
+  Verdict v = check(history(true, 6.2), b);
+  REQUIRE(find(v, "recovery") != nullptr);
+  CHECK_THAT(find(v, "recovery")->text, Catch::Contains("within 2.0 s"));
+  CHECK(find(check(history(true, 0.06), b), "recovery") == nullptr);
+  // None: the lost-plan path's bound, which holds 6.2 s and still fails a module that never comes back.
+  v = check(history(false, 6.2), b);
+  CHECK(find(v, "recovery") == nullptr);
+  bool cold = false;
+  for (const auto& r : v.recoveries) cold = cold || (r.kind == "kill supervisor (no warm standby): another serves" && r.seconds == Approx(6.2));
+  CHECK(cold);
+  v = check(history(false, 16.0), b);
+  REQUIRE(find(v, "recovery") != nullptr);
+  CHECK_THAT(find(v, "recovery")->text, Catch::Contains("within 15.0 s"));
+}

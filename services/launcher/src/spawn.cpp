@@ -2,6 +2,7 @@
 
 #include <sched.h>
 #include <sys/prctl.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -67,6 +68,15 @@ bool fifo_permitted(int priority, std::string& why) {
   }
   sp.sched_priority = 0;
   (void)::sched_setscheduler(0, SCHED_OTHER, &sp);
+  return true;
+}
+
+bool raise_service_priority(std::string& why) {
+  // Linux keeps a niceness per thread: PRIO_PROCESS with 0 is the calling thread, and new threads inherit it.
+  if (::setpriority(PRIO_PROCESS, 0, kServiceNice) != 0) {
+    why = std::strerror(errno);
+    return false;
+  }
   return true;
 }
 

@@ -366,8 +366,9 @@ class Judge {
           judge(inv, f, "kill robot: replacement up", slot_active(arm, f.pid, f.t), f.t, b_.restart_s,
                 "no replacement robot for " + arm + " was active");
         } else if (f.fault.target == Target::Supervisor) {
-          judge(inv, f, "kill supervisor: another serves", serving_primary(module + "/supervisor", f.label, f.t), f.t,
-                b_.supervisor_s, "no other supervisor of " + module + " served");
+          judge(inv, f, f.had_standby ? "kill supervisor: another serves" : "kill supervisor (no warm standby): another serves",
+                serving_primary(module + "/supervisor", f.label, f.t), f.t,
+                f.had_standby ? b_.supervisor_s : b_.supervisor_cold_s, "no other supervisor of " + module + " served");
         } else if (f.fault.target == Target::Coordinator) {
           judge(inv, f, "kill coordinator: another serves", serving_primary("coordinator", f.label, f.t), f.t,
                 b_.coordinator_s, "no other coordinator served");

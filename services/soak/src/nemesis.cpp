@@ -127,6 +127,15 @@ int Nemesis::live_robots_of(const std::string& arm, double t) const {
   return n;
 }
 
+int Nemesis::warm_standbys_of(const std::string& module, const std::string& except, double t) const {
+  int n = 0;
+  for (const auto& [label, p] : procs_) {
+    n += p.role == "supervisor" && p.module == module && label != except && p.state == 2 && p.serving == "standby" &&
+         p.replica && live(p, t);
+  }
+  return n;
+}
+
 void Nemesis::fire(const Fault& f, double t) {
   FaultRecord r;
   r.fault = f;
@@ -173,6 +182,7 @@ void Nemesis::fire(const Fault& f, double t) {
                                                     : Target::Standby;
     }
     if (it->second.role == "robot") r.had_standby = live_robots_of(target.substr(0, target.find('@')), t) > 1;
+    if (it->second.role == "supervisor") r.had_standby = warm_standbys_of(r.module, target, t) > 0;
   } else {
     const auto it = procs_.find(target + "/world");
     r.pid = it != procs_.end() ? it->second.pid : 0;

@@ -13,6 +13,7 @@ using plan::TaskStateCode;
 SupervisorCore::SupervisorCore(const sim::ModuleSetup& m, const SupervisorOptions& o, int64_t now_ns)
     : m_(m), o_(o), plan_(m, o.continuous), active_(o.strength == plan::kPrimaryStrength), rank_{0, o.strength},
       t_start_(now_ns), last_report_(now_ns), last_stronger_(now_ns), last_state_sent_(now_ns) {
+  if (!active_) out_detail_ = kColdDetail;
   publish_state(true, now_ns);
 }
 
@@ -131,7 +132,12 @@ void SupervisorCore::on_plan(const plan::PlanData& p, int64_t now_ns) {
   const bool newer = !latest_plan_ || r.outranks(latest_plan_->rank()) || p.version != latest_plan_->version;
   if (!newer) return;  // a heartbeat of the plan already adopted
   latest_plan_ = p;
-  if (!active_ && !adopt(p, r.outranks(followed_))) leaving_ = true;
+  if (!active_ && !adopt(p, r.outranks(followed_))) {
+    leaving_ = true;
+  } else if (!active_ && !replica_) {
+    replica_ = true;
+    out_detail_ = kReplicaDetail;
+  }
 }
 
 void SupervisorCore::on_request(Request r) {
@@ -350,6 +356,7 @@ void SupervisorCore::update(int64_t now_ns) {
                   static_cast<unsigned long long>(plan_.version()), static_cast<unsigned long long>(plan_.task_id()),
                   plan_.running() ? "running" : "not running", static_cast<unsigned long long>(plan_.done()));
     log(line);
+    out_detail_ = "leading in epoch " + std::to_string(rank_.epoch);
     reported_ = TaskStateCode::Idle;
     publish_state(true, now_ns);
   } else if (active_ && step_down) {
@@ -364,6 +371,8 @@ void SupervisorCore::update(int64_t now_ns) {
       leaving_ = true;
       return;
     }
+    replica_ = latest_plan_.has_value();
+    out_detail_ = replica_ ? kReplicaDetail : kColdDetail;
   }
   if (heard_tick_ < 0 || suspect_from_ >= 0) return;
   if (active_ && !confirmed_) {

@@ -64,7 +64,9 @@ struct FaultRecord {
   bool skipped = false;          ///< no candidate was alive
   std::string note;              ///< why skipped, or what else happened (re-plugged at ...)
   double end_t = -1.0;           ///< stall: SIGCONT; hog: its end; unplug / kill world: plugged in again
-  bool had_standby = true;       ///< robot faults: another live robot served the arm when it fired
+  /// Robot faults: another live robot served the arm when it fired. Supervisor faults: another live supervisor
+  /// of the module was a standby holding the leader's plan (a warm replica).
+  bool had_standby = true;
 };
 
 struct RssSample {

@@ -32,6 +32,7 @@ struct ProcessView {
   std::string role;     ///< world | supervisor | robot | coordinator
   std::string module;   ///< "" for the coordinator
   std::string serving;  ///< supervisor, coordinator: "primary" | "standby"
+  bool replica = false; ///< a standby supervisor that holds its leader's plan (a warm replica: it can take over)
   long long pid = 0;
   int state = 0;        ///< lifecycle: 2 active, 3 finalized, 4 error
   double last_t = -1.0; ///< when its status was last heard [s]
@@ -103,6 +104,8 @@ class Nemesis {
   std::vector<std::string> modules_up(double t) const;
   bool settling(const std::string& module, double t) const;
   int live_robots_of(const std::string& arm, double t) const;
+  /// Live standby supervisors of `module` other than `except` that hold the leader's plan (ProcessView::replica).
+  int warm_standbys_of(const std::string& module, const std::string& except, double t) const;
   void fire(const Fault& f, double t);
   void hog(const Fault& f, FaultRecord& r, size_t index);
   void later(double at, std::function<void(double)> fn) { pending_.push_back({at, std::move(fn)}); }

@@ -49,6 +49,12 @@ struct StateOut {
 
 class SupervisorCore {
  public:
+  /// A standby's status detail once it holds a leader's plan (a warm replica: a takeover continues that plan), and
+  /// before (a takeover finds the plan lost unless the object rests where the initial plan has it). Observers
+  /// (tandem soak) tell the two apart by them.
+  static constexpr const char* kReplicaDetail = "standby: a replica of the leader's plan";
+  static constexpr const char* kColdDetail = "standby: no leader's plan heard yet";
+
   static constexpr double kPauseRamp = 0.3;   ///< requested pause / resume [s]
   /// Every stop of the path (overload hold, an arm without a controller, an arm braked) ramps the rate to 0
   /// over at least this long, longer when the path is fast: the ramp's peak deceleration 1.5 v / T stays
@@ -192,6 +198,7 @@ class SupervisorCore {
   std::optional<plan::PlanData> out_plan_;
   std::optional<StateOut> out_state_;
   std::optional<std::string> out_detail_;
+  bool replica_ = false;  ///< a standby that has adopted a leader's plan (its status says so: kReplicaDetail)
 };
 
 }  // namespace tandem::supervisor

@@ -275,7 +275,7 @@ TEST_CASE("soak checker: failover and restart are measured from the recording, l
   CHECK(v.ok());
   bool failover = false, restart = false;
   for (const auto& r : v.recoveries) {
-    if (r.kind == "kill robot: arm served again") failover = r.seconds == Approx(0.021);
+    if (r.kind == "kill robot: arm served again (standby)") failover = r.seconds == Approx(0.021);
     if (r.kind == "kill robot: replacement up") restart = r.seconds == Approx(1.8);
   }
   CHECK(failover);
@@ -289,7 +289,7 @@ TEST_CASE("soak checker: failover and restart are measured from the recording, l
   const Violation* x = find(v, "recovery");
   REQUIRE(x != nullptr);
   CHECK(x->fault == 1);
-  CHECK_THAT(x->text, Catch::Contains("no other robot served m1/left within 0.5 s") && Catch::Contains("after 0.9 s"));
+  CHECK_THAT(x->text, Catch::Contains("no other robot served m1/left within 0.2 s") && Catch::Contains("after 0.9 s"));
 
   // The brakes on the arm are no service: the arm is served again only by a robot.
   History braked = quiet_history(60.0);

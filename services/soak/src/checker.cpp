@@ -360,7 +360,8 @@ class Judge {
         if (f.fault.target == Target::Robot || f.fault.target == Target::Standby) {
           if (served_before(module, robot, f.label, f.t)) {
             const double bound = f.had_standby ? b_.failover_s : b_.restart_s;
-            judge(inv, f, "kill robot: arm served again", arm_served_without(module, robot, f.label, f.pid, f.t), f.t, bound,
+            judge(inv, f, f.had_standby ? "kill robot: arm served again (standby)" : "kill robot: arm served again (restart)",
+                  arm_served_without(module, robot, f.label, f.pid, f.t), f.t, bound,
                   "no other robot served " + arm);
           }
           judge(inv, f, "kill robot: replacement up", slot_active(arm, f.pid, f.t), f.t, b_.restart_s,

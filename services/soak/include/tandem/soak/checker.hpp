@@ -12,7 +12,10 @@ namespace tandem::soak {
 
 /// The bounds the checker holds the run to (documented in docs/soak.md, printed in the report).
 struct Bounds {
-  double failover_s = 0.5;       ///< kill/unplug of the robot serving an arm (with a standby): arm served again
+  /// Kill/unplug of the robot serving an arm, with a standby: the arm is served again. The world fails over after
+  /// 10 silent ticks (10 ms); the observer sees it in the world's next report (every 10 ticks). Five soak-small hours
+  /// (2026-11-25/26) measured p50 20 ms and max 40-160 ms over 1050 kills and 166 unplugs with a standby.
+  double failover_s = 0.2;
   double restart_s = 10.0;       ///< a killed robot's replacement is up (restart policy with backoff)
   double supervisor_s = 2.0;     ///< kill of the serving supervisor with a warm standby: another one serves
   /// ... with no standby that held the leader's plan (none, or one restarted and not yet a replica: it must not

@@ -6,27 +6,23 @@
 // coordinators by policy (intensity limit, doubling backoff) and gives up on one that keeps failing; with a
 // coordinator, a module whose world or supervisor dies is failed and stopped while the others go on (the
 // coordinator re-plans its task). Live commands arrive over DDS (tandem plug/unplug/kill/down) and are
-// carried out here: docs/failure-model.md.
+// carried out here: docs/failure-model.md. The supervision itself is launcher::Supervisor (services/launcher:
+// events in, actions out); this file wires it to DDS, to the processes and to the clock.
 #include "up_command.hpp"
 
-#include <sched.h>
 #include <signal.h>
-#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <tandemPubSubTypes.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <array>
-#include <cstdarg>
 #include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <cstring>
 #include <ctime>
-#include <deque>
 #include <fstream>
 #include <iterator>
 #include <map>
@@ -41,18 +37,13 @@
 #include "live_view.hpp"
 #include "tandem/launcher/capacity.hpp"
 #include "tandem/launcher/drain_watch.hpp"
-#include "tandem/launcher/exit_rules.hpp"
-#include "tandem/launcher/plug_rules.hpp"
-#include "tandem/launcher/governor.hpp"
-#include "tandem/launcher/host_watch.hpp"
-#include "tandem/launcher/restart_policy.hpp"
 #include "tandem/launcher/spawn.hpp"
+#include "tandem/launcher/supervisor.hpp"
 #include "tandem/dds/bus.hpp"
 #include "tandem/runtime/deployment.hpp"
 #include "tandem/runtime/security.hpp"
 #include "tandem/runtime/role.hpp"
 #include "tandem/runtime/shm_clean.hpp"
-#include "tandem/plan/plan.hpp"
 #include "tandem/runtime/status.hpp"
 #include "tandem/model/controller.hpp"
 #include "tandem/model/plant.hpp"
@@ -66,6 +57,7 @@ namespace {
 
 namespace bus = tandem::dds;
 using Clock = std::chrono::steady_clock;
+using launcher::Child;
 
 std::atomic<bool> g_stop{false};
 
@@ -74,54 +66,7 @@ std::atomic<bool> g_stop{false};
 constexpr double kCorePerModule = 0.2;
 constexpr double kCorePerStandbyRobot = 0.05;
 constexpr double kUsableShare = 0.8;
-// A child not heard on the domain (its status) within this long of its start is cut off: killed and restarted.
-constexpr double kSilentStartS = 15.0;
 void on_signal(int) { g_stop = true; }
-
-struct Child {
-  std::string label;               ///< process id in status: "m1/world", "m1/left", "m1/left@50", "coordinator"
-  std::string role;                ///< world | supervisor | robot | coordinator
-  std::string module;              ///< its module ("" for the coordinator)
-  std::string arm;                 ///< robots: "<module>/<robot>"
-  int strength = 0;                ///< robots: ownership strength of the torque writer
-  std::string exe;
-  std::vector<std::string> args;   ///< how to start it (again)
-  pid_t pid = -1;
-  bool running = true;
-  int status = -1;                 ///< exit code once reaped (128 + signal if killed)
-  bool expected = false;           ///< its exit is no failure (unplugged, drained, module stopped, restarted)
-  bool handled = false;            ///< its exit has been dealt with
-  Clock::time_point term_at{};     ///< when it was asked to stop alone (SIGTERM); SIGKILL 5 s later
-  Clock::time_point started{};     ///< when it was started
-  int participant_id = -1;         ///< its DDS participant id (TANDEM_PARTICIPANT_ID), -1: Fast DDS's choice
-  bool heard = false;              ///< its status was heard over DDS (it is part of the domain)
-  bool cut_off = false;            ///< killed because it was never heard (kSilentStartS)
-  bool active_seen = false;        ///< its status said active once (its start-up CPU is then measured)
-  bool leads = false;              ///< supervisors: its latest status says it leads its module
-  // Multi-host: started by the agent of `host` ("" = by the launcher, on this machine).
-  std::string host;
-  unsigned long long spawn_id = 0;  ///< the launcher's request id (AgentRequest.spawn_id)
-  bool acked = false;               ///< the agent reported it (pid known, or failed to start)
-  Clock::time_point sent{};         ///< when the start request was last sent (re-sent until acked)
-  long long agent_pid = 0;          ///< the pid of the agent that reported it
-  int signal = 0;                   ///< the strongest signal asked for (re-sent until the agent reports it gone)
-  Clock::time_point signal_sent{};
-};
-
-struct ModuleRun {
-  runtime::ModuleDeployment cfg;
-  std::vector<std::string> robots;  ///< robot names of its scenario
-  double h_sg = 0.0;
-  bool started = false;
-  bool task_over = false;            ///< its world finished the scenario's task: nothing is restarted
-  std::string end;                   ///< "", "failed: ...", "unplugged"
-  bool paused_for_unplug = false;    ///< a pause was asked for an unplug without standby: resume on plug
-  bool ticked = false;               ///< its world has reported a tick past 0 (the module came up)
-  int repairs = 0;                   ///< restarts because it did not come up (docs/security.md, "Start-up")
-  Clock::time_point started_at{};    ///< when its processes were last started
-  launcher::DrainWatch drain;        ///< draining: the bounds of its drain
-};
-
 
 /// User + system CPU seconds of a process so far (/proc/<pid>/stat), -1 if it cannot be read.
 double process_cpu_s(pid_t pid) {
@@ -151,992 +96,89 @@ pid_t spawn(const std::string& exe, const std::vector<std::string>& args, int rt
   return launcher::spawn("tandem up", exe, args, launcher::SpawnOptions{rt_priority, participant_id, identity});
 }
 
-/// The launcher's state and its actions; the main loop calls poll() until nothing runs.
-class Launcher {
+
+/// A module of the deployment (or plugged from a scenario) as the supervisor runs it: its scenario read once.
+launcher::ModuleSpec module_spec(const runtime::ModuleDeployment& cfg, bool* case_found = nullptr) {
+  launcher::ModuleSpec s;
+  s.name = cfg.name;
+  s.scenario = cfg.scenario;
+  s.case_name = cfg.case_name;
+  s.standby = cfg.standby;
+  s.supervisor_standby = cfg.supervisor_standby;
+  s.restart = launcher::RestartRule{cfg.restart, cfg.restart_limit, cfg.restart_window, cfg.restart_backoff};
+  s.restart_as_standby = cfg.restart_as == "standby";
+  const sim::Scenario sc = sim::load_scenario(cfg.scenario);
+  bool found = false;
+  for (const auto& c : sc.cases) {
+    if (c.name == cfg.case_name) {
+      s.h_sg = sim::make_module(sc, c).safe_grasp_force;
+      found = true;
+    }
+  }
+  for (const auto& r : sc.robots) s.robots.push_back(r.name);
+  if (case_found != nullptr) *case_found = found;
+  return s;
+}
+
+/// How a child is started, from the deployment: its executable, arguments, host, DDS-Security identity and
+/// scheduling.
+class CommandLines {
  public:
-  Launcher(Deployment d, std::string file) : d_(std::move(d)), file_(std::move(file)), dir_(self_dir()) {}
-
-  /// Validates every module (scenario read once) and starts what autostarts.
-  void prepare_module(const runtime::ModuleDeployment& cfg) {
-    ModuleRun run;
-    run.cfg = cfg;
-    const sim::Scenario sc = sim::load_scenario(cfg.scenario);
-    for (const auto& c : sc.cases) {
-      if (c.name == cfg.case_name) run.h_sg = sim::make_module(sc, c).safe_grasp_force;
-    }
-    for (const auto& r : sc.robots) run.robots.push_back(r.name);
-    modules_[cfg.name] = run;
+  CommandLines(const Deployment& d, std::string file) : d_(d), file_(std::move(file)), dir_(launcher::self_dir()) {
+    for (const auto& m : d.modules) modules_[m.name] = m;
   }
+  void add(const runtime::ModuleDeployment& m) { modules_[m.name] = m; }
+  const std::string& dir() const { return dir_; }
 
-  void start_module(const std::string& name) {
-    ModuleRun& mr = modules_.at(name);
-    const auto& m = mr.cfg;
-    mr.started = true;
-    mr.end.clear();
-    mr.task_over = false;
-    mr.ticked = false;
-    mr.started_at = Clock::now();
-    Child w;
-    w.label = m.name + "/world";
-    w.role = "world";
-    w.module = m.name;
-    w.exe = dir_ + "/tandem-world";
-    w.args = common_args(m);
-    // On several hosts the world also waits for every robot of each arm (standbys included) before its first
-    // tick: the primaries' host may answer later than a standby's, and the arms would start braked. (With a
-    // recorder common_args counts them already.)
-    if (!d_.hosts.empty() && !records_ticks() && m.standby > 0) {
-      w.args.insert(w.args.end(), {"--observers", std::to_string(m.standby)});
+  std::string exe(const Child& c) const { return dir_ + "/tandem-" + c.role; }
+  std::vector<std::string> args(const Child& c) const {
+    if (c.role == "coordinator") {
+      std::vector<std::string> a{"--deployment-file", file_, "--domain", std::to_string(d_.domain_id), "--timeout",
+                                 std::to_string(std::max(30.0, 3 * d_.timeout)), "--id", c.label};
+      if (c.standby) a.push_back("--standby");
+      if (c.resume) a.push_back("--resume");
+      return a;
     }
-    w.host = runtime::host_of(m, "world", "", false);
-    launch(w);
-    for (int i = 0; i <= m.supervisor_standby; ++i) {
-      start_supervisor(m.name, i == 0 ? runtime::RoleOptions::kPrimaryStrength : 60 - 10 * i, "");
-    }
-    for (const auto& robot : mr.robots) {
-      for (int i = 0; i <= m.standby; ++i) {
-        // The primary has strength 100; standbys 50, 40, ...: the world follows the strongest live one.
-        start_robot(m.name, robot, i == 0 ? runtime::RoleOptions::kPrimaryStrength : 60 - 10 * i, "");
+    const runtime::ModuleDeployment& m = modules_.at(c.module);
+    std::vector<std::string> a = common_args(m);
+    if (c.role == "world") {
+      // On several hosts the world also waits for every robot of each arm (standbys included) before its first
+      // tick: the primaries' host may answer later than a standby's, and the arms would start braked. (With a
+      // recorder common_args counts them already.)
+      if (!d_.hosts.empty() && !records_ticks() && m.standby > 0) {
+        a.insert(a.end(), {"--observers", std::to_string(m.standby)});
       }
+      return a;
     }
+    if (c.role == "robot") a.insert(a.end(), {"--arm", slot_of(c)});
+    a.insert(a.end(), {"--strength", std::to_string(c.strength)});
+    return a;
   }
-
-  void start_coordinators() {
-    if (!d_.coordinator) return;
-    for (int i = 0; i <= d_.coordinator_standby; ++i) {
-      start_coordinator(i == 0 ? "coordinator" : "coordinator@standby" + std::to_string(i), i > 0, "");
-    }
+  /// Multi-host: the host `c` runs on.
+  std::string host(const Child& c) const {
+    if (c.role == "coordinator") return runtime::coordinator_host_of(d_, c.standby);
+    const runtime::ModuleDeployment& m = modules_.at(c.module);
+    return c.role == "world" ? runtime::host_of(m, "world", "", false) : runtime::host_of(m, c.role, slot_of(c), c.standby);
   }
-
-  void start_coordinator(const std::string& id, bool standby, const char* note) {
-    Child c;
-    c.label = id;
-    c.role = "coordinator";
-    c.exe = dir_ + "/tandem-coordinator";
-    c.args = {"--deployment-file", file_, "--domain", std::to_string(d_.domain_id), "--timeout",
-              std::to_string(std::max(30.0, 3 * d_.timeout)), "--id", id};
-    if (standby) c.args.push_back("--standby");
-    // A restart: the queue has a history, so it must take over with its state, never afresh.
-    if (std::strcmp(note, " (restart)") == 0) c.args.push_back("--resume");
-    c.host = runtime::coordinator_host_of(d_, standby);
-    launch(c, note);
+  /// The DDS-Security identity of a child ("" without security): its slot's (runtime::identities).
+  std::string identity(const Child& c) const {
+    if (d_.security_keys.empty()) return "";
+    if (c.role == "robot") return runtime::identity_name("robot", c.module, slot_of(c));
+    return runtime::identity_name(c.role, c.module);
   }
-
-  /// Starts a robot for `module`/`robot` with the given strength; false if the process could not be started.
-  bool start_robot(const std::string& module, const std::string& robot, int strength, const char* note) {
-    return start_ranked("robot", module, robot, strength, {"--arm", robot}, note);
-  }
-
-  /// Starts a supervisor for `module`: the primary (strength 100) or a standby (lower).
-  void start_supervisor(const std::string& module, int strength, const char* note) {
-    start_ranked("supervisor", module, "supervisor", strength, {}, note);
-  }
-
-  /// A process that serves a slot of a module by strength (an arm's robot, the module's supervisor): its
-  /// slot is kept in Child::arm (standby strengths and live counts are per slot), its label is the slot, with
-  /// "@strength" for a standby.
-  bool start_ranked(const char* role, const std::string& module, const std::string& slot, int strength,
-                    std::vector<std::string> extra, const char* note) {
-    Child c;
-    c.arm = module + "/" + slot;
-    c.label = c.arm + (strength == runtime::RoleOptions::kPrimaryStrength ? "" : "@" + std::to_string(strength));
-    c.role = role;
-    c.module = module;
-    c.strength = strength;
-    c.exe = dir_ + "/tandem-" + role;
-    c.args = common_args(modules_.at(module).cfg);
-    extra.insert(extra.end(), {"--strength", std::to_string(strength)});
-    c.args.insert(c.args.end(), extra.begin(), extra.end());
-    c.host = runtime::host_of(modules_.at(module).cfg, role, slot, strength != runtime::RoleOptions::kPrimaryStrength);
-    return launch(c, note);
-  }
-
-  /// Strength for a new standby of `arm` (launcher::next_standby_strength over the live robots of the arm).
-  int standby_strength(const std::string& arm) const {
-    std::vector<int> live;
-    for (const auto& c : children_) {
-      if (c.running && c.arm == arm) live.push_back(c.strength);
-    }
-    return launcher::next_standby_strength(live);
-  }
-  const Child* primary_of(const std::string& arm) const {
-    for (const auto& c : children_) {
-      if (c.running && !c.expected && c.arm == arm && c.strength == runtime::RoleOptions::kPrimaryStrength) return &c;
-    }
-    return nullptr;
-  }
-  int live_robots(const std::string& arm, const Child* except = nullptr) const {
-    int n = 0;
-    for (const auto& c : children_) n += (c.running && !c.expected && c.arm == arm && &c != except) ? 1 : 0;
-    return n;
-  }
-
-  // ---- live commands ------------------------------------------------------------------------------------
-
-  void handle(const msg::ControlRequest& req) {
-    if (req.deployment() != d_.name) return;
-    if (to_supervisor(req.command())) return;  // the launcher's own, to supervisors
-    // Requests are re-sent until answered: carry each out once.
-    if (req.seq() != 0 && !handled_seqs_.insert(req.seq()).second) return;
-    current_seq_ = req.seq();
-    switch (req.command()) {
-      case msg::CMD_DOWN:
-        if (!stopping_) say(true, "'down' requested over DDS; stopping %d process(es)\n", running());
-        g_stop = true;
-        break;
-      case msg::CMD_KILL:
-        kill_target(req.target());
-        break;
-      case msg::CMD_PLUG:
-        plug(req);
-        break;
-      case msg::CMD_UNPLUG:
-        unplug(req);
-        break;
-      default:
-        say(false, "unknown command %d (accepted: down, kill, plug, unplug)\n", static_cast<int>(req.command()));
-    }
-    std::fflush(stdout);
-  }
-
-  static bool to_supervisor(msg::ControlCommand c) {
-    return c == msg::CMD_PAUSE || c == msg::CMD_RESUME || c == msg::CMD_DRAIN;
-  }
-
-  /// Prints a command's outcome and keeps it as the launcher's answer (its status detail), which the
-  /// `tandem plug/unplug/kill` that sent the request waits for.
-  void say(bool ok, const char* fmt, ...) __attribute__((format(printf, 3, 4))) {
-    char buf[512];
-    va_list ap;
-    va_start(ap, fmt);
-    std::vsnprintf(buf, sizeof buf, fmt, ap);
-    va_end(ap);
-    std::printf("tandem up: %s", buf);
-    std::string text(buf);
-    while (!text.empty() && text.back() == '\n') text.pop_back();
-    if (current_seq_ == 0) return;  // no live command's (seq 0: the launcher's own requests)
-    const auto [it, fresh] = answers_.try_emplace(current_seq_);
-    Answer& a = it->second;
-    if (fresh) {
-      a = Answer{ok, text};
-    } else {  // a further line for the same request (e.g. kill of a module)
-      a.text += "; " + text;
-      a.ok = a.ok && ok;
-    }
-    while (answers_.size() > 256 && answers_.begin()->first != current_seq_) answers_.erase(answers_.begin());
-  }
-
-  void kill_target(const std::string& target) {
-    bool found = false;
-    for (auto& c : children_) {
-      if (!c.running) continue;
-      if (c.label == target || (c.module == target && !target.empty())) {
-        say(true, "fault injection: SIGKILL %s (pid %d%s%s)\n", c.label.c_str(), c.pid, c.host.empty() ? "" : " on ",
-            c.host.c_str());
-        signal_child(c, SIGKILL);
-        found = true;
-      }
-    }
-    if (!found) say(false, "'kill %s': no such running process or module\n", target.c_str());
-  }
-
-  /// What the plug and unplug rules need to know of a module (launcher::ModuleFacts).
-  launcher::ModuleFacts module_facts(const std::string& name) const {
-    launcher::ModuleFacts f;
-    const auto it = modules_.find(name);
-    if (it == modules_.end()) return f;
-    f.known = true;
-    f.started = it->second.started;
-    f.end = it->second.end;
-    const auto ts = task_states_.find(name);
-    f.failed = ts != task_states_.end() && ts->second.state() == static_cast<uint8_t>(plan::TaskStateCode::Failed);
-    for (size_t i = 0; i < 2 && i < it->second.robots.size(); ++i) f.arms[i] = it->second.robots[i];
-    return f;
-  }
-
-  void plug(const msg::ControlRequest& req) {
-    const std::string& name = req.target();
-    if (req.target_kind() == msg::TARGET_MODULE) {
-      plug_module(name, req.scenario(), req.case_name(), req.host());
-      return;
-    }
-    if (req.target_kind() != msg::TARGET_ROBOT) {
-      say(false, "'plug %s': expected a robot for an arm (<module>/<arm>) or a module\n", name.c_str());
-      return;
-    }
-    const auto slash = name.find('/');
-    const std::string module = name.substr(0, slash), robot = slash == std::string::npos ? "" : name.substr(slash + 1);
-    const Child* primary = primary_of(name);
-    const launcher::PlugDecision dec = launcher::plug_robot(name, robot, req.standby(), module_facts(module),
-                                                            primary != nullptr ? primary->pid : 0, standby_strength(name));
-    if (dec.action == launcher::PlugDecision::Action::Refuse) {
-      say(false, "%s\n", dec.text.c_str());
-      return;
-    }
-    if (!start_robot(module, robot, dec.strength, " (plugged)")) {
-      say(false, "'plug robot %s': the process could not be started\n", name.c_str());
-      return;
-    }
-    say(true, "%s\n", dec.text.c_str());
-    resume_if_paused_for_unplug(module);
-  }
-
-  /// Plugs a module in again (one of the deployment, or one failed by a drop: cleared), or a new one from a
-  /// scenario and case (on `host` in a multi-host deployment).
-  void plug_module(const std::string& name, const std::string& scenario, const std::string& case_name,
-                   const std::string& host) {
-    using Action = launcher::PlugDecision::Action;
-    const launcher::PlugDecision dec = launcher::plug_module(name, module_facts(name), !scenario.empty(),
-                                                             !case_name.empty(), file_);
-    switch (dec.action) {
-      case Action::Refuse:
-        say(false, "%s\n", dec.text.c_str());
-        return;
-      case Action::ClearModule:
-        say(true, "%s\n", dec.text.c_str());
-        task_states_.erase(name);
-        modules_.at(name).end = "cleared";
-        if (governor_) governor_->set_available(name, true);
-        stop_module(name);
-        pending_clears_.push_back(name);  // started again once its processes are gone
-        return;
-      case Action::AddModule:
-        if (!add_module(name, scenario, case_name, host)) return;
-        break;
-      case Action::StartModule:
-      case Action::StartRobot:
-        break;
-    }
-    say(true, "plugging module %s (%s, case %s)\n", name.c_str(), modules_.at(name).cfg.scenario.c_str(),
-                modules_.at(name).cfg.case_name.c_str());
-    if (governor_) {  // plugged by hand: out of the governor's parked set, and in its hands again
-      governor_->set_available(name, false);
-      governor_->set_available(name, true);
-    }
-    start_module(name);
-  }
-
-  /// A new module from a scenario and case: its host checked (multi-host), its scenario loaded and its case found.
-  bool add_module(const std::string& name, const std::string& scenario, const std::string& case_name,
-                  const std::string& host) {
-    runtime::ModuleDeployment cfg;
-    cfg.name = name;
-    cfg.scenario = scenario;
-    cfg.case_name = case_name;
-    if (!d_.hosts.empty()) {
-      if (host.empty() || runtime::find_host(d_, host) == nullptr) {
-        std::string list;
-        for (const auto& x : d_.hosts) list += (list.empty() ? "" : ", ") + x.name;
-        say(false, "'plug module %s': a multi-host deployment places a new module on a host: give --host (hosts: %s)\n",
-            name.c_str(), list.c_str());
-        return false;
-      }
-      cfg.host = host;
-    }
-    try {
-      prepare_module(cfg);
-    } catch (const std::exception& e) {
-      say(false, "'plug module %s': %s\n", name.c_str(), e.what());
-      return false;
-    }
-    bool found = false;
-    for (const auto& c : sim::load_scenario(cfg.scenario).cases) found = found || c.name == cfg.case_name;
-    if (!found) {
-      modules_.erase(name);
-      say(false, "'plug module %s': no case '%s' in %s\n", name.c_str(), cfg.case_name.c_str(), cfg.scenario.c_str());
-      return false;
-    }
-    return true;
-  }
-
-  void unplug(const msg::ControlRequest& req) {
-    const std::string& name = req.target();
-    using Action = launcher::UnplugDecision::Action;
-    if (req.target_kind() == msg::TARGET_MODULE) {
-      const launcher::UnplugDecision dec = launcher::unplug_module(name, module_facts(name));
-      say(dec.action != Action::Refuse, "%s\n", dec.text.c_str());
-      if (dec.action == Action::Refuse) return;
-      ModuleRun& mr = modules_.at(name);
-      mr.end = "draining";
-      mr.drain.start(seconds());
-      if (governor_) governor_->set_available(name, false);
-      send(name, msg::CMD_DRAIN);
-      return;
-    }
-    if (req.target_kind() != msg::TARGET_PROCESS) {
-      say(false, "'unplug %s': expected a robot's label or a module\n", name.c_str());
-      return;
-    }
-    Child* c = find_running(name);
-    if (c != nullptr && c->role != "robot") c = nullptr;
-    const launcher::UnplugDecision dec = launcher::unplug_robot(name, c != nullptr, c ? c->arm : "", c ? c->module : "",
-                                                                c ? live_robots(c->arm, c) : 0);
-    say(dec.action != Action::Refuse, "%s\n", dec.text.c_str());
-    if (dec.action == Action::Refuse) return;
-    c->expected = true;
-    if (dec.action == Action::HandOver) {
-      terminate(*c);  // it deletes its torque writer first: the world follows the next strongest at once
-      return;
-    }
-    modules_.at(c->module).paused_for_unplug = true;
-    send(c->module, msg::CMD_PAUSE);
-    pending_unplugs_.push_back({c->label, c->module, Clock::now()});
-  }
-
-  // ---- supervision ---------------------------------------------------------------------------------------
-
-  void poll() {
-    reap();
-    watch_hosts();
-    resend_drains();
-    for (auto& c : children_) {
-      if (c.running || c.handled) continue;
-      c.handled = true;
-      on_exit(c);
-    }
-    // Failed modules being cleared: started again once every process of theirs is gone.
-    for (auto it = pending_clears_.begin(); it != pending_clears_.end();) {
-      bool gone = true;
-      for (const auto& c : children_) gone = gone && !(c.running && c.module == *it);
-      if (!gone || stopping_) {
-        it = stopping_ ? pending_clears_.erase(it) : it + 1;
-        continue;
-      }
-      std::printf("tandem up: module %s %s; starting it again from its initial grasp\n", it->c_str(),
-                  modules_.at(*it).end == "repairing" ? "stopped for the repair" : "cleared");
-      start_module(*it);
-      it = pending_clears_.erase(it);
-    }
-    // Unplugs waiting for their module to be at rest.
-    for (auto it = pending_unplugs_.begin(); it != pending_unplugs_.end();) {
-      const auto ts = task_states_.find(it->module);
-      const bool paused = ts != task_states_.end() && ts->second.state() == 3;
-      const bool late = Clock::now() - it->since > std::chrono::seconds(5);
-      Child* c = find_running(it->label);
-      if (c == nullptr) {
-        it = pending_unplugs_.erase(it);
-        continue;
-      }
-      if (!paused && !late) {
-        ++it;
-        continue;
-      }
-      if (!paused) std::printf("tandem up: %s did not report paused within 5 s; unplugging %s anyway (the brakes hold the arm)\n", it->module.c_str(), c->label.c_str());
-      std::printf("tandem up: %s paused; %s leaves, its arm is braked until a robot is plugged in\n",
-                  it->module.c_str(), c->label.c_str());
-      terminate(*c);
-      it = pending_unplugs_.erase(it);
-    }
-    for (auto it = world_done_.begin(); it != world_done_.end();) {
-      if (Clock::now() - it->second < std::chrono::seconds(2)) {
-        ++it;
-        continue;
-      }
-      for (auto& c : children_) {
-        if (c.module != it->first || !c.running) continue;
-        std::printf("tandem up: %s is still waiting after its module's task ended; stopping it\n", c.label.c_str());
-        c.expected = true;
-        terminate(c);
-      }
-      it = world_done_.erase(it);
-    }
-    // Said once: every process started so far has been heard (the deployment is up, as far as discovery goes).
-    if (!all_heard_said_ && !stopping_) {
-      int n = 0;
-      bool all = true;
-      for (const auto& c : children_) {
-        if (!c.running || c.expected) continue;
-        ++n;
-        all = all && c.heard && !c.cut_off;
-      }
-      if (all && n > 0) {
-        std::printf("tandem up: all %d process(es) heard on the domain\n", n);
-        all_heard_said_ = true;
-      }
-    }
-    // A process whose status was never heard within kSilentStartS of its start runs cut off from the domain
-    // (seen in soaks: now and then a participant started beside many others never matched anyone): it is
-    // killed, and its restart policy applies as for any failure.
-    for (auto& c : children_) {
-      if (!c.running || c.heard || c.expected || stopping_ || c.role == "discovery") continue;
-      if (Clock::now() - c.started > std::chrono::duration<double>(kSilentStartS)) {
-        std::printf("tandem up: %s (pid %d) was not heard on the domain within %.0f s of its start; SIGKILL, its "
-                    "restart policy applies\n", c.label.c_str(), c.pid, kSilentStartS);
-        signal_child(c, SIGKILL);
-        c.heard = true;  // once
-        c.cut_off = true;
-      }
-    }
-    // A module that has not come up in time (start_timeout): some pair of its participants never matched.
-    if (!stopping_) {
-      for (auto& [name, mr] : modules_) {
-        if (!mr.started || mr.ticked || !mr.end.empty() || mr.repairs >= kStartRepairs) continue;
-        // (A world waits up to half its timeout for late sensor readers besides the first: not cut short.)
-        const double limit = std::max(d_.start_timeout, 0.5 * d_.timeout + 2.0);
-        if (Clock::now() - mr.started_at < std::chrono::duration<double>(limit)) continue;
-        char why[96];
-        std::snprintf(why, sizeof why, "its world did not tick within %.1f s of its start", limit);
-        repair_start(name, why);
-      }
-    }
-    // A process asked to stop alone that is still there after 5 s (hung, or stopped by a signal).
-    for (auto& c : children_) {
-      if (c.running && c.term_at != Clock::time_point{} && Clock::now() - c.term_at > std::chrono::seconds(5)) {
-        std::printf("tandem up: %s did not stop within 5 s of SIGTERM; sending SIGKILL\n", c.label.c_str());
-        signal_child(c, SIGKILL);
-        c.term_at = Clock::time_point{};
-      }
-    }
-    for (auto it = pending_restarts_.begin(); it != pending_restarts_.end();) {
-      if (!it->child.module.empty() && modules_.at(it->child.module).task_over) {  // at once, not when due
-        std::printf("tandem up: not restarting %s: module %s is done with its task\n", it->child.label.c_str(),
-                    it->child.module.c_str());
-        it = pending_restarts_.erase(it);
-        continue;
-      }
-      if (stopping_ || Clock::now() < it->when) {
-        ++it;
-        continue;
-      }
-      Child c = it->child;
-      it = pending_restarts_.erase(it);
-      const std::optional<launcher::Role> role = launcher::parse_role(c.role);
-      if (!role) continue;
-      launcher::DueRestart f;
-      f.role = *role;
-      f.strength = c.strength;
-      f.restart_as_standby = !c.module.empty() && modules_.at(c.module).cfg.restart_as == "standby";
-      f.primary_alive = c.role == "robot" && primary_of(c.arm) != nullptr;
-      f.standby_strength = c.arm.empty() ? 0 : standby_strength(c.arm);
-      f.live_in_slot = c.arm.empty() ? 0 : live_robots(c.arm);
-      f.task_over = !c.module.empty() && modules_.at(c.module).task_over;
-      const launcher::DueRestartDecision d = launcher::due_restart(f);
-      if (!d.start) {
-        std::printf("tandem up: not restarting %s: %s\n", c.label.c_str(), d.why.c_str());
-        continue;
-      }
-      if (c.role == "robot") {
-        start_robot(c.module, c.arm.substr(c.arm.find('/') + 1), d.strength, " (restart)");
-      } else if (c.role == "supervisor") {
-        start_supervisor(c.module, d.strength, " (restart)");  // a standby: it adopts the serving one's plan
-      } else {
-        // No coordinator left: the queue's state lived only in their writers (transient-local), so hand the
-        // newcomer the last state this launcher heard; it takes over from it.
-        if (live_coordinators() == 0 && have_coord_state_ && coord_state_out_ != nullptr) {
-          coord_state_out_->write(last_coord_state_);
-          std::printf("tandem up: republished the coordinator's last state (%zu task(s) done) for its successor\n",
-                      done_in(last_coord_state_));
-        }
-        start_coordinator("coordinator@r" + std::to_string(++coordinator_restarts_), true, " (restart)");
-      }
-    }
-  }
-
-  void on_exit(Child& c) {
-    if (c.status >= 128) {  // killed: its shared-memory files are left behind (cleaned in the main loop)
-      shm_dirty_ = true;
-      killed_at_ = Clock::now();
-    }
-    const std::optional<launcher::Role> role = launcher::parse_role(c.role);
-    if (!role) return;  // not a role the launcher supervises (never started as such)
-    launcher::ExitFacts f;
-    f.role = *role;
-    f.status = c.status;
-    f.expected = c.expected;
-    f.never_heard = c.cut_off;
-    f.stopping = stopping_;
-    f.coordinated = d_.coordinator;
-    f.max_repairs = kStartRepairs;
-    ModuleRun* mr = c.module.empty() ? nullptr : &modules_.at(c.module);
-    if (mr != nullptr) {
-      f.module_ticked = mr->ticked;
-      f.module_repairs = mr->repairs;
-      f.module_draining = mr->end == "draining";
-      f.restart_always = mr->cfg.restart == "always";
-    }
-    f.live_peers = *role == launcher::Role::Coordinator ? live_coordinators() : live_robots(c.arm);
-    const std::string code = std::to_string(c.status);
-    switch (launcher::on_exit(f)) {
-      case launcher::ExitVerdict::Nothing:
-        return;
-      case launcher::ExitVerdict::AllTasksDone:
-        std::printf("tandem up: %s reports every task done; stopping the deployment\n", c.label.c_str());
-        coordinator_done_ = true;
-        stop_all(SIGTERM);
-        return;
-      case launcher::ExitVerdict::Restart:
-        break;
-      case launcher::ExitVerdict::RepairStart:
-        repair_start(c.module, c.label + (c.cut_off ? " was never heard on the domain" : " exited with code " + code) +
-                                   " before the first tick: its peers did not match");
-        return;
-      case launcher::ExitVerdict::Drained:
-        std::printf("tandem up: module %s drained; stopping its processes\n", c.module.c_str());
-        mr->end = "unplugged";
-        if (governor_) governor_->set_available(c.module, false);
-        stop_module(c.module);
-        return;
-      case launcher::ExitVerdict::ModuleLostPlan:
-        // No leader and no replica has the module's plan (its leader died before a standby heard it). Tier 3: the
-        // module restarts from its initial grasp with new processes; the coordinator re-plans its task meanwhile.
-        std::printf("tandem up: module %s lost its plan (%s had no leader to follow); restarting the module\n",
-                    c.module.c_str(), c.label.c_str());
-        ++plan_restarts_;
-        mr->end = "repairing";
-        stop_module(c.module);
-        pending_clears_.push_back(c.module);
-        return;
-      case launcher::ExitVerdict::TaskOver:
-        // The module's task is over. Its processes end by themselves, but for one that joined late (a restarted
-        // standby) and waits for ticks that will not come: stopped after a grace for the summaries.
-        if (*role == launcher::Role::World) {
-          world_done_[c.module] = Clock::now();
-          mr->task_over = true;
-        }
-        return;
-      case launcher::ExitVerdict::ModuleFailed:
-        std::printf("tandem up: module %s failed (%s exited with code %d); stopping its processes, the others go on\n",
-                    c.module.c_str(), c.label.c_str(), c.status);
-        mr->end = "failed: " + c.label + " exited with code " + code;
-        if (governor_) governor_->set_available(c.module, false);
-        stop_module(c.module);
-        return;
-      case launcher::ExitVerdict::Fail:
-        fail(c.label + " exited with code " + code);
-        return;
-    }
-    // Restart: by the policy of its slot, then whether the slot is still served.
-    const bool restarting =
-        mr == nullptr ? schedule_restart(c, d_.coordinator_restart, d_.coordinator_restart_limit,
-                                         d_.coordinator_restart_window, 0.2)
-                      : schedule_restart(c, mr->cfg.restart, mr->cfg.restart_limit, mr->cfg.restart_window,
-                                         mr->cfg.restart_backoff);
-    f.live_peers = *role == launcher::Role::Coordinator ? live_coordinators() : live_robots(c.arm);
-    const launcher::AfterRestart next = launcher::after_restart(f, restarting);
-    switch (*role) {
-      case launcher::Role::Coordinator:
-        if (next == launcher::AfterRestart::Fail) {
-          fail(c.label + " exited with code " + code + " and no coordinator is left");
-          return;
-        }
-        std::printf("tandem up: %s exited with code %d; %s\n", c.label.c_str(), c.status,
-                    f.live_peers > 0 ? "a standby coordinator carries on" : "a new coordinator will take over");
-        return;
-      case launcher::Role::Supervisor:
-        std::printf("tandem up: %s exited with code %d; a standby supervisor carries on%s\n", c.label.c_str(), c.status,
-                    restarting ? " (the exited one comes back as a standby)" : "");
-        return;
-      case launcher::Role::Robot:
-      case launcher::Role::World:
-        break;
-    }
-    switch (next) {
-      case launcher::AfterRestart::CarriesOn:
-        std::printf("tandem up: %s exited with code %d; another robot serves its arm, the deployment goes on\n",
-                    c.label.c_str(), c.status);
-        return;
-      case launcher::AfterRestart::WaitsForRestart:
-        std::printf("tandem up: %s exited with code %d; its arm is braked until the restarted robot answers\n",
-                    c.label.c_str(), c.status);
-        return;
-      case launcher::AfterRestart::WaitsForPlug:
-        std::printf("tandem up: %s exited with code %d and nobody serves %s: the module stays paused with the "
-                    "arm braked; plug a robot in ('tandem plug robot %s') to resume\n",
-                    c.label.c_str(), c.status, c.arm.c_str(), c.arm.c_str());
-        return;
-      case launcher::AfterRestart::Fail:
-        fail(c.label + " exited with code " + code);
-        return;
-    }
-  }
-
-  /// Restart policy (OTP-style, launcher::RestartPolicy): returns true if `c` will be started again after the
-  /// backoff.
-  bool schedule_restart(const Child& c, const std::string& policy, int limit, double window, double backoff) {
-    const std::string key = c.arm.empty() ? "coordinator" : c.arm;  // an arm, a module's supervisor slot
-    const auto now = Clock::now();
-    const launcher::RestartRule rule{policy, limit, window, backoff};
-    const launcher::RestartDecision d = restarts_.on_exit(key, c.status, rule, std::chrono::duration<double>(now - t0_).count());
-    if (d.kind == launcher::RestartDecision::Kind::None) return false;
-    if (d.kind == launcher::RestartDecision::Kind::GiveUp) {
-      std::printf("tandem up: giving up on %s: %d restarts within %.0f s (restart_limit %d)\n", key.c_str(), d.count,
-                  window, limit);
-      return false;
-    }
-    const double delay = d.delay;
-    std::printf("tandem up: restarting %s in %.2f s (restart %d of at most %d within %.0f s)\n", c.label.c_str(),
-                delay, d.count, limit, window);
-    pending_restarts_.push_back({now + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(delay)), c});
-    return true;
-  }
-
-  /// A module that did not come up: a process gave up waiting for its peers (world 3: peers not found; world,
-  /// robot or supervisor 4: no tick, input or report), or was never heard, before the world's first tick, or its
-  /// world did not tick within start_timeout. With DDS-Security a pair of participants sometimes never
-  /// authenticates (a race in Fast DDS 2.9.1's SecurityManager, fixed in 2.9.2; docs/security.md), and nothing in
-  /// the library retries it; new participants for the whole module (new GUIDs, fresh handshakes with everyone)
-  /// repair it. Restarted up to kStartRepairs times, logged and counted.
-  void repair_start(const std::string& module, const std::string& why) {
-    ModuleRun& mr = modules_.at(module);
-    ++mr.repairs;
-    ++start_repairs_;
-    std::printf("tandem up: module %s did not come up (%s); restarting the module with new participants (repair %d "
-                "of at most %d)\n", module.c_str(), why.c_str(), mr.repairs, kStartRepairs);
-    mr.end = "repairing";
-    stop_module(module);
-    pending_clears_.push_back(module);
-  }
-
-  void stop_module(const std::string& module) {
-    for (auto& c : children_) {
-      if (c.module != module) continue;
-      c.expected = true;
-      if (c.running) terminate(c);
-    }
-    pending_unplugs_.erase(std::remove_if(pending_unplugs_.begin(), pending_unplugs_.end(),
-                                          [&](const auto& u) { return u.module == module; }),
-                           pending_unplugs_.end());
-    // Restarts still pending for it are dropped (a module plugged in again starts afresh).
-    const size_t before = pending_restarts_.size();
-    pending_restarts_.erase(std::remove_if(pending_restarts_.begin(), pending_restarts_.end(),
-                                           [&](const auto& r) { return r.child.module == module; }),
-                            pending_restarts_.end());
-    if (pending_restarts_.size() != before) {
-      std::printf("tandem up: %zu pending restart(s) of module %s dropped: it was stopped\n",
-                  before - pending_restarts_.size(), module.c_str());
-    }
-  }
-
-  void fail(const std::string& why) {
-    std::fprintf(stderr, "tandem up: %s; stopping the deployment\n", why.c_str());
-    failed_ = true;
-    stop_all(SIGTERM);
-  }
-
-  /// Asks one process to stop (SIGTERM); poll() sends SIGKILL if it is still there 5 s later.
-  void terminate(Child& c) {
-    if (!c.running || (c.pid <= 0 && c.host.empty())) return;
-    signal_child(c, SIGTERM);
-    if (c.term_at == Clock::time_point{}) c.term_at = Clock::now();
-  }
-
-  /// The answer to a request that came while the deployment stops: nothing is carried out.
-  void refuse_while_stopping(const msg::ControlRequest& req) {
-    if (to_supervisor(req.command())) return;  // the launcher's own, to supervisors
-    if (req.seq() != 0 && !handled_seqs_.insert(req.seq()).second) return;
-    current_seq_ = req.seq();
-    if (req.command() == msg::CMD_DOWN) {
-      say(true, "'down' requested over DDS; the deployment is already stopping\n");
-    } else {
-      // As the user typed it: "plug robot m1/left", "unplug module m2", "kill m1/world".
-      const char* kind = req.target_kind() == msg::TARGET_MODULE && req.command() != msg::CMD_KILL ? "module "
-                         : req.target_kind() == msg::TARGET_ROBOT ||
-                                   (req.target_kind() == msg::TARGET_PROCESS && req.command() == msg::CMD_UNPLUG)
-                             ? "robot "
-                             : "";
-      say(false, "'%s %s%s' refused: the deployment is stopping\n", runtime::command_name(req.command()), kind,
-          req.target().c_str());
-    }
-  }
-
-  void stop_all(int sig) {
-    if (!stopping_) stop_started_ = Clock::now();
-    stopping_ = true;
-    for (auto& c : children_) {
-      if (c.running && (c.pid > 0 || !c.host.empty())) signal_child(c, sig);
-    }
-  }
-
-  /// While stopping: SIGKILL whatever did not stop within 5 s.
-  void escalate() {
-    if (stopping_ && !escalated_ && Clock::now() - stop_started_ > std::chrono::seconds(5)) {
-      std::printf("tandem up: %d process(es) did not stop within 5 s; sending SIGKILL\n", running());
-      stop_all(SIGKILL);
-      escalated_ = true;
-    }
-  }
-
-  void reap(bool block = false) {
-    for (auto& c : children_) {
-      if (!c.host.empty()) continue;  // started by an agent: its exit comes in the agent's state (on_agent_state)
-      if (c.running && c.pid <= 0) {  // never started
-        c.running = false;
-        c.status = 127;
-      }
-      if (!c.running) continue;
-      int st = 0;
-      const pid_t r = ::waitpid(c.pid, &st, block ? 0 : WNOHANG);
-      if (r == c.pid) {
-        c.running = false;
-        c.status = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
-        if (c.participant_id >= 0) free_ids_.push_back(c.participant_id);  // reused last
-        c.participant_id = -1;
-      }
-    }
-  }
-
-  // --- Shedding whole modules (launcher::Governor, docs/failure-model.md) ---------------------------------
-  /// A world's status: paused for load or not, for the governor.
-  void on_world_load(const std::string& module, const std::string& detail, uint64_t tick) {
-    const auto it = modules_.find(module);
-    if (it != modules_.end() && tick > 0) it->second.ticked = true;
-    if (!governor_ || stopping_) return;
-    if (it == modules_.end() || !it->second.started || !it->second.end.empty()) return;
-    governor_->on_load(module, detail.rfind("paused for load", 0) == 0, seconds());
-  }
-  /// Carries out the governor's decision, if any: a module parks (its supervisor pauses the path, then its
-  /// processes stop; the coordinator re-plans its task) or comes back (its processes start again).
-  void govern() {
-    if (!governor_ || stopping_) return;
-    const launcher::Governor::Decision dec = governor_->decide(seconds());
-    if (dec.kind == launcher::Governor::Decision::Kind::Park) {
-      std::printf("tandem up: parking module %s (%s): its processes stop once it is paused; its task goes back to "
-                  "the queue\n", dec.module.c_str(), dec.why.c_str());
-      modules_.at(dec.module).end = "parked: " + dec.why;
-      ++parks_;
-      send(dec.module, msg::CMD_PAUSE);
-      pending_parks_.push_back({dec.module, Clock::now()});
-    } else if (dec.kind == launcher::Governor::Decision::Kind::Unpark) {
-      std::printf("tandem up: unparking module %s (%s)\n", dec.module.c_str(), dec.why.c_str());
-      pending_unparks_.push_back(dec.module);
-    }
-    // Parks: stop once the module reports paused (object at rest), or after 2 s (the brakes hold it).
-    for (auto it = pending_parks_.begin(); it != pending_parks_.end();) {
-      const auto ts = task_states_.find(it->module);
-      const bool paused = ts != task_states_.end() && ts->second.state() == 3;
-      if (!paused && Clock::now() - it->since < std::chrono::seconds(2)) {
-        ++it;
-        continue;
-      }
-      stop_module(it->module);
-      task_states_.erase(it->module);
-      std::printf("tandem up: module %s parked%s\n", it->module.c_str(), paused ? " (paused first)" : " (not paused within 2 s)");
-      it = pending_parks_.erase(it);
-    }
-    // Unparks: once every process of the module is gone.
-    for (auto it = pending_unparks_.begin(); it != pending_unparks_.end();) {
-      bool gone = true;
-      for (const auto& c : children_) gone = gone && !(c.running && c.module == *it);
-      if (!gone) {
-        ++it;
-        continue;
-      }
-      start_module(*it);
-      it = pending_unparks_.erase(it);
-    }
-  }
-  struct PendingPark {
-    std::string module;
-    Clock::time_point since;
-  };
-  std::unique_ptr<launcher::Governor> governor_;
-  std::vector<PendingPark> pending_parks_;
-  std::vector<std::string> pending_unparks_;
-  unsigned long long parks_ = 0;
-  /// "m3, m4" (for status and the summary).
-  std::string parked_text() const {
-    std::string out;
-    if (!governor_) return out;
-    for (const auto& m : governor_->parked_set()) out += (out.empty() ? "" : ", ") + m;
-    return out;
-  }
-
-  void send(const std::string& module, msg::ControlCommand command) {
-    msg::ControlRequest req;
-    req.deployment(d_.name);
-    req.command(command);
-    req.target_kind(msg::TARGET_MODULE);
-    req.target(module);
-    req.seq(++seq_);
-    control_out_->write(req);
-  }
-
-  void resume_if_paused_for_unplug(const std::string& module) {
-    ModuleRun& mr = modules_.at(module);
-    if (!mr.paused_for_unplug) return;
-    mr.paused_for_unplug = false;
-    send(module, msg::CMD_RESUME);  // it resumes once the arm's new robot answers (the world releases the brake)
-  }
-
-  int running() const {
-    int n = 0;
-    for (const auto& c : children_) n += c.running ? 1 : 0;
-    return n;
-  }
-  bool busy() const { return running() > 0 || (!pending_restarts_.empty() && !stopping_); }
-  int live_coordinators() const {
-    int n = 0;
-    for (const auto& c : children_) n += (c.running && c.role == "coordinator") ? 1 : 0;
-    return n;
-  }
-  Child* find_running(const std::string& label) {
-    for (auto& c : children_) {
-      if (c.running && c.label == label) return &c;
-    }
-    return nullptr;
-  }
-
-  /// A status sample from process `label` (pid): it is part of the domain.
-  void on_status(const std::string& label, long long pid, bool active, msg::ServingRole serving) {
-    for (auto& c : children_) {
-      if (!(c.running && c.label == label && c.pid == pid)) continue;
-      c.heard = true;
-      if (serving != msg::ROLE_NONE) c.leads = serving == msg::ROLE_PRIMARY;
-      if (active && !c.active_seen && c.host.empty()) {
-        // The CPU one start costs (a soak restarts about a thousand processes an hour): user + system time
-        // of the process from its start to its first active status.
-        c.active_seen = true;
-        const double cpu = process_cpu_s(static_cast<pid_t>(pid));
-        if (cpu >= 0.0) start_cpu_[c.role].push_back(cpu);
-      }
-    }
-  }
-  /// Per role: the CPU seconds each process took from its start to active.
-  std::map<std::string, std::vector<double>> start_cpu_;
-
-  /// A leader that has not acknowledged a drain sent every second for kDeafLeader does not hear the launcher:
-  /// seen in a soak-small hour, a restarted supervisor that took the lead never heard the drain (nor the
-  /// coordinator's next task) while its standby logged "drain requested"; the module then idled until the drain
-  /// bound stopped it. Such a leader is stopped when another supervisor of the module runs: that one takes over
-  /// with the drain it heard and finishes the task properly.
-  void stop_deaf_leader(const std::string& module, ModuleRun& mr) {
-    Child* leader = nullptr;
-    bool other = false;
-    for (auto& c : children_) {
-      if (!c.running || c.role != "supervisor" || c.module != module) continue;
-      if (c.leads && leader == nullptr) {
-        leader = &c;
-      } else {
-        other = true;
-      }
-    }
-    if (leader == nullptr || !other) return;
-    mr.drain.leader_stopped();
-    ++deaf_leaders_;
-    std::printf("tandem up: %s leads module %s but has not acknowledged its drain for %.0f s (it does not hear the "
-                "launcher); stopping it, a standby supervisor that heard the drain takes over\n",
-                leader->label.c_str(), module.c_str(), launcher::DrainWatch::kDeafLeader);
-    leader->expected = true;  // not restarted: the module is leaving
-    terminate(*leader);
-  }
-
-  /// A drain the module's leading supervisor has not acknowledged (its task state neither draining nor left)
-  /// is sent again every second: found by the soak, a leader whose control reader missed the one request kept
-  /// taking tasks, and the module never left (its plug-in retries gave up after 60 s).
-  /// The bounds are launcher::DrainWatch's: past kDeafLeader the leader is taken for deaf (stop_deaf_leader); past kTimeout the module is stopped.
-  void resend_drains() {
-    const double now = seconds();
-    for (auto& [name, mr] : modules_) {
-      if (mr.end != "draining") continue;
-      const auto ts = task_states_.find(name);
-      const bool acked = ts != task_states_.end() && (ts->second.state() == static_cast<uint8_t>(plan::TaskStateCode::Draining) ||
-                                                      ts->second.state() == static_cast<uint8_t>(plan::TaskStateCode::Left));
-      const launcher::DrainStep step = mr.drain.step(now, acked);
-      if (step.force) {
-        const std::string last = ts == task_states_.end() ? std::string("no task state heard")
-                                                          : std::string("its task state: ") + plan::task_state_name(ts->second.state());
-        std::printf("tandem up: module %s did not drain within %.0f s (%s); stopping it with its task unfinished, "
-                    "which goes back to the queue\n", name.c_str(), launcher::DrainWatch::kTimeout, last.c_str());
-        ++forced_drains_;
-        mr.end = "unplugged";
-        stop_module(name);
-        continue;
-      }
-      if (step.stop_leader) stop_deaf_leader(name, mr);
-      if (step.warn) {
-        std::printf("tandem up: module %s has not acknowledged its drain within %.0f s; still asking\n", name.c_str(),
-                    launcher::DrainWatch::kWarnAfter);
-      }
-      if (step.resend) send(name, msg::CMD_DRAIN);
-    }
-  }
-
-  void on_task_state(const msg::TaskState& ts) {
-    if (ts.deployment() == d_.name) task_states_[ts.module_id()] = ts;
-  }
-
-  Deployment d_;
-  std::string file_, dir_;
-  std::deque<Child> children_;  // deque: references stay valid as children are added
-  std::map<std::string, ModuleRun> modules_;
-  struct PendingRestart {
-    Clock::time_point when;
-    Child child;
-  };
-  std::vector<PendingRestart> pending_restarts_;
-  launcher::RestartPolicy restarts_;
-  Clock::time_point t0_ = Clock::now();
-  struct PendingUnplug {
-    std::string label, module;
-    Clock::time_point since;
-  };
-  std::vector<PendingUnplug> pending_unplugs_;
-  std::vector<std::string> pending_clears_;  ///< failed modules being cleared (plug module): restarted once stopped
-  static constexpr int kStartRepairs = 3;
-  unsigned long long forced_drains_ = 0;     ///< unplugged modules stopped with their task unfinished (DrainWatch)
-  unsigned long long deaf_leaders_ = 0;      ///< leaders stopped because they did not hear a drain
-  unsigned long long start_repairs_ = 0;     ///< modules restarted because they did not come up
-  unsigned long long plan_restarts_ = 0;     ///< modules restarted because their supervisors lost the plan
-  std::map<std::string, Clock::time_point> world_done_;  ///< modules whose world finished its task, and when
-  std::map<std::string, msg::TaskState> task_states_;
-  bus::Writer<msg::ControlRequest, msg::ControlRequestPubSubType>* control_out_ = nullptr;
-  bus::Writer<msg::AgentRequest, msg::AgentRequestPubSubType>* agent_out_ = nullptr;
-  std::unique_ptr<launcher::HostWatch> hosts_;  ///< multi-host: the agents' liveness (nullptr without hosts:)
-  unsigned long long spawns_ = 0;
-  /// This launcher's run, in every request to the agents: random, so that two runs (two `tandem up`, even with
-  /// one pid in two containers) never take each other's processes.
-  unsigned long long run_ = [] {
-    std::random_device rd;
-    unsigned long long r = 0;
-    while (r == 0) r = (static_cast<unsigned long long>(rd()) << 32) ^ rd();
-    return r;
-  }();
-  std::map<std::string, std::map<long long, double>> agent_heard_;  ///< per host: agent pid -> last heard [s]
-  std::set<std::string> two_agents_;  ///< hosts with two agents at once, said once
-  std::map<std::string, unsigned long long> agent_runs_;  ///< the run each host's agent last said it serves
-  /// Hosts whose agent does not serve this run yet (not heard, or it has not received this launcher's heartbeat:
-  /// its reader of the requests has not matched yet).
-  std::vector<std::string> agents_not_serving() const {
-    std::vector<std::string> out;
-    for (const auto& h : d_.hosts) {
-      const auto it = agent_runs_.find(h.name);
-      if (it == agent_runs_.end() || it->second != run_) out.push_back(h.name);
-    }
-    return out;
-  }
-  std::set<std::string> other_runs_;             ///< "<host>/<run>" of other runs seen, said once
-  std::set<unsigned long long> fenced_;  ///< processes of a host that came back, SIGKILLed once
-  bus::Writer<msg::CoordinatorState, msg::CoordinatorStatePubSubType>* coord_state_out_ = nullptr;
-  msg::CoordinatorState last_coord_state_;  ///< the latest queue state heard from a coordinator
-  bool have_coord_state_ = false;
-  bool stopping_ = false, escalated_ = false, failed_ = false, coordinator_done_ = false;
-  bool all_heard_said_ = false;
-  Clock::time_point stop_started_{};
-  bool shm_dirty_ = false;           ///< a child was killed: its shared-memory files wait to be removed
-  Clock::time_point killed_at_{};
-  int coordinator_restarts_ = 0;
-  unsigned long long seq_ = 0;
-  std::set<unsigned long long> handled_seqs_;
-  /// The outcome of a live command, kept by its seq (the newest 256) until its sender has read it: status keeps
-  /// one sample per process, so an answer to another terminal's request can replace this one before it is
-  /// read, and a request re-sent (not yet answered, as its sender sees it) gets its answer again.
-  struct Answer {
-    bool ok = false;
-    std::string text;
-  };
-  std::map<unsigned long long, Answer> answers_;
-  unsigned long long current_seq_ = 0;  ///< the live command being carried out (its say() lines are its answer)
+  int rt_priority(const Child& c) const { return c.role == "coordinator" ? 0 : rt_priority_; }
   /// SCHED_FIFO priority for the per-tick processes (0: normal scheduling); set once before any start.
   int rt_priority_ = 0;
-  /// Participant ids for children, the one left longest ago first: 20-119 (0-19 stay for Fast DDS's own choice:
-  /// the launcher, `tandem status` and other tools).
-  std::deque<int> free_ids_ = [] {
-    std::deque<int> ids;
-    for (int i = 20; i < static_cast<int>(bus::kMaxParticipantId); ++i) ids.push_back(i);
-    return ids;
-  }();
+
+  bool records_ticks() const {
+    if (d_.record.empty()) return false;
+    if (d_.record_topics.empty()) return true;
+    const std::string t = "," + d_.record_topics + ",";
+    return t.find(",ticks,") != std::string::npos || t.find(",all,") != std::string::npos;
+  }
 
  private:
+  static std::string slot_of(const Child& c) { return c.arm.substr(c.arm.find('/') + 1); }
   std::vector<std::string> common_args(const runtime::ModuleDeployment& m) const {
     std::vector<std::string> a{"--scenario", m.scenario, "--case",      m.case_name,
                                "--module",   m.name,     "--domain",    std::to_string(d_.domain_id),
@@ -1150,231 +192,177 @@ class Launcher {
     if (records_ticks()) a.insert(a.end(), {"--observers", std::to_string(m.standby + 1)});
     return a;
   }
-  /// The DDS-Security identity of a child ("" without security): its slot's (runtime::identities).
-  std::string identity_of(const Child& c) const {
-    if (d_.security_keys.empty()) return "";
-    if (c.role == "robot") return runtime::identity_name("robot", c.module, c.arm.substr(c.arm.find('/') + 1));
-    return runtime::identity_name(c.role, c.module);
-  }
-  bool records_ticks() const {
-    if (d_.record.empty()) return false;
-    if (d_.record_topics.empty()) return true;
-    const std::string t = "," + d_.record_topics + ",";
-    return t.find(",ticks,") != std::string::npos || t.find(",all,") != std::string::npos;
-  }
-  /// Starts `c` (here, or by its host's agent); false if it could not be started.
-  bool launch(Child& c, const char* note = "") {
-    // The participant id left longest ago (see services/dds/src/participant.cpp); none left: Fast DDS picks.
-    c.participant_id = -1;
-    if (!free_ids_.empty()) {
-      c.participant_id = free_ids_.front();
-      free_ids_.pop_front();
-    }
-    c.running = true;
-    c.started = Clock::now();
-    c.heard = false;
-    if (c.host.empty()) {
-      c.pid = spawn(c.exe, c.args, rt_priority_of(c), c.participant_id, identity_of(c));
-      std::printf("  started %-22s pid %d%s\n", c.label.c_str(), c.pid, note);
-    } else if (hosts_ != nullptr && hosts_->lost(c.host)) {
-      std::printf("  cannot start %-18s on %s: the host is lost%s\n", c.label.c_str(), c.host.c_str(), note);
-      c.pid = -1;
-      mark_exited(c, 127);
-    } else {
-      c.pid = 0;  // known when the agent reports it
-      c.spawn_id = ++spawns_;
-      c.acked = false;
-      c.signal = 0;
-      send_start(c);
-      std::printf("  started %-22s on %s%s\n", c.label.c_str(), c.host.c_str(), note);
-    }
-    children_.push_back(c);
-    return c.running && (c.pid > 0 || !c.host.empty());
-  }
-  int rt_priority_of(const Child& c) const { return c.role == "coordinator" ? 0 : rt_priority_; }
+  const Deployment& d_;
+  std::string file_, dir_;
+  std::map<std::string, runtime::ModuleDeployment> modules_;
+};
 
+/// Processes on this machine: fork/exec (launcher::spawn) and kill(2); their exits are reaped by reap_local().
+class LocalExecutor : public launcher::Executor {
  public:
-  // ---- multi-host: the agents ------------------------------------------------------------------------------
-
-  msg::AgentRequest request(const std::string& host, msg::AgentRequestKind kind) const {
-    msg::AgentRequest r;
-    r.host(host);
-    r.deployment(d_.name);
-    r.kind(kind);
-    r.run(run_);
-    return r;
+  explicit LocalExecutor(const CommandLines& lines) : lines_(lines) {}
+  std::string place(const Child&) const override { return ""; }
+  int start(const Child& c) override {
+    return spawn(lines_.exe(c), lines_.args(c), lines_.rt_priority(c), c.participant_id, lines_.identity(c));
   }
+  void signal(const Child& c, int sig) override { ::kill(c.pid, sig); }
+  void signal_spawn(const std::string&, unsigned long long, const std::string&, int) override {}
+  void heartbeat(const std::string&, bool, bool) override {}
 
-  void send_start(Child& c) {
+ private:
+  const CommandLines& lines_;
+};
+
+/// Processes on the hosts of a multi-host deployment: requests to each host's agent (AgentRequest); their exits
+/// come in the agents' states.
+class AgentExecutor : public launcher::Executor {
+ public:
+  AgentExecutor(const CommandLines& lines, std::string deployment, unsigned long long run)
+      : lines_(lines), deployment_(std::move(deployment)), run_(run) {}
+  bus::Writer<msg::AgentRequest, msg::AgentRequestPubSubType>* out_ = nullptr;
+
+  std::string place(const Child& c) const override { return lines_.host(c); }
+  int start(const Child& c) override {
     msg::AgentRequest r = request(c.host, msg::AGENT_START);
     r.spawn_id(c.spawn_id);
     r.label(c.label);
     r.role(c.role);
-    r.args(c.args);
-    r.rt_priority(rt_priority_of(c));
+    r.args(lines_.args(c));
+    r.rt_priority(lines_.rt_priority(c));
     r.participant_id(c.participant_id);
-    r.identity(identity_of(c));
-    agent_out_->write(r);
-    c.sent = Clock::now();
+    r.identity(lines_.identity(c));
+    out_->write(r);
+    return 0;
   }
-
-  /// Sends `sig` to a child: here with kill(2), on another host through its agent.
-  void signal_child(Child& c, int sig) {
-    if (c.host.empty()) {
-      if (c.pid > 0) ::kill(c.pid, sig);
-      return;
-    }
-    if (hosts_ != nullptr && hosts_->lost(c.host)) return;  // counted as gone already
-    if (c.signal != SIGKILL) c.signal = sig;  // re-sent by watch_hosts until the agent reports it gone
-    send_signal(c.host, c.spawn_id, c.label, c.signal);
-    c.signal_sent = Clock::now();
-  }
-  void send_signal(const std::string& host, unsigned long long spawn_id, const std::string& label, int sig) {
+  void signal(const Child& c, int sig) override { signal_spawn(c.host, c.spawn_id, c.label, sig); }
+  void signal_spawn(const std::string& host, unsigned long long spawn_id, const std::string& label, int sig) override {
     msg::AgentRequest r = request(host, msg::AGENT_SIGNAL);
     r.spawn_id(spawn_id);
     r.label(label);
     r.signal(sig);
-    agent_out_->write(r);
+    out_->write(r);
   }
-
   /// Every 100 ms, to each host's agent: the launcher lives, and whether it counts the host as lost (one-way
   /// partitions: an agent that hears the launcher but is not heard fences too). Ends the run with end=true.
-  void heartbeat(bool end = false) {
-    if (hosts_ == nullptr) return;
-    for (const auto& h : d_.hosts) {
-      msg::AgentRequest r = request(h.name, end ? msg::AGENT_END : msg::AGENT_HEARTBEAT);
-      r.host_lost(hosts_->lost(h.name));
-      agent_out_->write(r);
-    }
+  void heartbeat(const std::string& host, bool lost, bool end) override {
+    msg::AgentRequest r = request(host, end ? msg::AGENT_END : msg::AGENT_HEARTBEAT);
+    r.host_lost(lost);
+    out_->write(r);
   }
 
-  /// A child is gone: exited with `status` (128 + signal if killed), or counted as failed (its host was lost).
-  void mark_exited(Child& c, int status) {
-    c.running = false;
-    c.status = status;
-    if (c.participant_id >= 0) free_ids_.push_back(c.participant_id);
-    c.participant_id = -1;
+ private:
+  msg::AgentRequest request(const std::string& host, msg::AgentRequestKind kind) const {
+    msg::AgentRequest r;
+    r.host(host);
+    r.deployment(deployment_);
+    r.kind(kind);
+    r.run(run_);
+    return r;
   }
-
-  /// An agent's heartbeat and the state of the processes it started for this launcher.
-  void on_agent_state(const msg::AgentState& st) {
-    if (st.deployment() != d_.name || hosts_ == nullptr || !hosts_->known(st.host())) return;
-    agent_runs_[st.host()] = st.run();
-    if (st.run() != run_ && st.run() != 0) {
-      if (other_runs_.insert(st.host() + "/" + std::to_string(st.run())).second) {
-        std::printf("tandem up: the agent of %s serves another launcher run (%llu): is another `tandem up` of %s "
-                    "running? It will not start this run's processes while that one lives\n",
-                    st.host().c_str(), static_cast<unsigned long long>(st.run()), d_.name.c_str());
-      }
-      return;
-    }
-    // Which agent pids answer for the host, and when each was last heard: a process belongs to the agent that
-    // reported it, and counts as failed when that agent falls silent (a restarted agent: its processes died with
-    // it) even while the host is heard through another pid. Two pids heard at once: two agents for one host (the
-    // newer leaves by itself).
-    auto& pids = agent_heard_[st.host()];
-    pids[st.pid()] = seconds();
-    for (const auto& [other, at] : pids) {
-      if (other != st.pid() && seconds() - at < 0.5 && two_agents_.insert(st.host()).second) {
-        std::printf("tandem up: two agents answer for host %s (pids %lld and %lld): one agent per host\n",
-                    st.host().c_str(), static_cast<long long>(other), static_cast<long long>(st.pid()));
-      }
-    }
-    if (hosts_->heard(st.host(), seconds())) {
-      std::printf("tandem up: host %s is back (its agent is heard again); its processes were replaced meanwhile\n",
-                  st.host().c_str());
-    }
-    if (st.run() != run_) return;  // it has not had a request of this run yet
-    std::set<unsigned long long> listed;
-    for (const auto& ac : st.children()) {
-      listed.insert(ac.spawn_id());
-      Child* c = nullptr;
-      for (auto& x : children_) {
-        if (x.spawn_id == ac.spawn_id() && x.host == st.host()) c = &x;
-      }
-      if (c == nullptr || !c->running) {
-        // A process this launcher counts as gone (its host was lost meanwhile): fenced off, so that two robots
-        // never command one arm as primaries.
-        if (ac.running() && fenced_.insert(ac.spawn_id()).second) {
-          std::printf("tandem up: %s on %s still runs but was counted as failed; SIGKILL\n", ac.label().c_str(),
-                      st.host().c_str());
-          send_signal(st.host(), ac.spawn_id(), ac.label(), SIGKILL);
-        }
-        continue;
-      }
-      if (!c->acked) {
-        c->acked = true;
-        c->agent_pid = st.pid();
-        c->pid = static_cast<pid_t>(ac.pid());
-        if (ac.pid() > 0) std::printf("  %-30s runs on %s as pid %lld\n", c->label.c_str(), c->host.c_str(), static_cast<long long>(ac.pid()));
-      }
-      if (!ac.running()) {
-        if (ac.pid() <= 0) std::printf("tandem up: the agent of %s could not start %s: %s\n", st.host().c_str(), c->label.c_str(), st.detail().c_str());
-        mark_exited(*c, ac.status());
-        if (c->status >= 128) {
-          shm_dirty_ = true;
-          killed_at_ = Clock::now();
-        }
-      }
-    }
-    // A process the agent acknowledged and no longer lists (it forgot this run: restarted with the same pid?).
-    for (auto& c : children_) {
-      if (c.running && c.acked && c.host == st.host() && c.agent_pid == st.pid() && listed.count(c.spawn_id) == 0) {
-        std::printf("tandem up: the agent of %s no longer reports %s; counted as failed\n", st.host().c_str(), c.label.c_str());
-        mark_exited(c, 128 + SIGKILL);
-      }
-    }
-  }
-
-  /// Hosts whose agent fell silent: their processes count as failed (on_exit: standbys elsewhere take over, a
-  /// module without its world is re-planned). Start requests not yet answered are re-sent.
-  void watch_hosts() {
-    if (hosts_ == nullptr) return;
-    for (const auto& h : hosts_->newly_lost(seconds())) {
-      std::string labels;
-      int n = 0;
-      for (auto& c : children_) {
-        if (!c.running || c.host != h) continue;
-        labels += (labels.empty() ? "" : ", ") + c.label;
-        ++n;
-        mark_exited(c, 128 + SIGKILL);
-      }
-      std::printf("tandem up: host %s lost: no word from its agent for %.1f s; its %d process(es) count as failed%s%s\n",
-                  h.c_str(), d_.host_timeout, n, n > 0 ? ": " : "", labels.c_str());
-    }
-    // Processes whose agent fell silent while its host is still heard (through a new agent: a restart).
-    for (auto& c : children_) {
-      if (!c.running || c.host.empty() || !c.acked || hosts_->lost(c.host)) continue;
-      const auto& pids = agent_heard_[c.host];
-      const auto it = pids.find(c.agent_pid);
-      if (it != pids.end() && seconds() - it->second > d_.host_timeout) {
-        std::printf("tandem up: the agent of %s that ran %s (pid %lld) is gone (another agent answers for the host); "
-                    "counted as failed\n", c.host.c_str(), c.label.c_str(), c.agent_pid);
-        mark_exited(c, 128 + SIGKILL);
-      }
-    }
-    const auto now = Clock::now();
-    for (auto& c : children_) {
-      if (!c.running || c.host.empty() || c.acked) continue;
-      if (now - c.started > std::chrono::seconds(10)) {
-        std::printf("tandem up: the agent of %s did not start %s within 10 s; counted as failed to start\n",
-                    c.host.c_str(), c.label.c_str());
-        mark_exited(c, 127);
-      } else if (now - c.sent > std::chrono::milliseconds(200)) {
-        send_start(c);
-      }
-    }
-    // Signals are re-sent until the agent reports the process gone (the request topic keeps the newest 32 per
-    // host: a burst to many processes of one host could lose some).
-    for (auto& c : children_) {
-      if (c.running && !c.host.empty() && c.signal != 0 && now - c.signal_sent > std::chrono::milliseconds(200)) {
-        send_signal(c.host, c.spawn_id, c.label, c.signal);
-        c.signal_sent = now;
-      }
-    }
-  }
-  double seconds() const { return std::chrono::duration<double>(Clock::now() - t0_).count(); }
+  const CommandLines& lines_;
+  std::string deployment_;
+  unsigned long long run_;
 };
+
+/// What the supervisor says: the log on stdout/stderr, requests to supervisors and the coordinator's state on DDS.
+class UpOutbox : public launcher::Outbox {
+ public:
+  UpOutbox(std::string deployment, CommandLines& lines) : deployment_(std::move(deployment)), lines_(lines) {}
+  bus::Writer<msg::ControlRequest, msg::ControlRequestPubSubType>* control_out_ = nullptr;
+  bus::Writer<msg::CoordinatorState, msg::CoordinatorStatePubSubType>* coord_state_out_ = nullptr;
+  msg::CoordinatorState last_coord;  ///< the latest (most advanced) queue state heard from a coordinator
+  bool have_coord = false;
+
+  void log(const std::string& line, bool error) override { std::fputs(line.c_str(), error ? stderr : stdout); }
+  void control(const std::string& module, launcher::ModuleCommand command, unsigned long long seq) override {
+    msg::ControlRequest req;
+    req.deployment(deployment_);
+    req.command(command == launcher::ModuleCommand::Pause    ? msg::CMD_PAUSE
+                : command == launcher::ModuleCommand::Resume ? msg::CMD_RESUME
+                                                             : msg::CMD_DRAIN);
+    req.target_kind(msg::TARGET_MODULE);
+    req.target(module);
+    req.seq(seq);
+    control_out_->write(req);
+  }
+  void republish_coordinator_state() override {
+    if (coord_state_out_ != nullptr) coord_state_out_->write(last_coord);
+  }
+  launcher::ModuleSpec load_module(const std::string& name, const std::string& scenario, const std::string& case_name,
+                                   const std::string& host, bool& case_found) override {
+    runtime::ModuleDeployment cfg;
+    cfg.name = name;
+    cfg.scenario = scenario;
+    cfg.case_name = case_name;
+    cfg.host = host;
+    launcher::ModuleSpec spec = module_spec(cfg, &case_found);
+    lines_.add(cfg);
+    return spec;
+  }
+
+ private:
+  std::string deployment_;
+  CommandLines& lines_;
+};
+
+/// A live command as the supervisor reads it.
+launcher::Request request_of(const msg::ControlRequest& r) {
+  launcher::Request q;
+  using C = launcher::Request::Command;
+  using T = launcher::Request::Target;
+  q.command = r.command() == msg::CMD_DOWN     ? C::Down
+              : r.command() == msg::CMD_KILL   ? C::Kill
+              : r.command() == msg::CMD_PLUG   ? C::Plug
+              : r.command() == msg::CMD_UNPLUG ? C::Unplug
+                                               : C::Other;
+  q.raw_command = static_cast<int>(r.command());
+  q.command_name = runtime::command_name(r.command());
+  q.target_kind = r.target_kind() == msg::TARGET_MODULE    ? T::Module
+                  : r.target_kind() == msg::TARGET_ROBOT   ? T::Robot
+                  : r.target_kind() == msg::TARGET_PROCESS ? T::Process
+                                                           : T::Other;
+  q.target = r.target();
+  q.seq = r.seq();
+  q.standby = r.standby();
+  q.scenario = r.scenario();
+  q.case_name = r.case_name();
+  q.host = r.host();
+  return q;
+}
+
+/// An agent's state as the supervisor reads it.
+launcher::AgentReport report_of(const msg::AgentState& st) {
+  launcher::AgentReport a;
+  a.host = st.host();
+  a.pid = st.pid();
+  a.run = st.run();
+  a.detail = st.detail();
+  for (const auto& ac : st.children()) {
+    a.children.push_back({ac.spawn_id(), ac.label(), ac.pid(), ac.running(), static_cast<int>(ac.status())});
+  }
+  return a;
+}
+
+/// Exits of the processes started on this machine, handed to the supervisor (`block`: wait for each).
+void reap_local(launcher::Supervisor& s, bool block = false) {
+  std::vector<int> pids;
+  for (const auto& c : s.children()) {
+    if (c.running && c.host.empty() && c.pid > 0) pids.push_back(c.pid);
+  }
+  for (const int pid : pids) {
+    int st = 0;
+    if (::waitpid(pid, &st, block ? 0 : WNOHANG) == pid) s.on_exit(pid, WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st));
+  }
+}
+
+/// This launcher's run, in every request to the agents: random, so that two runs (two `tandem up`, even with one pid
+/// in two containers) never take each other's processes.
+unsigned long long new_run() {
+  std::random_device rd;
+  unsigned long long r = 0;
+  while (r == 0) r = (static_cast<unsigned long long>(rd()) << 32) ^ rd();
+  return r;
+}
 
 /// The plant step and control-law step of a module, timed here (thread CPU time, the median of a few batches).
 void time_model(const runtime::ModuleDeployment& m, launcher::Calibration& c) {
@@ -1550,13 +538,37 @@ int up_command(const std::vector<std::string>& args) {
     absolute(file);
     for (auto& m : d.modules) absolute(m.scenario);
   }
-  Launcher L(d, file);
+  std::vector<launcher::ModuleSpec> specs;
   try {
-    for (const auto& m : d.modules) L.prepare_module(m);
+    for (const auto& m : d.modules) specs.push_back(module_spec(m));
   } catch (const std::exception& e) {
     std::fprintf(stderr, "tandem up: %s\n", e.what());
     return 2;
   }
+  CommandLines lines(d, file);
+  LocalExecutor local(lines);
+  const unsigned long long run = new_run();
+  AgentExecutor agents(lines, d.name, run);
+  UpOutbox outbox(d.name, lines);
+  launcher::SupervisorConfig cfg;
+  cfg.deployment = d.name;
+  cfg.deployment_file = file;
+  cfg.coordinated = d.coordinator;
+  cfg.coordinator_standby = d.coordinator_standby;
+  cfg.coordinator_restart = launcher::RestartRule{d.coordinator_restart, d.coordinator_restart_limit,
+                                                  d.coordinator_restart_window, 0.2};
+  cfg.timeout = d.timeout;
+  cfg.start_timeout = d.start_timeout;
+  for (const auto& h : d.hosts) cfg.hosts.push_back(h.name);
+  cfg.host_timeout = d.host_timeout;
+  cfg.run = run;
+  // Participant ids for children, the one left longest ago first: 20-119 (0-19 stay for Fast DDS's own choice:
+  // the launcher, `tandem status` and other tools).
+  cfg.end_participant_id = static_cast<int>(bus::kMaxParticipantId);
+  launcher::Supervisor L(cfg, d.hosts.empty() ? static_cast<launcher::Executor&>(local) : agents, outbox);
+  const auto t_start = Clock::now();
+  auto now_s = [&t_start] { return std::chrono::duration<double>(Clock::now() - t_start).count(); };
+  for (auto& s : specs) L.add_module(std::move(s));
 
   // DDS-Security: every identity's files are there and valid before anything starts; the launcher joins as
   // "launcher", its children inherit the keys' directory and get their slot's identity (identity_of).
@@ -1584,7 +596,7 @@ int up_command(const std::vector<std::string>& args) {
   if (d.timing == "realtime" && d.realtime_priority > 0) {
     std::string why;
     if (launcher::fifo_permitted(d.realtime_priority, why)) {
-      L.rt_priority_ = d.realtime_priority;
+      lines.rt_priority_ = d.realtime_priority;
       (void)launcher::raise_service_priority(why);  // permitted wherever SCHED_FIFO is
     } else {
       std::printf("tandem up: note: real-time priority %d not permitted here (%s); the per-tick processes run "
@@ -1655,10 +667,10 @@ int up_command(const std::vector<std::string>& args) {
   bus::Reader<msg::TaskState, msg::TaskStatePubSubType> task_states(part, bus::kTaskStateTopic, bus::TopicKind::Task);
   bus::Reader<msg::CoordinatorState, msg::CoordinatorStatePubSubType> coord_state(part, bus::kCoordinatorStateTopic,
                                                                                   bus::TopicKind::Task);
-  L.control_out_ = &control_out;
+  outbox.control_out_ = &control_out;
   bus::Writer<msg::CoordinatorState, msg::CoordinatorStatePubSubType> coord_state_out(part, bus::kCoordinatorStateTopic,
                                                                                     bus::TopicKind::Task);
-  L.coord_state_out_ = &coord_state_out;
+  outbox.coord_state_out_ = &coord_state_out;
   // Multi-host: the agents (docs/multihost.md). Every host's agent is heard before anything starts.
   std::unique_ptr<bus::Writer<msg::AgentRequest, msg::AgentRequestPubSubType>> agent_out;
   std::unique_ptr<bus::Reader<msg::AgentState, msg::AgentStatePubSubType>> agent_state;
@@ -1667,21 +679,20 @@ int up_command(const std::vector<std::string>& args) {
                                                                                               bus::TopicKind::Control);
     agent_state = std::make_unique<bus::Reader<msg::AgentState, msg::AgentStatePubSubType>>(part, bus::kAgentStateTopic,
                                                                                             bus::TopicKind::Status);
-    L.agent_out_ = agent_out.get();
+    agents.out_ = agent_out.get();
   }
   runtime::StatusPublisher launcher_status(part, "launcher", "launcher", "");
   launcher_status.msg().deployment(d.name);
   launcher_status.set(runtime::Lifecycle::Active, "");
   LiveView view(d.name);
   if (!d.hosts.empty()) {
-    std::vector<std::string> names;
-    for (const auto& h : d.hosts) names.push_back(h.name);
-    L.hosts_ = std::make_unique<launcher::HostWatch>(names, d.host_timeout);
     const auto asked = Clock::now();
     auto last_note = asked - std::chrono::seconds(10);
     while (!g_stop) {
       msg::AgentState st;
-      while (agent_state->take(st)) L.on_agent_state(st);
+      while (agent_state->take(st)) {
+        if (st.deployment() == d.name) L.on_agent_state(report_of(st), now_s());
+      }
       // Every agent heard, and serving this run: its state says so once it has this launcher's heartbeat, so the
       // requests reach it both ways (a state heard alone once came with requests that never arrived).
       const auto waiting = L.agents_not_serving();
@@ -1710,7 +721,7 @@ int up_command(const std::vector<std::string>& args) {
   }
   std::printf("tandem up %s: %zu module(s), domain %d, %s, %s timing%s\n", d.name.c_str(), d.modules.size(),
               d.domain_id, d.transport.c_str(), d.timing.c_str(),
-              L.rt_priority_ > 0 ? (", SCHED_FIFO " + std::to_string(L.rt_priority_)).c_str() : "");
+              lines.rt_priority_ > 0 ? (", SCHED_FIFO " + std::to_string(lines.rt_priority_)).c_str() : "");
   const Capacity capacity = capacity_estimate(d);
   if (capacity.text.find("warning") != std::string::npos) std::printf("tandem up: %s\n", capacity.text.c_str());
   // record: the recorder joins first and is heard before any module starts, so that it has every tick (the
@@ -1719,7 +730,7 @@ int up_command(const std::vector<std::string>& args) {
   if (!d.record.empty()) {
     std::vector<std::string> rargs{"record", file, "-o", d.record, "--attached"};
     if (!d.record_topics.empty()) rargs.insert(rargs.end(), {"--topics", d.record_topics});
-    recorder = spawn(L.dir_ + "/tandem", rargs, 0, -1, d.security_keys.empty() ? "" : "recorder");
+    recorder = spawn(lines.dir() + "/tandem", rargs, 0, -1, d.security_keys.empty() ? "" : "recorder");
     if (recorder < 0) return 2;
     std::printf("  started recorder             pid %d -> %s\n", recorder, d.record.c_str());
     bool heard = false;
@@ -1767,7 +778,7 @@ int up_command(const std::vector<std::string>& args) {
     }
   } recorder_stop{recorder};
   bool recording_failed = false;
-  if (L.hosts_) L.hosts_->restart_clock(L.seconds());  // the recorder was awaited without reading agent states
+  L.restart_host_clock(now_s());  // the recorder was awaited without reading agent states
   std::set<std::string> start_parked;
   if (capacity.realtime && d.coordinator && d.shed_modules && d.overload_brake) {
     // Shedding whole modules (launcher::Governor), and admission: the modules the calibrated estimate fits,
@@ -1789,11 +800,7 @@ int up_command(const std::vector<std::string>& args) {
     // still parks modules whose worlds keep pausing for load). Seen: a three-host test's second module started
     // parked because all of them were counted against the launcher's machine.
     if (!d.hosts.empty()) fit = order.size();
-    L.governor_ = std::make_unique<launcher::Governor>(order);
-    for (const std::string& m : L.governor_->admit(fit, L.seconds())) {
-      start_parked.insert(m);
-      L.modules_.at(m).end = "parked: admission";
-    }
+    for (const std::string& m : L.admit(order, fit, now_s())) start_parked.insert(m);
     if (!start_parked.empty()) {
       std::string list;
       for (const auto& m : start_parked) list += (list.empty() ? "" : ", ") + m;
@@ -1804,14 +811,15 @@ int up_command(const std::vector<std::string>& args) {
     }
   }
   for (const auto& m : d.modules) {
-    if (m.autostart && !start_parked.count(m.name)) L.start_module(m.name);
+    if (m.autostart && !start_parked.count(m.name)) L.start_module(m.name, now_s());
   }
-  L.start_coordinators();
+  L.start_coordinators(now_s());
 
   std::map<std::string, msg::RobotSummary> robots;
   std::map<std::string, msg::WorldSummary> worlds;
-  msg::CoordinatorState last_coord;
-  bool have_coord = false;
+  msg::CoordinatorState& last_coord = outbox.last_coord;
+  bool& have_coord = outbox.have_coord;
+  std::map<std::string, std::vector<double>> start_cpu;  ///< per role: the CPU seconds from start to active
   const auto t0 = Clock::now();
   auto last_print = t0;
   auto collect = [&] {
@@ -1820,7 +828,9 @@ int up_command(const std::vector<std::string>& args) {
     msg::WorldSummary ws;
     while (world_sum.take(ws)) worlds[ws.module_id()] = ws;
     msg::TaskState ts;
-    while (task_states.take(ts)) L.on_task_state(ts);
+    while (task_states.take(ts)) {
+      if (ts.deployment() == d.name) L.on_task_state(ts.module_id(), ts.state());
+    }
     msg::CoordinatorState cs;
     bool advanced = false;
     while (coord_state.take(cs)) {
@@ -1832,8 +842,7 @@ int up_command(const std::vector<std::string>& args) {
         advanced = advanced || more;
         last_coord = cs;
         have_coord = true;
-        L.last_coord_state_ = cs;
-        L.have_coord_state_ = true;
+        L.on_coordinator_state(done_in(cs));
       }
     }
     // Mirrored: every advance of the queue is republished from the launcher's own writer (transient-local), so
@@ -1848,20 +857,23 @@ int up_command(const std::vector<std::string>& args) {
   while (L.busy()) {
     if (agent_state) {  // before poll(): a host is judged on the newest word from its agent
       msg::AgentState st;
-      while (agent_state->take(st)) L.on_agent_state(st);
+      while (agent_state->take(st)) {
+        if (st.deployment() == d.name) L.on_agent_state(report_of(st), now_s());
+      }
       if (Clock::now() - heartbeat_sent >= std::chrono::milliseconds(100)) {
         L.heartbeat();
         heartbeat_sent = Clock::now();
       }
     }
-    L.poll();
-    L.govern();
-    L.escalate();
+    reap_local(L);
+    L.poll(now_s());
+    L.govern(now_s());
+    L.escalate(now_s());
     {
       // The launcher's status lists what it runs, so that `tandem status` knows whom to wait for.
       std::vector<std::string> labels;
-      labels.reserve(L.children_.size());
-      for (const auto& c : L.children_) {
+      labels.reserve(L.children().size());
+      for (const auto& c : L.children()) {
         if (c.running) labels.push_back(c.label);
       }
       // Also every 100 ms, like every other process: a late joiner that has matched hears the launcher within
@@ -1877,23 +889,31 @@ int up_command(const std::vector<std::string>& args) {
     msg::ProcessStatus ps;
     while (status.take(ps)) {
       view.update(ps);
-      L.on_status(ps.process_id(), ps.pid(), ps.state() == static_cast<uint8_t>(runtime::Lifecycle::Active), ps.serving());
-      if (ps.role() == "world" && ps.deployment() == d.name) L.on_world_load(ps.module_id(), ps.detail(), ps.tick());
+      const Child* first_active =
+          L.on_status(ps.process_id(), ps.pid(), ps.state() == static_cast<uint8_t>(runtime::Lifecycle::Active),
+                      ps.serving() != msg::ROLE_NONE, ps.serving() == msg::ROLE_PRIMARY);
+      if (first_active != nullptr) {
+        // The CPU one start costs (a soak restarts about a thousand processes an hour): user + system time of the
+        // process from its start to its first active status.
+        const double cpu = process_cpu_s(static_cast<pid_t>(ps.pid()));
+        if (cpu >= 0.0) start_cpu[first_active->role].push_back(cpu);
+      }
+      if (ps.role() == "world" && ps.deployment() == d.name) L.on_world_load(ps.module_id(), ps.detail(), ps.tick(), now_s());
     }
     msg::ControlRequest req;
     while (control.take(req)) {
       if (req.deployment() != d.name) continue;
-      if (L.stopping_) {
-        L.refuse_while_stopping(req);
-      } else {
-        L.handle(req);
+      const msg::ControlCommand cmd = req.command();
+      if (cmd != msg::CMD_PAUSE && cmd != msg::CMD_RESUME && cmd != msg::CMD_DRAIN) {  // (the launcher's own)
+        L.on_request(request_of(req), now_s());
+        if (L.down_requested()) g_stop = true;
+        std::fflush(stdout);
       }
-      // The answer the sender waits for (again, for a request re-sent: see Launcher::answers_).
-      const auto answer = L.answers_.find(req.seq());
-      if (answer != L.answers_.end()) {
+      // The answer the sender waits for (again, for a request re-sent: see Supervisor::answer).
+      if (const launcher::Supervisor::Answer* answer = L.answer(req.seq())) {
         launcher_status.msg().reply_seq(req.seq());
-        launcher_status.msg().reply_ok(answer->second.ok);
-        launcher_status.msg().reply_text(answer->second.text);
+        launcher_status.msg().reply_ok(answer->ok);
+        launcher_status.msg().reply_text(answer->text);
         launcher_status.publish();
       }
     }
@@ -1903,31 +923,31 @@ int up_command(const std::vector<std::string>& args) {
       recording_failed = true;
     }
     // Shared-memory files of killed children, once the others had 2 s to let go of them (unmapped ones only).
-    if (L.shm_dirty_ && Clock::now() - L.killed_at_ > std::chrono::seconds(2)) {
-      L.shm_dirty_ = false;
+    if (L.shm_dirty() && now_s() - L.killed_at() > 2.0) {
+      L.shm_cleaned();
       runtime::clean_stale_shm(launcher_started);
     }
-    if (g_stop && !L.stopping_) {
+    if (g_stop && !L.stopping()) {
       std::printf("tandem up: stop requested; stopping %d process(es)\n", L.running());
-      L.stop_all(SIGTERM);
+      L.stop_all(SIGTERM, now_s());
     }
     const auto now = Clock::now();
     if (now - last_print > std::chrono::seconds(1)) {
       std::printf("[%5.1f s] processes running %d/%zu\n", std::chrono::duration<double>(now - t0).count(), L.running(),
-                  L.children_.size());
+                  L.children().size());
       view.print(stdout);
       std::fflush(stdout);
       last_print = now;
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
-  L.reap(true);
+  reap_local(L, true);
   if (agent_out) {  // the agents stop whatever is left of this run (--once agents exit)
     L.heartbeat(true);
     (void)agent_out->wait_for_acks(1.0);
   }
   size_t started_modules = 0;
-  for (const auto& [name, mr] : L.modules_) started_modules += mr.started ? 1 : 0;
+  for (const auto& [name, mr] : L.modules()) started_modules += mr.started ? 1 : 0;
   const auto settle = Clock::now();
   while (worlds.size() < started_modules && Clock::now() - settle < std::chrono::milliseconds(500)) {
     robot_sum.wait(0.05);
@@ -1944,8 +964,8 @@ int up_command(const std::vector<std::string>& args) {
     if (!out) std::fprintf(stderr, "tandem up: cannot write the summary to %s\n", summary_file.c_str());
     out.precision(17);
   }
-  bool grasp_ok = true, failed = L.failed_;
-  for (const auto& [name, mr] : L.modules_) {
+  bool grasp_ok = true, failed = L.failed();
+  for (const auto& [name, mr] : L.modules()) {
     if (!mr.started) continue;
     const bool counted = mr.end.empty() || mr.end == "draining";  // failed or unplugged modules: reported only
     if (!mr.end.empty()) std::printf("%s: %s\n", name.c_str(), mr.end.c_str());
@@ -1957,7 +977,7 @@ int up_command(const std::vector<std::string>& args) {
       std::printf("%-16s %8llu %12.4e %12.4e %12.4e %10.4f %10s %9llu\n", id.c_str(),
                   static_cast<unsigned long long>(r.ticks()), r.ep_sel_rms(), r.ep_pos_rms(), r.ep_ori_rms(),
                   r.eh_rms(), min_force, static_cast<unsigned long long>(r.rejected()));
-      if (counted && r.ticks() > 0 && r.min_normal_force() < mr.h_sg) grasp_ok = false;
+      if (counted && r.ticks() > 0 && r.min_normal_force() < mr.spec.h_sg) grasp_ok = false;
       if (out) {
         out << id << ".ep_pos_rms=" << r.ep_pos_rms() << "\n" << id << ".ep_ori_rms=" << r.ep_ori_rms() << "\n"
             << id << ".ep_sel_rms=" << r.ep_sel_rms() << "\n" << id << ".eh_rms=" << r.eh_rms() << "\n"
@@ -1982,7 +1002,7 @@ int up_command(const std::vector<std::string>& args) {
       std::printf("%s: %s after %.1f ms; over the next 300 ticks worst |e_p| %.3e m, lowest normal force %.2f N "
                   "(h_sg %.2f N)\n",
                   name.c_str(), ws.switch_failover()[i] ? "failover" : "takeover", ws.switch_gap_ms()[i],
-                  ws.switch_ep_max()[i], ws.switch_hn_min()[i], mr.h_sg);
+                  ws.switch_ep_max()[i], ws.switch_hn_min()[i], mr.spec.h_sg);
     }
     if (ws.realtime()) {
       std::printf("%s: real time: sample->command latency p50 %.0f us, p99 %.0f us, max %.0f us; late arm-ticks %llu "
@@ -2018,7 +1038,7 @@ int up_command(const std::vector<std::string>& args) {
       for (size_t i = 0; i < 3; ++i) out << name << ".object_final" << i << "=" << ws.object_final()[i] << "\n";
     }
   }
-  for (const auto& c : L.children_) {
+  for (const auto& c : L.children()) {
     if (c.status != 0) {
       std::printf("process %s exited with code %d%s\n", c.label.c_str(), c.status,
                   c.expected ? " (unplugged, or its module stopped)" : "");
@@ -2036,7 +1056,7 @@ int up_command(const std::vector<std::string>& args) {
       }
     }
   }
-  for (auto& [role, v] : L.start_cpu_) {
+  for (auto& [role, v] : start_cpu) {
     if (v.empty()) continue;
     std::sort(v.begin(), v.end());
     const double median = v[v.size() / 2];
@@ -2044,20 +1064,20 @@ int up_command(const std::vector<std::string>& args) {
                 median, v.back(), v.size());
     if (out) out << "startup_cpu." << role << ".median_s=" << median << "\nstartup_cpu." << role << ".starts=" << v.size() << "\n";
   }
-  std::printf("tandem up: start-up repairs (modules restarted because they did not come up): %llu\n", L.start_repairs_);
-  if (L.forced_drains_ > 0) {
+  std::printf("tandem up: start-up repairs (modules restarted because they did not come up): %llu\n", L.start_repairs());
+  if (L.forced_drains() > 0) {
     std::printf("tandem up: unplugged modules stopped before their task ended (drain over %.0f s): %llu\n",
-                launcher::DrainWatch::kTimeout, L.forced_drains_);
+                launcher::DrainWatch::kTimeout, L.forced_drains());
   }
   if (out) {
-    out << "start_repairs=" << L.start_repairs_ << "\nplan_restarts=" << L.plan_restarts_ << "\nforced_drains=" << L.forced_drains_
-        << "\ndeaf_leaders=" << L.deaf_leaders_ << "\n";
+    out << "start_repairs=" << L.start_repairs() << "\nplan_restarts=" << L.plan_restarts() << "\nforced_drains=" << L.forced_drains()
+        << "\ndeaf_leaders=" << L.deaf_leaders() << "\n";
   }
-  if (L.plan_restarts_ > 0) std::printf("tandem up: modules restarted because their supervisors lost the plan: %llu\n", L.plan_restarts_);
-  if (L.governor_) {
+  if (L.plan_restarts() > 0) std::printf("tandem up: modules restarted because their supervisors lost the plan: %llu\n", L.plan_restarts());
+  if (L.governed()) {
     std::printf("tandem up: modules parked for load during the run: %llu time(s); parked at the end: %s\n",
-                L.parks_, L.parked_text().empty() ? "none" : L.parked_text().c_str());
-    if (out) out << "shedding.parks=" << L.parks_ << "\nshedding.parked=" << L.parked_text() << "\n";
+                L.parks(), L.parked_text().empty() ? "none" : L.parked_text().c_str());
+    if (out) out << "shedding.parks=" << L.parks() << "\nshedding.parked=" << L.parked_text() << "\n";
   }
   launcher_status.set(runtime::Lifecycle::Finalized, "run over");
   if (recorder > 0) {
@@ -2078,7 +1098,7 @@ int up_command(const std::vector<std::string>& args) {
   // A process killed by a signal could not remove its shared-memory files: remove those of this run that no
   // live process uses (runtime::clean_stale_shm; also done during the run, after each killed child).
   bool killed = false;
-  for (const auto& c : L.children_) killed = killed || c.status >= 128;
+  for (const auto& c : L.children()) killed = killed || c.status >= 128;
   if (killed || discovery_server > 0) {
     server_stop.stop();
     std::this_thread::sleep_for(std::chrono::milliseconds(2100));  // the last files are 2 s old (clean_stale_shm)
@@ -2088,9 +1108,9 @@ int up_command(const std::vector<std::string>& args) {
     if (discovery_server > 0) removed += runtime::clean_stale_shm(launcher_started, 0, true);
     if (removed > 0) std::printf("removed %d shared-memory file(s) left by killed processes\n", removed);
   }
-  if (d.coordinator && !L.coordinator_done_) failed = true;
+  if (d.coordinator && !L.coordinator_done()) failed = true;
   const bool ok = !failed && !g_stop && grasp_ok && !recording_failed;
-  if (out && d.coordinator) out << "coordinator.done=" << (L.coordinator_done_ ? 1 : 0) << "\n";
+  if (out && d.coordinator) out << "coordinator.done=" << (L.coordinator_done() ? 1 : 0) << "\n";
   std::printf("result: %s\n", ok ? "PASS (all processes finished, safe grasp kept)"
                                  : (g_stop ? "STOPPED" : "FAIL (see above)"));
   return ok ? 0 : 1;

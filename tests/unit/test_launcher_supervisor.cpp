@@ -1,0 +1,369 @@
+// The launcher's supervision (tandem::launcher::Supervisor) driven event by event with made-up times: a recording
+// Executor stands for the processes and a recording Outbox for the log and the DDS requests; no DDS, no processes.
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <csignal>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "tandem/launcher/exit_codes.hpp"
+#include "tandem/launcher/supervisor.hpp"
+
+using namespace tandem::launcher;
+
+namespace {
+
+/// Records every start, signal, log line and request; hands out pids from 1001.
+struct Recorder : Executor, Outbox {
+  struct Start {
+    std::string label;
+    int strength;
+    bool standby;
+    double at;
+  };
+  struct Signal {
+    std::string label;
+    int sig;
+    double at;
+  };
+  double now = 0.0;  ///< the time of the event being fed (set by the test)
+  int next_pid = 1000;
+  std::vector<Start> starts;
+  std::vector<Signal> signals;
+  std::vector<std::string> lines, errors;
+  std::vector<std::pair<std::string, ModuleCommand>> controls;
+  const std::deque<Child>* children = nullptr;
+
+  std::string place(const Child&) const override { return ""; }
+  int start(const Child& c) override {
+    starts.push_back({c.label, c.strength, c.standby, now});
+    return ++next_pid;
+  }
+  void signal(const Child& c, int sig) override { signals.push_back({c.label, sig, now}); }
+  void signal_spawn(const std::string&, unsigned long long, const std::string&, int) override {}
+  void heartbeat(const std::string&, bool, bool) override {}
+  void log(const std::string& line, bool error) override { (error ? errors : lines).push_back(line); }
+  void control(const std::string& module, ModuleCommand command, unsigned long long) override {
+    controls.emplace_back(module, command);
+  }
+  void republish_coordinator_state() override {}
+  ModuleSpec load_module(const std::string&, const std::string&, const std::string&, const std::string&,
+                         bool& found) override {
+    found = false;
+    throw std::runtime_error("no scenarios here");
+  }
+
+  bool said(const std::string& text) const {
+    return std::any_of(lines.begin(), lines.end(), [&](const std::string& l) { return l == text; });
+  }
+  bool said_error(const std::string& text) const {
+    return std::any_of(errors.begin(), errors.end(), [&](const std::string& l) { return l == text; });
+  }
+  size_t saying(const std::string& part) const {
+    return static_cast<size_t>(
+        std::count_if(lines.begin(), lines.end(), [&](const std::string& l) { return l.find(part) != std::string::npos; }));
+  }
+  std::vector<Signal> signals_to(const std::string& label) const {
+    std::vector<Signal> out;
+    for (const auto& s : signals) {
+      if (s.label == label) out.push_back(s);
+    }
+    return out;
+  }
+};
+
+ModuleSpec module_m1(int standby, const std::string& policy) {
+  ModuleSpec m;
+  m.name = "m1";
+  m.scenario = "paper.yaml";
+  m.case_name = "SOSM";
+  m.standby = standby;
+  m.restart = RestartRule{policy, 3, 30.0, 0.2};
+  m.robots = {"left", "right"};
+  return m;
+}
+
+/// A supervisor over module m1, started at t = 0, every process heard and the module ticking.
+struct Fixture {
+  Recorder rec;
+  Supervisor sup;
+  explicit Fixture(bool coordinated, ModuleSpec m = module_m1(0, "on-failure"))
+      : sup(config(coordinated), rec, rec) {
+    sup.add_module(std::move(m));
+    sup.start_module("m1", 0.0);
+    hear_all(0.5);
+    sup.on_world_load("m1", "", 1, 0.5);
+  }
+  static SupervisorConfig config(bool coordinated) {
+    SupervisorConfig c;
+    c.deployment = "test";
+    c.coordinated = coordinated;
+    return c;
+  }
+  void hear_all(double t, const std::string& except = "") {
+    for (const auto& c : sup.children()) {
+      if (c.running && c.label != except) (void)sup.on_status(c.label, c.pid, true, false, false);
+    }
+    poll(t);
+  }
+  int pid(const std::string& label) const {
+    for (const auto& c : sup.children()) {
+      if (c.running && c.label == label) return c.pid;
+    }
+    return -1;
+  }
+  bool running(const std::string& label) const { return pid(label) > 0; }
+  void exit(const std::string& label, int status, double t) {
+    REQUIRE(running(label));
+    rec.now = t;
+    sup.on_exit(pid(label), status);
+    sup.poll(t);
+  }
+  void poll(double t) {
+    rec.now = t;
+    sup.poll(t);
+  }
+  std::vector<Recorder::Start> starts_after(double t) const {
+    std::vector<Recorder::Start> out;
+    for (const auto& s : rec.starts) {
+      if (s.at > t) out.push_back(s);
+    }
+    return out;
+  }
+};
+
+}  // namespace
+
+TEST_CASE("launcher supervisor: a module starts its world, supervisor and a robot per arm with their strengths", "[launcher]") {
+  Fixture f(false, module_m1(1, "never"));
+  REQUIRE(f.rec.starts.size() == 6);
+  CHECK(f.rec.starts[0].label == "m1/world");
+  CHECK(f.rec.starts[1].label == "m1/supervisor");
+  CHECK(f.rec.starts[2].label == "m1/left");
+  CHECK(f.rec.starts[2].strength == kPrimaryStrength);
+  CHECK(f.rec.starts[3].label == "m1/left@50");
+  CHECK(f.rec.starts[3].strength == 50);
+  CHECK(f.rec.starts[3].standby);
+  CHECK(f.rec.said("  started m1/world               pid 1001\n"));
+  CHECK(f.rec.said("tandem up: all 6 process(es) heard on the domain\n"));
+  CHECK(f.sup.running() == 6);
+}
+
+TEST_CASE("launcher supervisor: a robot killed is restarted after its backoff, with the strength its slot allows", "[launcher]") {
+  SECTION("restart_as: standby comes back below the live ones") {
+    Fixture f(false);
+    f.exit("m1/left", 128 + SIGKILL, 5.0);
+    CHECK(f.rec.said("tandem up: restarting m1/left in 0.20 s (restart 1 of at most 3 within 30 s)\n"));
+    CHECK(f.rec.said("tandem up: m1/left exited with code 137; its arm is braked until the restarted robot answers\n"));
+    CHECK(f.sup.busy());
+    f.poll(5.19);
+    CHECK(f.starts_after(5.0).empty());
+    f.poll(5.21);
+    const auto s = f.starts_after(5.0);
+    REQUIRE(s.size() == 1);
+    CHECK(s[0].label == "m1/left@50");
+    CHECK(s[0].strength == 50);
+    CHECK(s[0].standby);
+    CHECK(f.rec.said("  started m1/left@50             pid 1005 (restart)\n"));
+  }
+  SECTION("restart_as: primary takes its empty slot again") {
+    ModuleSpec m = module_m1(0, "on-failure");
+    m.restart_as_standby = false;
+    Fixture f(false, m);
+    f.exit("m1/right", 128 + SIGKILL, 3.0);
+    f.poll(3.21);
+    const auto s = f.starts_after(3.0);
+    REQUIRE(s.size() == 1);
+    CHECK(s[0].label == "m1/right");
+    CHECK(s[0].strength == kPrimaryStrength);
+    CHECK_FALSE(s[0].standby);
+  }
+  SECTION("a clean exit with on-failure is no restart") {
+    Fixture f(false);
+    f.exit("m1/left", 0, 2.0);
+    f.poll(10.0);
+    CHECK(f.starts_after(2.0).empty());
+    CHECK(f.rec.saying("restarting") == 0);
+  }
+}
+
+TEST_CASE("launcher supervisor: a restart storm ends in giving up at restart_limit within restart_window", "[launcher]") {
+  Fixture f(false);
+  std::string label = "m1/left";
+  const double kills[] = {10.0, 11.0, 12.0};
+  const double delays[] = {0.2, 0.4, 0.8};  // doubling backoff
+  for (int i = 0; i < 3; ++i) {
+    f.exit(label, 128 + SIGKILL, kills[i]);
+    f.poll(kills[i] + delays[i] - 0.01);
+    CHECK(f.starts_after(kills[i]).empty());
+    f.poll(kills[i] + delays[i] + 0.01);
+    const auto s = f.starts_after(kills[i]);
+    REQUIRE(s.size() == 1);
+    label = s[0].label;
+    CHECK(label == "m1/left@50");
+    f.hear_all(kills[i] + delays[i] + 0.02);
+  }
+  CHECK(f.rec.saying("tandem up: restarting m1/left") == 3);
+  f.exit(label, 128 + SIGKILL, 13.0);
+  CHECK(f.rec.said("tandem up: giving up on m1/left: 3 restarts within 30 s (restart_limit 3)\n"));
+  // No coordinator and no other robot for the arm: the deployment fails and stops.
+  CHECK(f.rec.said_error("tandem up: m1/left@50 exited with code 137; stopping the deployment\n"));
+  CHECK(f.sup.failed());
+  CHECK(f.sup.stopping());
+  for (const char* l : {"m1/world", "m1/supervisor", "m1/right"}) {
+    const auto sig = f.rec.signals_to(l);
+    REQUIRE(sig.size() == 1);
+    CHECK(sig[0].sig == SIGTERM);
+    CHECK(sig[0].at == 13.0);
+  }
+  f.poll(20.0);
+  CHECK(f.starts_after(13.0).empty());
+}
+
+TEST_CASE("launcher supervisor: a pending restart of a module that is stopped is dropped", "[launcher]") {
+  Fixture f(true);
+  f.exit("m1/left", 128 + SIGKILL, 5.0);
+  REQUIRE(f.rec.said("tandem up: restarting m1/left in 0.20 s (restart 1 of at most 3 within 30 s)\n"));
+  f.exit("m1/world", 1, 5.1);  // coordinated: the module fails, the others go on
+  CHECK(f.rec.said("tandem up: module m1 failed (m1/world exited with code 1); stopping its processes, the others go on\n"));
+  CHECK(f.rec.said("tandem up: 1 pending restart(s) of module m1 dropped: it was stopped\n"));
+  CHECK(f.sup.modules().at("m1").end == "failed: m1/world exited with code 1");
+  CHECK(f.rec.signals_to("m1/right").at(0).sig == SIGTERM);
+  f.poll(6.0);
+  CHECK(f.starts_after(5.0).empty());
+  CHECK_FALSE(f.sup.failed());
+}
+
+TEST_CASE("launcher supervisor: a process never heard within the silent-start limit is SIGKILLed and its policy applies", "[launcher]") {
+  Recorder rec;
+  SupervisorConfig cfg;
+  cfg.deployment = "test";
+  Supervisor sup(cfg, rec, rec);
+  sup.add_module(module_m1(0, "on-failure"));
+  sup.start_module("m1", 0.0);
+  int right = -1;
+  for (const auto& c : sup.children()) {
+    if (c.label == "m1/right") right = c.pid;
+    if (c.label != "m1/right") (void)sup.on_status(c.label, c.pid, true, false, false);
+  }
+  sup.on_world_load("m1", "", 7, 1.0);  // the module came up: a repair does not apply
+  rec.now = 15.0;
+  sup.poll(15.0);
+  CHECK(rec.signals.empty());
+  CHECK_FALSE(rec.said("tandem up: all 4 process(es) heard on the domain\n"));
+  rec.now = 15.05;
+  sup.poll(15.05);
+  REQUIRE(rec.signals.size() == 1);
+  CHECK(rec.signals[0].label == "m1/right");
+  CHECK(rec.signals[0].sig == SIGKILL);
+  CHECK(rec.said("tandem up: m1/right (pid " + std::to_string(right) +
+                 ") was not heard on the domain within 15 s of its start; SIGKILL, its restart policy applies\n"));
+  sup.on_exit(right, 128 + SIGKILL);
+  sup.poll(15.1);
+  CHECK(rec.said("tandem up: restarting m1/right in 0.20 s (restart 1 of at most 3 within 30 s)\n"));
+  rec.now = 15.31;
+  sup.poll(15.31);
+  REQUIRE(rec.starts.size() == 5);
+  CHECK(rec.starts[4].label == "m1/right@50");
+  CHECK(rec.starts[4].at == 15.31);
+}
+
+TEST_CASE("launcher supervisor: a module whose supervisor lost its plan is stopped and started again once all is gone", "[launcher]") {
+  Fixture f(true);
+  f.exit("m1/supervisor", tandem::launcher::exit_code::kLostPlan, 8.0);
+  CHECK(f.rec.said("tandem up: module m1 lost its plan (m1/supervisor had no leader to follow); restarting the module\n"));
+  CHECK(f.sup.plan_restarts() == 1);
+  for (const char* l : {"m1/world", "m1/left", "m1/right"}) CHECK(f.rec.signals_to(l).at(0).sig == SIGTERM);
+  f.exit("m1/world", 128 + SIGTERM, 8.5);
+  f.exit("m1/left", 128 + SIGTERM, 8.6);
+  f.poll(9.0);
+  CHECK(f.starts_after(8.0).empty());  // m1/right still runs
+  f.exit("m1/right", 128 + SIGTERM, 9.5);
+  CHECK(f.rec.said("tandem up: module m1 stopped for the repair; starting it again from its initial grasp\n"));
+  const auto s = f.starts_after(9.0);
+  REQUIRE(s.size() == 4);
+  CHECK(s[0].label == "m1/world");
+  CHECK(s[1].label == "m1/supervisor");
+  CHECK(s[2].label == "m1/left");
+  CHECK(s[3].label == "m1/right");
+  CHECK(f.sup.modules().at("m1").end.empty());
+}
+
+TEST_CASE("launcher supervisor: a robot unplugged with SIGTERM that is still there after 5 s gets SIGKILL", "[launcher]") {
+  Fixture f(true, module_m1(1, "never"));
+  Request r;
+  r.command = Request::Command::Unplug;
+  r.target_kind = Request::Target::Process;
+  r.target = "m1/left";
+  r.seq = 7;
+  f.rec.now = 10.0;
+  f.sup.on_request(r, 10.0);
+  const Supervisor::Answer* a = f.sup.answer(7);
+  REQUIRE(a != nullptr);
+  CHECK(a->ok);
+  auto sig = f.rec.signals_to("m1/left");
+  REQUIRE(sig.size() == 1);
+  CHECK(sig[0].sig == SIGTERM);
+  f.poll(15.0);
+  CHECK(f.rec.signals_to("m1/left").size() == 1);
+  f.poll(15.01);
+  sig = f.rec.signals_to("m1/left");
+  REQUIRE(sig.size() == 2);
+  CHECK(sig[1].sig == SIGKILL);
+  CHECK(f.rec.said("tandem up: m1/left did not stop within 5 s of SIGTERM; sending SIGKILL\n"));
+  f.poll(30.0);
+  CHECK(f.rec.signals_to("m1/left").size() == 2);  // once
+  // Its exit was asked for: no restart, no failure.
+  f.exit("m1/left", 128 + SIGKILL, 30.5);
+  f.poll(40.0);
+  CHECK(f.starts_after(10.0).empty());
+  CHECK_FALSE(f.sup.stopping());
+}
+
+TEST_CASE("launcher supervisor: stop_all sends SIGTERM, then SIGKILL to what is left after 5 s", "[launcher]") {
+  Fixture f(false);
+  f.rec.now = 20.0;
+  f.sup.stop_all(SIGTERM, 20.0);
+  CHECK(f.rec.signals.size() == 4);
+  for (const auto& s : f.rec.signals) CHECK(s.sig == SIGTERM);
+  f.exit("m1/world", 0, 21.0);  // stopping: no verdict
+  f.rec.now = 25.0;
+  f.sup.escalate(25.0);
+  CHECK(f.rec.signals.size() == 4);
+  f.rec.now = 25.01;
+  f.sup.escalate(25.01);
+  CHECK(f.rec.said("tandem up: 3 process(es) did not stop within 5 s; sending SIGKILL\n"));
+  REQUIRE(f.rec.signals.size() == 7);
+  for (size_t i = 4; i < 7; ++i) {
+    CHECK(f.rec.signals[i].sig == SIGKILL);
+    CHECK(f.rec.signals[i].label != "m1/world");
+  }
+  f.sup.escalate(40.0);
+  CHECK(f.rec.signals.size() == 7);  // once
+  CHECK_FALSE(f.sup.failed());
+}
+
+TEST_CASE("launcher supervisor: a live command is carried out once and refused while stopping", "[launcher]") {
+  Fixture f(false);
+  Request k;
+  k.command = Request::Command::Kill;
+  k.target = "m1/right";
+  k.seq = 3;
+  f.sup.on_request(k, 4.0);
+  f.sup.on_request(k, 4.5);  // re-sent
+  CHECK(f.rec.signals_to("m1/right").size() == 1);
+  CHECK(f.sup.answer(3)->text.rfind("fault injection: SIGKILL m1/right (pid ", 0) == 0);
+  f.sup.stop_all(SIGTERM, 5.0);
+  Request p;
+  p.command = Request::Command::Plug;
+  p.command_name = "plug";
+  p.target_kind = Request::Target::Robot;
+  p.target = "m1/left";
+  p.seq = 4;
+  f.sup.on_request(p, 5.5);
+  REQUIRE(f.sup.answer(4) != nullptr);
+  CHECK_FALSE(f.sup.answer(4)->ok);
+  CHECK(f.sup.answer(4)->text == "'plug robot m1/left' refused: the deployment is stopping");
+}

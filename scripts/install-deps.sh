@@ -4,7 +4,8 @@
 # Usage: scripts/install-deps.sh [--tests]   (--tests: also what the test suite needs: Chromium for the report
 # page checks, Cyclone DDS for the interop tests, python3 for the security test's packet capture, and Node.js
 # with npm for the independent MCAP reader when no node is on the PATH, iproute2 for the multi-host test's network
-# namespaces). openssl: `tandem keys`.
+# namespaces). openssl: `tandem keys`. civetweb and nlohmann-json: `tandem view` (HTTP and WebSocket, the
+# Foxglove protocol's JSON).
 set -euo pipefail
 
 PACKAGES=(
@@ -13,6 +14,7 @@ PACKAGES=(
   libfastrtps-dev fastddsgen fastdds-tools
   libprotobuf-dev protobuf-compiler zlib1g-dev
   libyaml-cpp-dev
+  libcivetweb-dev nlohmann-json3-dev
   catch2
   openssl
 )

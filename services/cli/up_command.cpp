@@ -16,26 +16,25 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <array>
 #include <atomic>
 #include <chrono>
-#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
 #include <fstream>
-#include <iterator>
 #include <map>
-#include <random>
 #include <memory>
+#include <optional>
+#include <random>
 #include <set>
-#include <sstream>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "live_view.hpp"
-#include "tandem/launcher/capacity.hpp"
+#include "tandem/launcher/estimate.hpp"
+#include "tandem/launcher/helper_process.hpp"
 #include "tandem/launcher/drain_watch.hpp"
 #include "tandem/launcher/spawn.hpp"
 #include "tandem/launcher/supervisor.hpp"
@@ -45,8 +44,6 @@
 #include "tandem/runtime/role.hpp"
 #include "tandem/runtime/shm_clean.hpp"
 #include "tandem/runtime/status.hpp"
-#include "tandem/model/controller.hpp"
-#include "tandem/model/plant.hpp"
 #include "tandem/sim/module_setup.hpp"
 #include "tandem/sim/scenario_yaml.hpp"
 
@@ -61,27 +58,26 @@ using launcher::Child;
 
 std::atomic<bool> g_stop{false};
 
-// Real-time cost figures for the capacity warning (bench/scale.sh, docs/benchmarks.md) and the share of the
-// machine above which `tandem up` warns.
-constexpr double kCorePerModule = 0.2;
-constexpr double kCorePerStandbyRobot = 0.05;
-constexpr double kUsableShare = 0.8;
 void on_signal(int) { g_stop = true; }
 
-/// User + system CPU seconds of a process so far (/proc/<pid>/stat), -1 if it cannot be read.
-double process_cpu_s(pid_t pid) {
-  std::ifstream f("/proc/" + std::to_string(pid) + "/stat");
-  std::string text((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
-  const size_t close = text.rfind(')');
-  if (close == std::string::npos) return -1.0;
-  std::istringstream in(text.substr(close + 2));
-  std::string field;
-  unsigned long long utime = 0, stime = 0;
-  for (int i = 3; i <= 15 && in >> field; ++i) {  // fields 14 and 15: utime, stime (clock ticks)
-    if (i == 14) utime = std::strtoull(field.c_str(), nullptr, 10);
-    if (i == 15) stime = std::strtoull(field.c_str(), nullptr, 10);
+/// What the capacity estimate needs of the deployment (its first module is built from its scenario when timed).
+launcher::LoadSpec load_of(const Deployment& d) {
+  launcher::LoadSpec l;
+  l.realtime = d.timing == "realtime";
+  l.overload_brake = d.overload_brake;
+  l.simple_discovery = d.discovery == "simple";
+  for (const auto& m : d.modules) l.standbys.push_back(m.standby);
+  if (!d.modules.empty()) {
+    const runtime::ModuleDeployment first = d.modules.front();
+    l.first_module = [first]() -> std::optional<sim::ModuleSetup> {
+      const sim::Scenario sc = sim::load_scenario(first.scenario);
+      for (const auto& c : sc.cases) {
+        if (c.name == first.case_name) return sim::make_module(sc, c);
+      }
+      return std::nullopt;
+    };
   }
-  return static_cast<double>(utime + stime) / static_cast<double>(::sysconf(_SC_CLK_TCK));
+  return l;
 }
 
 /// Tasks a coordinator's queue state lists as done (its compact done-set).
@@ -364,102 +360,6 @@ unsigned long long new_run() {
   return r;
 }
 
-/// The plant step and control-law step of a module, timed here (thread CPU time, the median of a few batches).
-void time_model(const runtime::ModuleDeployment& m, launcher::Calibration& c) {
-  const sim::Scenario sc = sim::load_scenario(m.scenario);
-  const sim::CaseConfig* cc = nullptr;
-  for (const auto& x : sc.cases) {
-    if (x.name == m.case_name) cc = &x;
-  }
-  if (cc == nullptr) return;
-  const sim::ModuleSetup ms = sim::make_module(sc, *cc);
-  auto thread_cpu_us = [] {
-    timespec ts{};
-    ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-    return static_cast<double>(ts.tv_sec) * 1e6 + static_cast<double>(ts.tv_nsec) * 1e-3;
-  };
-  model::ModulePlant plant(ms.plant);
-  plant.reset(ms.initial);
-  const std::array<model::Vec3, 2> tau{model::gravity(ms.plant.arms[0], ms.initial.q[0]),
-                                       model::gravity(ms.plant.arms[1], ms.initial.q[1])};
-  model::HybridController law(ms.plant.arms[0], ms.control[0]);
-  model::ArmSensors in;
-  in.q = ms.initial.q[0];
-  std::vector<double> plant_us, law_us;
-  for (int batch = 0; batch < 5; ++batch) {
-    double t = thread_cpu_us();
-    for (int k = 0; k < 40; ++k) plant.step(tau, 0.0, ms.period, ms.substeps);
-    plant_us.push_back((thread_cpu_us() - t) / 40.0);
-    t = thread_cpu_us();
-    for (int k = 0; k < 200; ++k) (void)law.step(in, sim::supervisor_reference(ms, 0, k));
-    law_us.push_back((thread_cpu_us() - t) / 200.0);
-  }
-  std::sort(plant_us.begin(), plant_us.end());
-  std::sort(law_us.begin(), law_us.end());
-  c.plant_us = plant_us[2];
-  c.law_us = law_us[2];
-}
-
-// The real-time capacity estimate: what the deployment needs against what the machine has, calibrated on this
-// machine (launcher::Calibration: a cross-process wake-up, a plant step, a law step), with a warning when it does
-// not fit. In lockstep there is no real-time load.
-struct Capacity {
-  std::string text;
-  double per_module = 0.0, per_standby = 0.0, usable = 0.0;
-  bool realtime = false;
-  /// Cores a module needs with its standby robots.
-  double of(const runtime::ModuleDeployment& m) const { return per_module + 2.0 * m.standby * per_standby; }
-};
-
-Capacity capacity_estimate(const Deployment& d) {
-  Capacity cap;
-  if (d.timing != "realtime") {
-    cap.text = "lockstep: no real-time load (it runs as fast as the machine allows)";
-    return cap;
-  }
-  cap.realtime = true;
-  launcher::Calibration cal = launcher::calibrate_wakeup();
-  const auto t0 = std::chrono::steady_clock::now();
-  if (!d.modules.empty()) {
-    try {
-      time_model(d.modules.front(), cal);
-    } catch (const std::exception&) {
-      // the scenario was checked when the file was loaded; a failure here only leaves the model's share out
-    }
-  }
-  cal.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  const launcher::CapacityModel model;
-  const double per_module = cal.ok ? model.core_per_module(cal) : kCorePerModule;
-  const double per_standby = cal.ok ? model.core_per_standby(cal) : kCorePerStandbyRobot;
-  cap.per_module = per_module;
-  cap.per_standby = per_standby;
-  double need = 0.0;
-  for (const auto& m : d.modules) need += per_module + 2.0 * m.standby * per_standby;
-  const long cores = ::sysconf(_SC_NPROCESSORS_ONLN);
-  cap.usable = kUsableShare * static_cast<double>(cores);
-  const std::string measured = cal.ok ? "calibrated here: " + launcher::describe(cal)
-                                      : std::string("the calibration could not run: figures from docs/benchmarks.md");
-  char text[768];
-  if (need > kUsableShare * static_cast<double>(cores)) {
-    std::snprintf(text, sizeof text,
-                  "warning: this deployment needs about %.2f cores in real time (%.3f per module, %.3f per standby "
-                  "robot; %s) and this machine has %ld: expect modules to pause for load%s, or run it in lockstep",
-                  need, per_module, per_standby, measured.c_str(), cores,
-                  d.overload_brake ? " (the world holds the object and brakes; they resume when there is room)"
-                                   : "; overload_brake is off, so late commands may drop objects");
-  } else {
-    std::snprintf(text, sizeof text, "real time: about %.2f of %ld cores (%.3f per module, %.3f per standby robot; %s)",
-                  need, cores, per_module, per_standby, measured.c_str());
-  }
-  std::string out = text;
-  if (d.discovery == "simple" && d.modules.size() >= 4) {
-    // Measured: 8 modules with simple discovery all paused for load at start-up, none with the server.
-    out += "; with 4 or more modules 'discovery: server' keeps discovery from loading the machine";
-  }
-  cap.text = out;
-  return cap;
-}
-
 }  // namespace
 
 void up_usage(std::FILE* f) {
@@ -582,7 +482,7 @@ int up_command(const std::vector<std::string>& args) {
   }
   if (check_only) {
     std::printf("tandem up: %s is valid: %zu module(s), domain %d, %s timing\n%s\n", file.c_str(), d.modules.size(),
-                d.domain_id, d.timing.c_str(), capacity_estimate(d).text.c_str());
+                d.domain_id, d.timing.c_str(), capacity_estimate(load_of(d)).text.c_str());
     return 0;
   }
 
@@ -632,20 +532,7 @@ int up_command(const std::vector<std::string>& args) {
       return 2;
     }
   }
-  struct ServerStop {
-    pid_t pid;
-    ~ServerStop() { stop(); }
-    void stop() {
-      if (pid <= 0) return;
-      ::kill(pid, SIGTERM);
-      for (int i = 0; i < 50 && ::waitpid(pid, nullptr, WNOHANG) == 0; ++i) ::usleep(20000);
-      if (::waitpid(pid, nullptr, WNOHANG) == 0) {
-        ::kill(pid, SIGKILL);
-        ::waitpid(pid, nullptr, 0);
-      }
-      pid = -1;
-    }
-  } server_stop{discovery_server};
+  launcher::HelperProcess server_stop(discovery_server, 1.0);
   std::unique_ptr<bus::Participant> part_owner;
   try {
     part_owner = std::make_unique<bus::Participant>(d.domain_id, "launcher/" + d.name, runtime::transport_of(d));
@@ -722,7 +609,7 @@ int up_command(const std::vector<std::string>& args) {
   std::printf("tandem up %s: %zu module(s), domain %d, %s, %s timing%s\n", d.name.c_str(), d.modules.size(),
               d.domain_id, d.transport.c_str(), d.timing.c_str(),
               lines.rt_priority_ > 0 ? (", SCHED_FIFO " + std::to_string(lines.rt_priority_)).c_str() : "");
-  const Capacity capacity = capacity_estimate(d);
+  const launcher::Capacity capacity = launcher::capacity_estimate(load_of(d));
   if (capacity.text.find("warning") != std::string::npos) std::printf("tandem up: %s\n", capacity.text.c_str());
   // record: the recorder joins first and is heard before any module starts, so that it has every tick (the
   // worlds also wait for its readers in lockstep: --observers). It is stopped last, after the summaries.
@@ -750,64 +637,29 @@ int up_command(const std::vector<std::string>& args) {
     }
     if (!heard) std::printf("tandem up: note: the recorder was not heard within 10 s; starting anyway\n");
   }
-  struct RecorderStop {
-    pid_t pid;
-    int status = 0;  ///< exit code (128 + signal if killed); 0 until it ended
-    ~RecorderStop() { stop(); }
-    /// Whether it has exited by itself (it should not before it is stopped: a failed recording).
-    bool exited() {
-      int st = 0;
-      if (pid <= 0 || ::waitpid(pid, &st, WNOHANG) != pid) return false;
-      status = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
-      pid = -1;
-      return true;
-    }
-    void stop() {  // SIGTERM: it closes the file (summary section, footer); SIGKILL after 30 s
-      if (pid <= 0) return;
-      ::kill(pid, SIGTERM);
-      for (int i = 0; i < 1500; ++i) {
-        if (exited()) return;
-        ::usleep(20000);
-      }
-      std::fprintf(stderr, "tandem up: the recorder did not close its file within 30 s; SIGKILL\n");
-      ::kill(pid, SIGKILL);
-      int st = 0;
-      ::waitpid(pid, &st, 0);
-      status = 128 + SIGKILL;
-      pid = -1;
-    }
-  } recorder_stop{recorder};
+  // Stopped last with SIGTERM: it closes the file (summary section, footer); SIGKILL after 30 s. An exit of its own
+  // before that is a failed recording.
+  launcher::HelperProcess recorder_stop(recorder, 30.0,
+                                        "tandem up: the recorder did not close its file within 30 s; SIGKILL\n");
   bool recording_failed = false;
   L.restart_host_clock(now_s());  // the recorder was awaited without reading agent states
   std::set<std::string> start_parked;
   if (capacity.realtime && d.coordinator && d.shed_modules && d.overload_brake) {
     // Shedding whole modules (launcher::Governor), and admission: the modules the calibrated estimate fits,
     // in file order, start; the others start parked and come back when the machine has been calm.
-    std::vector<std::string> order;
-    size_t fit = 0;
-    double need = 0.0;
-    bool full = false;
+    std::vector<std::pair<std::string, int>> autostart;
     for (const auto& m : d.modules) {
-      if (!m.autostart) continue;
-      order.push_back(m.name);
-      full = full || need + capacity.of(m) > capacity.usable;
-      if (!full) {
-        need += capacity.of(m);
-        ++fit;
-      }
+      if (m.autostart) autostart.emplace_back(m.name, m.standby);
     }
-    // With hosts: the estimate is of this machine, and the modules run on others too: admit them all (the governor
-    // still parks modules whose worlds keep pausing for load). Seen: a three-host test's second module started
-    // parked because all of them were counted against the launcher's machine.
-    if (!d.hosts.empty()) fit = order.size();
-    for (const std::string& m : L.admit(order, fit, now_s())) start_parked.insert(m);
+    const launcher::Admission adm = launcher::admission(capacity, autostart, !d.hosts.empty());
+    for (const std::string& m : L.admit(adm.order, adm.fit, now_s())) start_parked.insert(m);
     if (!start_parked.empty()) {
       std::string list;
       for (const auto& m : start_parked) list += (list.empty() ? "" : ", ") + m;
       std::printf("tandem up: starting %s parked: the calibrated estimate gives %.3f core per module (with its "
                   "standbys) and %zu of %zu fit in %.2f usable cores; parked modules start when the machine has been "
                   "calm (docs/failure-model.md, \"Shedding whole modules\")\n",
-                  list.c_str(), capacity.of(d.modules.front()), fit, order.size(), capacity.usable);
+                  list.c_str(), capacity.of(d.modules.front().standby), adm.fit, adm.order.size(), capacity.usable);
     }
   }
   for (const auto& m : d.modules) {
@@ -834,21 +686,15 @@ int up_command(const std::vector<std::string>& args) {
     msg::CoordinatorState cs;
     bool advanced = false;
     while (coord_state.take(cs)) {
-      // The most advanced state (the launcher's own republished copy comes back too).
-      const bool more = !have_coord || cs.next_task_id() > last_coord.next_task_id() ||
-                        (cs.next_task_id() == last_coord.next_task_id() && cs.done_total() > last_coord.done_total());
-      if (cs.deployment() == d.name &&
-          (more || (cs.next_task_id() == last_coord.next_task_id() && cs.done_total() == last_coord.done_total()))) {
-        advanced = advanced || more;
-        last_coord = cs;
-        have_coord = true;
-        L.on_coordinator_state(done_in(cs));
-      }
+      if (cs.deployment() != d.name) continue;
+      const auto kept = L.on_coordinator_state(cs.next_task_id(), cs.done_total(), done_in(cs));
+      if (kept == launcher::Supervisor::QueueState::Older) continue;
+      advanced = advanced || kept == launcher::Supervisor::QueueState::Advanced;
+      last_coord = cs;
+      have_coord = true;
     }
-    // Mirrored: every advance of the queue is republished from the launcher's own writer (transient-local), so
-    // that a coordinator that starts with --resume always finds the queue's state, even when every coordinator
-    // that published it died meanwhile. Found by the hour-long soak: the primary died while its restarted peer
-    // was still starting, both came back with --resume and no state, and no task was done again.
+    // Mirrored (Supervisor::on_coordinator_state). Found by the hour-long soak: the primary died while its restarted
+    // peer was still starting, both came back with --resume and no state, and no task was done again.
     if (advanced && d.coordinator) coord_state_out.write(last_coord);
   };
   std::vector<std::string> running_labels;
@@ -895,7 +741,7 @@ int up_command(const std::vector<std::string>& args) {
       if (first_active != nullptr) {
         // The CPU one start costs (a soak restarts about a thousand processes an hour): user + system time of the
         // process from its start to its first active status.
-        const double cpu = process_cpu_s(static_cast<pid_t>(ps.pid()));
+        const double cpu = launcher::process_cpu_s(static_cast<int>(ps.pid()));
         if (cpu >= 0.0) start_cpu[first_active->role].push_back(cpu);
       }
       if (ps.role() == "world" && ps.deployment() == d.name) L.on_world_load(ps.module_id(), ps.detail(), ps.tick(), now_s());
@@ -918,7 +764,7 @@ int up_command(const std::vector<std::string>& args) {
       }
     }
     if (recorder_stop.exited()) {
-      std::printf("tandem up: the recorder exited during the run (code %d); %s is incomplete\n", recorder_stop.status,
+      std::printf("tandem up: the recorder exited during the run (code %d); %s is incomplete\n", recorder_stop.status(),
                   d.record.c_str());
       recording_failed = true;
     }
@@ -1084,8 +930,8 @@ int up_command(const std::vector<std::string>& args) {
     std::this_thread::sleep_for(std::chrono::milliseconds(300));  // the last summaries reach the recorder too
     std::fflush(stdout);
     recorder_stop.stop();
-    if (recorder_stop.status != 0) {
-      std::printf("tandem up: the recorder failed (code %d): %s is incomplete\n", recorder_stop.status, d.record.c_str());
+    if (recorder_stop.status() != 0) {
+      std::printf("tandem up: the recorder failed (code %d): %s is incomplete\n", recorder_stop.status(), d.record.c_str());
       recording_failed = true;
     }
   }

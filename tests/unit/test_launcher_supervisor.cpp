@@ -8,6 +8,7 @@
 #include <utility>
 #include <vector>
 
+#include "tandem/launcher/estimate.hpp"
 #include "tandem/launcher/exit_codes.hpp"
 #include "tandem/launcher/supervisor.hpp"
 
@@ -22,6 +23,7 @@ struct Recorder : Executor, Outbox {
     int strength;
     bool standby;
     double at;
+    bool resume;
   };
   struct Signal {
     std::string label;
@@ -38,7 +40,7 @@ struct Recorder : Executor, Outbox {
 
   std::string place(const Child&) const override { return ""; }
   int start(const Child& c) override {
-    starts.push_back({c.label, c.strength, c.standby, now});
+    starts.push_back({c.label, c.strength, c.standby, now, c.resume});
     return ++next_pid;
   }
   void signal(const Child& c, int sig) override { signals.push_back({c.label, sig, now}); }
@@ -48,7 +50,8 @@ struct Recorder : Executor, Outbox {
   void control(const std::string& module, ModuleCommand command, unsigned long long) override {
     controls.emplace_back(module, command);
   }
-  void republish_coordinator_state() override {}
+  void republish_coordinator_state() override { ++republished; }
+  int republished = 0;
   ModuleSpec load_module(const std::string&, const std::string&, const std::string&, const std::string&,
                          bool& found) override {
     found = false;
@@ -366,4 +369,54 @@ TEST_CASE("launcher supervisor: a live command is carried out once and refused w
   REQUIRE(f.sup.answer(4) != nullptr);
   CHECK_FALSE(f.sup.answer(4)->ok);
   CHECK(f.sup.answer(4)->text == "'plug robot m1/left' refused: the deployment is stopping");
+}
+
+TEST_CASE("launcher supervisor: a dead coordinator's successor gets the queue's most advanced state republished", "[launcher]") {
+  Recorder rec;
+  SupervisorConfig cfg;
+  cfg.deployment = "test";
+  cfg.coordinated = true;
+  cfg.coordinator_restart = RestartRule{"on-failure", 3, 30.0, 0.2};
+  Supervisor sup(cfg, rec, rec);
+  sup.start_coordinators(0.0);
+  REQUIRE(rec.starts.size() == 1);
+  CHECK(rec.starts[0].label == "coordinator");
+  CHECK_FALSE(rec.starts[0].resume);
+  using Q = Supervisor::QueueState;
+  CHECK(sup.on_coordinator_state(5, 3, 3) == Q::Advanced);
+  CHECK(sup.on_coordinator_state(5, 3, 3) == Q::Same);      // its own republished copy
+  CHECK(sup.on_coordinator_state(4, 9, 9) == Q::Older);     // an older queue
+  CHECK(sup.on_coordinator_state(5, 4, 3) == Q::Advanced);  // a task done twice
+  (void)sup.on_status("coordinator", 1001, true, false, false);
+  rec.now = 10.0;
+  sup.on_exit(1001, 128 + SIGKILL);
+  sup.poll(10.0);
+  CHECK(rec.said("tandem up: restarting coordinator in 0.20 s (restart 1 of at most 3 within 30 s)\n"));
+  CHECK(rec.said("tandem up: coordinator exited with code 137; a new coordinator will take over\n"));
+  CHECK(rec.republished == 0);
+  rec.now = 10.21;
+  sup.poll(10.21);
+  CHECK(rec.republished == 1);
+  CHECK(rec.said("tandem up: republished the coordinator's last state (3 task(s) done) for its successor\n"));
+  REQUIRE(rec.starts.size() == 2);
+  CHECK(rec.starts[1].label == "coordinator@r1");
+  CHECK(rec.starts[1].standby);
+  CHECK(rec.starts[1].resume);
+  CHECK_FALSE(sup.failed());
+}
+
+TEST_CASE("launcher capacity: admission runs the modules that fit in file order, the rest start parked", "[launcher]") {
+  Capacity cap;
+  cap.per_module = 0.5;
+  cap.per_standby = 0.1;
+  cap.usable = 1.6;
+  CHECK(cap.of(1) == Approx(0.7));
+  const std::vector<std::pair<std::string, int>> modules{{"m1", 0}, {"m2", 1}, {"m3", 0}, {"m4", 0}};
+  const Admission a = admission(cap, modules, false);
+  CHECK(a.order == std::vector<std::string>{"m1", "m2", "m3", "m4"});
+  CHECK(a.fit == 2);  // 0.5 + 0.7; a third would need 1.7
+  CHECK(admission(cap, modules, true).fit == 4);  // several hosts: the estimate is of this machine only
+  LoadSpec lockstep;
+  CHECK_FALSE(capacity_estimate(lockstep).realtime);
+  CHECK(capacity_estimate(lockstep).text == "lockstep: no real-time load (it runs as fast as the machine allows)");
 }

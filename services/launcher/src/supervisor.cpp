@@ -510,9 +510,16 @@ void Supervisor::on_world_load(const std::string& module, const std::string& det
 
 void Supervisor::on_task_state(const std::string& module, int state) { task_states_[module] = state; }
 
-void Supervisor::on_coordinator_state(size_t done) {
+Supervisor::QueueState Supervisor::on_coordinator_state(unsigned long long next_task_id, unsigned long long done_total,
+                                                       size_t done) {
+  const bool more = !have_coord_state_ || next_task_id > coord_next_ ||
+                    (next_task_id == coord_next_ && done_total > coord_total_);
+  if (!more && !(next_task_id == coord_next_ && done_total == coord_total_)) return QueueState::Older;
   have_coord_state_ = true;
+  coord_next_ = next_task_id;
+  coord_total_ = done_total;
   coord_done_ = done;
+  return more ? QueueState::Advanced : QueueState::Same;
 }
 
 // ---- supervision ----------------------------------------------------------------------------------------------

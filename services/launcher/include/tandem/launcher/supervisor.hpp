@@ -193,8 +193,13 @@ class Supervisor {
   void on_world_load(const std::string& module, const std::string& detail, unsigned long long tick, double now);
   /// A module's task state (plan::TaskStateCode).
   void on_task_state(const std::string& module, int state);
-  /// A coordinator's queue state was heard (`done`: tasks it lists as done).
-  void on_coordinator_state(size_t done);
+  /// A coordinator's queue state was heard: its next task id, tasks finished (more than its done-set lists when a
+  /// task was done twice) and tasks its done-set lists. The most advanced state is kept (the launcher's own
+  /// republished copy comes back too): an older one is dropped, the same or a more advanced one kept by the caller,
+  /// and a more advanced one republished from the launcher's writer, so that a coordinator that starts with --resume
+  /// always finds the queue's state even when every coordinator that published it died meanwhile.
+  enum class QueueState { Older, Same, Advanced };
+  QueueState on_coordinator_state(unsigned long long next_task_id, unsigned long long done_total, size_t done);
   /// A live command; while the deployment stops it is refused.
   void on_request(const Request& r, double now);
   /// An agent's heartbeat and the state of the processes it started for this launcher.
@@ -332,6 +337,7 @@ class Supervisor {
   std::set<unsigned long long> fenced_;                 ///< processes of a host that came back, SIGKILLed once
   bool have_coord_state_ = false;
   size_t coord_done_ = 0;  ///< tasks done in the latest queue state heard
+  unsigned long long coord_next_ = 0, coord_total_ = 0;  ///< its next task id and tasks finished
   bool stopping_ = false, escalated_ = false, failed_ = false, coordinator_done_ = false;
   bool down_requested_ = false;
   bool all_heard_said_ = false;

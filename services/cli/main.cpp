@@ -13,6 +13,7 @@
 #include "soak_command.hpp"
 #include "tandem/runtime/role.hpp"
 #include "up_command.hpp"
+#include "view_command.hpp"
 
 namespace {
 
@@ -33,6 +34,7 @@ void usage(std::FILE* f) {
       "                        invariant from what it recorded, and write a report with plots\n"
       "  record <deploy.yaml> -o FILE.mcap   record a deployment's topics (MCAP, Protobuf messages)\n"
       "  report FILE.mcap -o DIR             an HTML page with plots of a recording (tandem record, tandem sim)\n"
+      "  view <deploy.yaml>    a running deployment in the browser and in Foxglove Studio (HTTP + WebSocket)\n"
       "  keys <deploy.yaml>    make the deployment's DDS-Security keys and documents (security: in the file)\n"
       "  agent <deploy.yaml> --host NAME    the agent of one host of a multi-host deployment (hosts:)\n"
       "  help [command]        show this help, or the help of one command\n"
@@ -63,6 +65,8 @@ int dispatch(int argc, char** argv) {
       tandem::cli::record_usage(stdout);
     } else if (!args.empty() && args[0] == "agent") {
       return tandem::cli::agent_command({"--help"});
+    } else if (!args.empty() && args[0] == "view") {
+      tandem::cli::view_usage(stdout);
     } else if (!args.empty() && args[0] == "report") {
       tandem::cli::report_usage(stdout);
     } else if (!args.empty() && (args[0] == "status" || args[0] == "down" || args[0] == "kill" ||
@@ -80,6 +84,7 @@ int dispatch(int argc, char** argv) {
   if (cmd == "record") return tandem::cli::record_command(args);
   if (cmd == "keys") return tandem::cli::keys_command(args);
   if (cmd == "report") return tandem::cli::report_command(args);
+  if (cmd == "view") return tandem::cli::view_command(args);
   if (cmd == "status") return tandem::cli::status_command(args);
   if (cmd == "down") return tandem::cli::down_command(args);
   if (cmd == "kill") return tandem::cli::kill_command(args);

@@ -1,4 +1,4 @@
-# Installs the independent checkers' npm packages (@mcap/core, protobufjs, playwright-core; pinned by
+# Installs the independent checkers' npm packages (@mcap/core, protobufjs, playwright-core, ws; pinned by
 # tests/tools/mcap/package-lock.json) into WORK/node, once per lock file. Needs node and npm (scripts/test.sh
 # installs them) and the npm registry.
 file(MAKE_DIRECTORY ${WORK}/node)
@@ -9,6 +9,9 @@ if(EXISTS ${WORK}/node/package-lock.json AND EXISTS ${WORK}/node/node_modules/@m
 endif()
 foreach(f package.json package-lock.json check_recording.mjs check_report.mjs)
   configure_file(${SRC}/tests/tools/mcap/${f} ${WORK}/node/${f} COPYONLY)
+endforeach()
+foreach(f foxglove_client.mjs check_view_page.mjs)  # tandem view's checkers, on the same packages
+  configure_file(${SRC}/tests/tools/view/${f} ${WORK}/node/${f} COPYONLY)
 endforeach()
 if(NOT have STREQUAL want)
   execute_process(COMMAND npm ci --no-audit --no-fund --loglevel=error WORKING_DIRECTORY ${WORK}/node

@@ -175,12 +175,6 @@ std::string LiveState::state(uint64_t now_ns, const std::map<std::string, uint64
   return json{{"t", static_cast<double>(now_ns) * 1e-9}, {"processes", procs}, {"modules", mods}, {"drops", d}}.dump();
 }
 
-std::string LiveState::recent_events() const {
-  std::string out = "[";
-  for (size_t i = 0; i < events_.size(); ++i) out += (i == 0 ? "" : ",") + events_[i];
-  return out + "]";
-}
-
 std::string LiveState::state_schema() {
   return R"({"type":"object","properties":{"t":{"type":"number"},"processes":{"type":"array","items":{"type":"object"}},)"
          R"("modules":{"type":"array","items":{"type":"object"}},"drops":{"type":"object"}}})";

@@ -36,8 +36,8 @@ class LiveState {
   std::string take_plot();
   /// Processes, modules, and the drops each channel counted (`drops`: channel topic -> frames dropped).
   std::string state(uint64_t now_ns, const std::map<std::string, uint64_t>& drops = {}) const;
-  /// The newest events (oldest first), as a JSON array: what a page that opens late shows first.
-  std::string recent_events() const;
+  /// The newest events (oldest first), each as its JSON: what a page that opens late shows first.
+  std::vector<std::string> recent_events() const { return {events_.begin(), events_.end()}; }
 
   size_t processes() const { return procs_.size(); }
   size_t pending_points() const { return points_.size(); }

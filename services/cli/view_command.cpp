@@ -1,0 +1,288 @@
+// tandem view: one more participant of a deployment's domain (as the recorder, with the recorder's identity when
+// security is on) that serves the page and the Foxglove WebSocket protocol on one port. It reads the domain
+// through record::Tap, exactly as `tandem record` does; every DDS topic is a protobuf channel at full rate, and the
+// page's own JSON channels (state, decimated plot points, events) come from view::LiveState.
+#include "view_command.hpp"
+
+#include <csignal>
+#include <cstdlib>
+#include <map>
+#include <memory>
+#include <thread>
+
+#include "tandem/dds/bus.hpp"
+#include "tandem/launcher/spawn.hpp"
+#include "tandem/record/recording.hpp"
+#include "tandem/record/tap.hpp"
+#include "tandem/runtime/deployment.hpp"
+#include "tandem/runtime/security.hpp"
+#include "tandem/runtime/status.hpp"
+#include "tandem/sim/module_setup.hpp"
+#include "tandem/sim/scenario_yaml.hpp"
+#include "tandem/view/live_state.hpp"
+#include "tandem/view/server.hpp"
+
+namespace tandem::cli {
+
+namespace bus = tandem::dds;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+std::atomic<bool> g_view_stop{false};
+void on_view_signal(int) { g_view_stop = true; }
+
+struct ViewArgs {
+  std::string file, bind = "127.0.0.1", web;
+  int port = 8765;
+  double duration = 0.0;
+};
+
+/// The deployment's channels: every topic the tap reads (protobuf, the recordings' schemas), then the page's own.
+struct Channels {
+  std::vector<view::Channel> list;
+  std::map<std::string, uint32_t> by_topic;
+  uint32_t state = 0, plot = 0, events_json = 0;
+  void add(const std::string& topic, const google::protobuf::Descriptor* d) {
+    by_topic[topic] = static_cast<uint32_t>(list.size());
+    list.push_back({0, topic, "protobuf", d->full_name(), record::file_descriptor_set(d), "protobuf"});
+  }
+  uint32_t add_json(const std::string& topic, const std::string& name, std::string schema) {
+    const auto id = static_cast<uint32_t>(list.size());
+    by_topic[topic] = id;
+    list.push_back({0, topic, "json", name, std::move(schema), "jsonschema"});
+    return id;
+  }
+};
+
+/// The tap's sink: the page's model, and each message to the clients subscribed to its topic.
+class ViewSink : public record::TapSink {
+ public:
+  ViewSink(view::LiveState& live, view::Server& server, const Channels& ch) : live_(live), server_(server), ch_(ch) {}
+  void on_message(const std::string& topic, const google::protobuf::Message& m, uint64_t log_ns, uint64_t) override {
+    live_.on_message(topic, m, log_ns);
+    send(topic, m, log_ns);
+  }
+  void on_event(const record::Event& e, uint64_t log_ns) override {
+    const std::string text = live_.on_event(e, log_ns);
+    server_.publish(ch_.events_json, log_ns, text);
+    send("tandem/events", e, log_ns);
+  }
+
+ private:
+  void send(const std::string& topic, const google::protobuf::Message& m, uint64_t log_ns) {
+    const auto it = ch_.by_topic.find(topic);
+    if (it == ch_.by_topic.end() || !server_.wanted(it->second)) return;  // serialized only for a subscriber
+    buf_.clear();
+    m.SerializeToString(&buf_);
+    server_.publish(it->second, log_ns, buf_);
+  }
+  view::LiveState& live_;
+  view::Server& server_;
+  const Channels& ch_;
+  std::string buf_;
+};
+
+int parse_view_args(const std::vector<std::string>& args, ViewArgs& a) {
+  for (size_t i = 0; i < args.size(); ++i) {
+    const std::string& x = args[i];
+    const bool has_value = i + 1 < args.size();
+    if (x == "--help" || x == "-h") {
+      view_usage(stdout);
+      return 0;
+    }
+    if ((x == "--port" || x == "--bind" || x == "--web" || x == "--duration") && !has_value) {
+      std::fprintf(stderr, "tandem view: %s needs a value (see 'tandem help view')\n", x.c_str());
+      return 2;
+    }
+    if (x == "--port") {
+      char* end = nullptr;
+      const long p = std::strtol(args[++i].c_str(), &end, 10);
+      if (*end != '\0' || p < 0 || p > 65535) {
+        std::fprintf(stderr, "tandem view: --port '%s' is not a port number 0-65535 (0: any free port)\n", args[i].c_str());
+        return 2;
+      }
+      a.port = static_cast<int>(p);
+    } else if (x == "--bind") {
+      a.bind = args[++i];
+    } else if (x == "--web") {
+      a.web = args[++i];
+    } else if (x == "--duration") {
+      char* end = nullptr;
+      a.duration = std::strtod(args[++i].c_str(), &end);
+      if (*end != '\0' || !(a.duration > 0.0)) {
+        std::fprintf(stderr, "tandem view: --duration '%s' is not a number of seconds > 0\n", args[i].c_str());
+        return 2;
+      }
+    } else if (!x.empty() && x[0] == '-') {
+      std::fprintf(stderr, "tandem view: unknown option '%s' (see 'tandem help view')\n", x.c_str());
+      return 2;
+    } else if (a.file.empty()) {
+      a.file = x;
+    } else {
+      std::fprintf(stderr, "tandem view: one deployment file expected, got '%s' too\n", x.c_str());
+      return 2;
+    }
+  }
+  if (a.file.empty()) {
+    std::fprintf(stderr, "tandem view: missing the deployment file\n\n");
+    view_usage(stderr);
+    return 2;
+  }
+  return -1;
+}
+
+/// The tap's configuration and the channels of deployment `d`; the safe-grasp force of each module.
+void describe(const runtime::Deployment& d, record::TapConfig& tc, Channels& ch, std::map<std::string, double>& h_sg) {
+  tc.deployment = d.name;
+  tc.realtime = d.timing == "realtime";
+  tc.groups = {std::begin(runtime::kRecordGroups), std::end(runtime::kRecordGroups)};
+  for (const auto& m : d.modules) {
+    const sim::Scenario sc = sim::load_scenario(m.scenario);
+    for (const auto& c : sc.cases) {
+      if (c.name == m.case_name) h_sg[m.name] = sim::make_module(sc, c).safe_grasp_force;
+    }
+    tc.modules.push_back(m.name);
+    for (int j = 0; j < 2; ++j) {
+      const std::string arm = m.name + "/" + sc.robots[j].name;
+      tc.arms.push_back(arm);
+      ch.add(bus::arm_topic(bus::kSensorsTopic, arm), record::ArmSensors::descriptor());
+      ch.add(bus::arm_topic(bus::kTorquesTopic, arm), record::TorqueCommand::descriptor());
+    }
+    ch.add(bus::module_topic(bus::kWorldReportTopic, m.name), record::WorldReport::descriptor());
+    ch.add(bus::module_topic(bus::kSupervisorPlanTopic, m.name), record::SupervisorPlan::descriptor());
+  }
+  ch.add(bus::kStatusTopic, record::ProcessStatus::descriptor());
+  ch.add(bus::kTaskAssignmentTopic, record::TaskAssignment::descriptor());
+  ch.add(bus::kTaskStateTopic, record::TaskState::descriptor());
+  ch.add(bus::kRobotSummaryTopic, record::RobotSummary::descriptor());
+  ch.add(bus::kWorldSummaryTopic, record::WorldSummary::descriptor());
+  ch.add(bus::kControlTopic, record::ControlRequest::descriptor());
+  ch.add("tandem/events", record::Event::descriptor());
+  ch.state = ch.add_json(view::LiveState::kStateTopic, "tandem.view.State", view::LiveState::state_schema());
+  ch.plot = ch.add_json(view::LiveState::kPlotTopic, "tandem.view.Plot", view::LiveState::plot_schema());
+  ch.events_json = ch.add_json(view::LiveState::kEventsTopic, "tandem.view.Event", view::LiveState::event_schema());
+}
+
+/// Until stopped: the keyed topics every 20 ms, plot points every 50 ms, the state every 250 ms, time every 100 ms.
+void serve(record::Tap& tap, view::LiveState& live, view::Server& server, const Channels& ch,
+           runtime::StatusPublisher& status, double duration) {
+  const auto t0 = Clock::now();
+  auto last_plot = t0, last_state = t0, last_time = t0;
+  while (!g_view_stop) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    tap.poll();
+    const auto now = Clock::now();
+    const uint64_t ns = record::now_ns();
+    if (now - last_plot >= std::chrono::milliseconds(50)) {
+      std::string plot;
+      tap.locked([&] { plot = live.take_plot(); });
+      if (!plot.empty()) server.publish(ch.plot, ns, plot);
+      last_plot = now;
+    }
+    if (now - last_time >= std::chrono::milliseconds(100)) {
+      server.broadcast_time(ns);
+      status.publish();
+      last_time = now;
+    }
+    if (now - last_state >= std::chrono::milliseconds(250)) {
+      std::string state;
+      std::vector<std::string> history;
+      const auto drops = server.drops();
+      tap.locked([&] {
+        state = live.state(ns, drops);
+        history = live.recent_events();
+      });
+      server.publish(ch.state, ns, state);
+      server.set_history(ch.events_json, std::move(history));
+      last_state = now;
+    }
+    if (duration > 0.0 && now - t0 >= std::chrono::duration<double>(duration)) break;
+  }
+}
+
+}  // namespace
+
+void view_usage(std::FILE* f) {
+  std::fputs(
+      "usage: tandem view <deploy.yaml> [--port 8765] [--bind 127.0.0.1] [--duration SECONDS] [--web DIR]\n"
+      "\n"
+      "Joins the deployment's DDS domain as one more participant (read only, as `tandem record`) and serves, on one\n"
+      "port, a page of its own at http://ADDRESS:PORT/ and the Foxglove WebSocket protocol (foxglove.websocket.v1,\n"
+      "also offered as foxglove.sdk.v1) on the same address: in Foxglove Studio, open a connection to\n"
+      "ws://ADDRESS:PORT. Every DDS topic is a protobuf channel (the schemas the recordings embed), at full rate;\n"
+      "tandem/view/state, tandem/view/plot (|e_p| and h_n of each arm's serving robot, 50 Hz) and tandem/view/events\n"
+      "are the page's JSON channels.\n"
+      "\n"
+      "  --port N        the port (default 8765; 0: any free port, printed)\n"
+      "  --bind ADDR     the address to listen on (default 127.0.0.1: this machine only; other addresses expose\n"
+      "                  the deployment's data to the network)\n"
+      "  --duration S    stop after S seconds (default: until Ctrl-C or SIGTERM)\n"
+      "  --web DIR       the page's files (default: share/tandem/view beside the binaries)\n"
+      "\n"
+      "Each client has a bounded queue per channel (1000 frames; 64 for the page's state and plot) that drops its\n"
+      "oldest frame when the client falls behind and counts it; the page shows the drops. A slow client never\n"
+      "slows the deployment. Exit: 0 stopped, 2 bad command line, deployment, or a port it cannot listen on.\n",
+      f);
+}
+
+int view_command(const std::vector<std::string>& args) {
+  ViewArgs a;
+  if (const int rc = parse_view_args(args, a); rc >= 0) return rc;
+  runtime::Deployment d;
+  record::TapConfig tc;
+  Channels ch;
+  std::map<std::string, double> h_sg;
+  try {
+    d = runtime::load_deployment(a.file);
+    describe(d, tc, ch, h_sg);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "tandem view: %s\n", e.what());
+    return 2;
+  }
+  struct sigaction sa {};
+  sa.sa_handler = on_view_signal;
+  ::sigaction(SIGINT, &sa, nullptr);
+  ::sigaction(SIGTERM, &sa, nullptr);
+  runtime::use_discovery(d);
+  if (const std::string err = runtime::use_security(d, "recorder"); !err.empty()) {
+    std::fprintf(stderr, "tandem view: %s\n", err.c_str());
+    return 2;
+  }
+  view::Server::Options so;
+  so.bind = a.bind;
+  so.port = a.port;
+  so.web_dir = a.web.empty() ? launcher::self_dir() + "/../share/tandem/view" : a.web;
+  so.name = "tandem " + d.name;
+  so.metadata = {{"deployment", d.name}, {"timing", d.timing}, {"domain", std::to_string(d.domain_id)}};
+  view::Server server(so, ch.list);
+  view::LiveState live(h_sg);
+  ViewSink sink(live, server, ch);
+  std::unique_ptr<bus::Participant> part;
+  std::unique_ptr<record::Tap> tap;
+  std::unique_ptr<runtime::StatusPublisher> status;
+  std::string err;
+  try {
+    part = std::make_unique<bus::Participant>(d.domain_id, "viewer/" + d.name, runtime::transport_of(d));
+    if (!server.start(err)) throw std::runtime_error(err);
+    tap = std::make_unique<record::Tap>(tc, sink);
+    tap->start(*part);
+    status = std::make_unique<runtime::StatusPublisher>(*part, "viewer", "viewer", "");
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "tandem view: %s\n", e.what());
+    return 2;
+  }
+  status->msg().deployment(d.name);
+  status->set(runtime::Lifecycle::Active, "serving " + server.url());
+  std::printf("tandem view: %s (domain %d) at %s (Foxglove: ws://%s:%d)\n", d.name.c_str(), d.domain_id,
+              server.url().c_str(), a.bind.c_str(), server.port());
+  std::fflush(stdout);
+  serve(*tap, live, server, ch, *status, a.duration);
+  tap->close();
+  server.stop();
+  status->set(runtime::Lifecycle::Finalized, "stopped");
+  std::printf("tandem view: stopped\n");
+  return 0;
+}
+
+}  // namespace tandem::cli

@@ -1,0 +1,157 @@
+// tandem view's page. A Foxglove WebSocket protocol client (foxglove.websocket.v1): it subscribes to the viewer's
+// JSON channels tandem/view/state, tandem/view/plot and tandem/view/events, and draws them with uPlot.
+'use strict';
+
+const WINDOW_S = 30;          // seconds of plot kept on screen
+const MAX_EVENTS = 300;       // event rows kept
+const plots = new Map();      // arm -> {u, data: [t[], ep[], hn[], hsg[]], hsg}
+const channels = new Map();   // topic -> channel id
+const subs = new Map();       // subscription id -> topic
+let hSgOf = new Map();        // module -> h_sg
+let received = {state: 0, plot: 0, events: 0};
+window.tandemView = {received, plots: () => plots.size, points: () => [...plots.values()].map(p => p.data[0].length)};
+
+const decoder = new TextDecoder();
+
+function connect() {
+  const ws = new WebSocket(`ws://${location.host}/`, ['foxglove.websocket.v1']);
+  ws.binaryType = 'arraybuffer';
+  const conn = document.getElementById('conn');
+  ws.onopen = () => { conn.textContent = 'connected'; conn.className = 'ok'; };
+  ws.onclose = () => {
+    conn.textContent = 'disconnected; retrying'; conn.className = 'bad';
+    setTimeout(connect, 1000);
+  };
+  ws.onmessage = (ev) => {
+    if (typeof ev.data === 'string') return onText(ws, JSON.parse(ev.data));
+    const view = new DataView(ev.data);
+    if (view.getUint8(0) !== 1) return;  // 2: time
+    const sub = view.getUint32(1, true);
+    const topic = subs.get(sub);
+    const body = JSON.parse(decoder.decode(new Uint8Array(ev.data, 13)));
+    if (topic === 'tandem/view/state') { received.state++; showState(body); }
+    else if (topic === 'tandem/view/plot') { received.plot++; addPoints(body.points); }
+    else if (topic === 'tandem/view/events') { received.events++; addEvent(body); }
+  };
+}
+
+function onText(ws, msg) {
+  if (msg.op === 'serverInfo') {
+    document.getElementById('title').textContent = msg.name;
+    document.title = msg.name;
+  } else if (msg.op === 'advertise') {
+    const wanted = ['tandem/view/state', 'tandem/view/plot', 'tandem/view/events'];
+    const list = [];
+    for (const c of msg.channels) {
+      channels.set(c.topic, c.id);
+      if (wanted.includes(c.topic)) {
+        const id = subs.size + 1;
+        subs.set(id, c.topic);
+        list.push({id, channelId: c.id});
+      }
+    }
+    ws.send(JSON.stringify({op: 'subscribe', subscriptions: list}));
+  } else if (msg.op === 'status') {
+    console.info('viewer:', msg.message);
+  }
+}
+
+function cell(row, text, cls) {
+  const td = row.insertCell();
+  td.textContent = text === undefined || text === null ? '' : String(text);
+  if (cls) td.className = cls;
+  return td;
+}
+
+function showState(s) {
+  const procs = document.querySelector('#procs tbody');
+  procs.replaceChildren();
+  for (const p of s.processes) {
+    const r = procs.insertRow();
+    cell(r, p.id); cell(r, p.role); cell(r, p.state, p.state);
+    cell(r, p.serving || (p.role === 'robot' ? `strength ${p.strength}` : ''));
+    cell(r, p.pid); cell(r, p.host); cell(r, p.detail);
+  }
+  const mods = document.querySelector('#mods tbody');
+  mods.replaceChildren();
+  hSgOf = new Map(s.modules.map(m => [m.name, m.h_sg]));
+  for (const m of s.modules) {
+    const r = mods.insertRow();
+    cell(r, m.name);
+    cell(r, m.task ? `#${m.task.id} ${m.task.state}` : '');
+    cell(r, m.task ? m.task.done : '');
+    const margin = m.grasp_margin;
+    cell(r, margin === null ? '' : `${margin.toFixed(2)} N`, margin !== null && margin < 0 ? 'bad' : 'ok');
+    cell(r, m.owners.map(o => `${o.arm}: ${o.state === 'served' ? o.robot : o.state}`).join(', '));
+    const flags = [];
+    if (m.failed) flags.push(`FAILED: ${m.failure}`);
+    if (m.load_paused) flags.push('paused for load');
+    if (m.braked.some(b => b)) flags.push('braked');
+    cell(r, flags.join(', ') || 'running', flags.length ? 'bad' : 'ok');
+  }
+  const drops = Object.entries(s.drops || {}).filter(([, n]) => n > 0);
+  document.getElementById('drops').textContent =
+      drops.length ? 'dropped for slow clients: ' + drops.map(([t, n]) => `${t} ${n}`).join(', ') : '';
+}
+
+function plotFor(arm) {
+  let p = plots.get(arm);
+  if (p) return p;
+  if (typeof uPlot === 'undefined') {  // the build could not fetch it (no npm): tables and events only
+    document.getElementById('plots').textContent =
+        'Plots unavailable: uPlot was not fetched when tandem was built (it needs npm and the npm registry).';
+    p = {u: {setData() {}}, data: [[], [], [], []]};
+    plots.set(arm, p);
+    return p;
+  }
+  const div = document.createElement('div');
+  document.getElementById('plots').appendChild(div);
+  const data = [[], [], [], []];
+  const u = new uPlot({
+    title: arm, width: 560, height: 220,
+    scales: {x: {time: true}, ep: {auto: true}, hn: {auto: true}},
+    series: [
+      {},
+      {label: '|e_p| [mm]', stroke: '#1f77b4', scale: 'ep'},
+      {label: 'h_n [N]', stroke: '#d62728', scale: 'hn'},
+      {label: 'h_sg [N]', stroke: '#7f7f7f', dash: [6, 4], scale: 'hn'},
+    ],
+    axes: [{}, {scale: 'ep', label: 'mm', size: 70, values: (u, vals) => vals.map(v => +v.toPrecision(3))},
+           {scale: 'hn', side: 1, label: 'N', grid: {show: false}}],
+  }, data, div);
+  p = {u, data};
+  plots.set(arm, p);
+  return p;
+}
+
+function addPoints(points) {
+  const touched = new Set();
+  for (const pt of points) {
+    const p = plotFor(pt.arm);
+    const hsg = hSgOf.get(pt.arm.split('/')[0]) ?? null;
+    p.data[0].push(pt.t); p.data[1].push(pt.ep === null ? null : pt.ep * 1e3);
+    p.data[2].push(pt.hn); p.data[3].push(hsg);
+    touched.add(p);
+  }
+  for (const p of touched) {
+    const last = p.data[0][p.data[0].length - 1];
+    let cut = 0;
+    while (cut < p.data[0].length && p.data[0][cut] < last - WINDOW_S) cut++;
+    if (cut > 0) for (const s of p.data) s.splice(0, cut);
+    p.u.setData(p.data);
+  }
+}
+
+function addEvent(e) {
+  const box = document.getElementById('events');
+  const row = document.createElement('div');
+  const when = new Date(e.t * 1000).toLocaleTimeString();
+  const kind = document.createElement('span');
+  kind.className = 'kind';
+  kind.textContent = e.kind;
+  row.append(`${when} `, kind, ` ${e.subject} ${e.detail}`);
+  box.prepend(row);
+  while (box.childElementCount > MAX_EVENTS) box.lastElementChild.remove();
+}
+
+connect();

@@ -1,0 +1,46 @@
+// tandem view's page in headless Chromium (playwright-core, Debian's chromium): the process table fills, the plots
+// receive new points over time, an event about SUBJECT appears after this checker prints READY (the test then
+// kills a robot), and the console shows no errors. Takes a screenshot. No tandem code.
+// usage: node check_view_page.mjs URL SUBJECT SCREENSHOT.png [CHROMIUM]
+import { chromium } from "playwright-core";
+
+const [url, subject, shot, exe = "/usr/bin/chromium"] = process.argv.slice(2);
+if (!url || !subject || !shot) {
+  console.error("usage: node check_view_page.mjs URL SUBJECT SCREENSHOT.png [CHROMIUM]");
+  process.exit(2);
+}
+const fail = async (why, browser) => {
+  console.error(`check_view_page: FAIL: ${why}`);
+  if (browser) await browser.close();
+  process.exit(1);
+};
+const browser = await chromium.launch({ executablePath: exe, args: ["--no-sandbox", "--disable-gpu"] });
+const page = await browser.newPage({ viewport: { width: 1280, height: 1000 } });
+const problems = [];
+page.on("console", (m) => { if (m.type() === "error") problems.push(`console error: ${m.text()}`); });
+page.on("pageerror", (e) => problems.push(`page error: ${e.message}`));
+await page.goto(url);
+try {
+  await page.waitForFunction(() => document.querySelectorAll("#procs tbody tr").length >= 3, null, { timeout: 20000 });
+} catch { await fail("the process table did not fill within 20 s", browser); }
+const rows = await page.$$eval("#procs tbody tr", (r) => r.length);
+try {
+  await page.waitForFunction(() => window.tandemView.plots() >= 2, null, { timeout: 20000 });
+} catch { await fail("no plot of both arms within 20 s", browser); }
+const points = async () => page.evaluate(() => window.tandemView.received.plot);
+const p1 = await points();
+await page.waitForTimeout(2000);
+const p2 = await points();
+if (!(p2 > p1)) await fail(`the plots received no new points in 2 s (${p1} then ${p2} batches)`, browser);
+if (!(await page.evaluate(() => typeof uPlot !== "undefined"))) await fail("uPlot was not served with the page", browser);
+console.log(`READY: ${rows} processes, plot batches ${p1} -> ${p2}`);
+try {
+  await page.waitForFunction((s) => [...document.querySelectorAll("#events div")].some((d) => d.textContent.includes(s)
+                                       && /failover|lifecycle|brake/.test(d.textContent)),
+                             subject, { timeout: 30000 });
+} catch { await fail(`no event about ${subject} within 30 s of READY`, browser); }
+const event = await page.$$eval("#events div", (ds, s) => ds.map((d) => d.textContent).find((t) => t.includes(s)), subject);
+await page.screenshot({ path: shot, fullPage: true });
+if (problems.length) await fail(problems.join("; "), browser);
+console.log(`check_view_page: PASS: ${rows} processes, plots growing, event "${event}", no console errors; ${shot}`);
+await browser.close();

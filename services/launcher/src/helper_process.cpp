@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cmath>
 #include <cstdio>
 #include <utility>
 
@@ -27,8 +28,8 @@ bool HelperProcess::exited() {
 void HelperProcess::stop() {
   if (pid_ <= 0) return;
   ::kill(pid_, SIGTERM);
-  const int polls = static_cast<int>(grace_s_ / 0.02 + 0.5);
-  for (int i = 0; i < polls; ++i) {
+  const long polls = std::lround(grace_s_ / 0.02);  // of 20 ms
+  for (long i = 0; i < polls; ++i) {
     if (exited()) return;
     ::usleep(20000);
   }

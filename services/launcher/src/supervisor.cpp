@@ -453,7 +453,7 @@ void Supervisor::unplug(const Request& req, double now) {
   const UnplugDecision dec = unplug_robot(name, c != nullptr, c ? c->arm : "", c ? c->module : "",
                                           c ? live_robots(c->arm, c) : 0);
   say(dec.action != Action::Refuse, "%s\n", dec.text.c_str());
-  if (dec.action == Action::Refuse) return;
+  if (dec.action == Action::Refuse || c == nullptr) return;  // (refused when no running robot has the label)
   c->expected = true;
   if (dec.action == Action::HandOver) {
     terminate(*c, now);  // it deletes its torque writer first: the world follows the next strongest at once

@@ -267,8 +267,7 @@ class UpOutbox : public launcher::Outbox {
   UpOutbox(std::string deployment, CommandLines& lines) : deployment_(std::move(deployment)), lines_(lines) {}
   bus::Writer<msg::ControlRequest, msg::ControlRequestPubSubType>* control_out_ = nullptr;
   bus::Writer<msg::CoordinatorState, msg::CoordinatorStatePubSubType>* coord_state_out_ = nullptr;
-  msg::CoordinatorState last_coord;  ///< the latest (most advanced) queue state heard from a coordinator
-  bool have_coord = false;
+  msg::CoordinatorState* last_coord_ = nullptr;  ///< the latest (most advanced) queue state heard
 
   void log(const std::string& line, bool error) override { std::fputs(line.c_str(), error ? stderr : stdout); }
   void control(const std::string& module, launcher::ModuleCommand command, unsigned long long seq) override {
@@ -283,7 +282,7 @@ class UpOutbox : public launcher::Outbox {
     control_out_->write(req);
   }
   void republish_coordinator_state() override {
-    if (coord_state_out_ != nullptr) coord_state_out_->write(last_coord);
+    if (coord_state_out_ != nullptr && last_coord_ != nullptr) coord_state_out_->write(*last_coord_);
   }
   launcher::ModuleSpec load_module(const std::string& name, const std::string& scenario, const std::string& case_name,
                                    const std::string& host, bool& case_found) override {
@@ -359,6 +358,146 @@ unsigned long long new_run() {
   unsigned long long r = 0;
   while (r == 0) r = (static_cast<unsigned long long>(rd()) << 32) ^ rd();
   return r;
+}
+
+/// What the run's summary reads besides the supervisor: the summaries heard, the coordinator's last queue state and
+/// the start-up CPU per role.
+struct Heard {
+  std::map<std::string, msg::RobotSummary> robots;
+  std::map<std::string, msg::WorldSummary> worlds;
+  std::map<std::string, std::vector<double>> start_cpu;  ///< per role: the CPU seconds from start to active
+  msg::CoordinatorState last_coord;                      ///< the latest (most advanced) queue state heard
+  bool have_coord = false;
+};
+
+/// The run's summary on stdout and, with --summary FILE, as key=value lines in `out` (full precision). Returns
+/// whether every module that counts kept its grasp; sets `failed` when one of them sent no world summary.
+bool print_summary(double wall_s, const launcher::Supervisor& L, const Deployment& d, Heard& heard,
+                   const std::string& summary_file, std::ofstream& out, bool& failed) {
+  std::printf("\nsummary (%.1f s wall)\n", wall_s);
+  std::printf("%-16s %8s %12s %12s %12s %10s %10s %9s\n", "robot", "ticks", "e_p Sp RMS", "e_p pos RMS",
+              "e_p phi RMS", "e_h RMS N", "min h_n N", "rejected");
+  if (!summary_file.empty()) {
+    out.open(summary_file);
+    if (!out) std::fprintf(stderr, "tandem up: cannot write the summary to %s\n", summary_file.c_str());
+    out.precision(17);
+  }
+  bool grasp_ok = true;
+  for (const auto& [name, mr] : L.modules()) {
+    if (!mr.started) continue;
+    const bool counted = mr.end.empty() || mr.end == "draining";  // failed or unplugged modules: reported only
+    if (!mr.end.empty()) std::printf("%s: %s\n", name.c_str(), mr.end.c_str());
+    if (out) out << name << ".end=" << (mr.end.empty() ? "ran" : mr.end.substr(0, mr.end.find(':'))) << "\n";
+    for (const auto& [id, r] : heard.robots) {
+      if (id.rfind(name + "/", 0) != 0) continue;
+      char min_force[32] = "-";  // a robot that computed no tick has no force to report
+      if (r.ticks() > 0) std::snprintf(min_force, sizeof min_force, "%.2f", r.min_normal_force());
+      std::printf("%-16s %8llu %12.4e %12.4e %12.4e %10.4f %10s %9llu\n", id.c_str(),
+                  static_cast<unsigned long long>(r.ticks()), r.ep_sel_rms(), r.ep_pos_rms(), r.ep_ori_rms(),
+                  r.eh_rms(), min_force, static_cast<unsigned long long>(r.rejected()));
+      if (counted && r.ticks() > 0 && r.min_normal_force() < mr.spec.h_sg) grasp_ok = false;
+      if (out) {
+        out << id << ".ep_pos_rms=" << r.ep_pos_rms() << "\n" << id << ".ep_ori_rms=" << r.ep_ori_rms() << "\n"
+            << id << ".ep_sel_rms=" << r.ep_sel_rms() << "\n" << id << ".eh_rms=" << r.eh_rms() << "\n"
+            << id << ".min_normal_force=" << r.min_normal_force() << "\n" << id << ".ticks=" << r.ticks() << "\n"
+            << id << ".rejected=" << r.rejected() << "\n";
+      }
+    }
+    const auto w = heard.worlds.find(name);
+    if (w == heard.worlds.end()) {
+      std::printf("%s: no summary from the world\n", name.c_str());
+      if (counted) failed = true;
+      continue;
+    }
+    const msg::WorldSummary& ws = w->second;
+    std::printf("%s: %llu ticks, object at (%.6f, %.6f), slips %llu, contact lost %llu, rejected commands %llu, "
+                "%s %llu, braked arm-ticks %llu\n",
+                name.c_str(), static_cast<unsigned long long>(ws.ticks()), ws.object_final()[0], ws.object_final()[1],
+                static_cast<unsigned long long>(ws.slip_events()), static_cast<unsigned long long>(ws.contact_lost()),
+                static_cast<unsigned long long>(ws.rejected_commands()), ws.realtime() ? "late arm-ticks" : "brakings",
+                static_cast<unsigned long long>(ws.late_commands()), static_cast<unsigned long long>(ws.braked_ticks()));
+    for (size_t i = 0; i < ws.switch_gap_ms().size(); ++i) {
+      std::printf("%s: %s after %.1f ms; over the next 300 ticks worst |e_p| %.3e m, lowest normal force %.2f N "
+                  "(h_sg %.2f N)\n",
+                  name.c_str(), ws.switch_failover()[i] ? "failover" : "takeover", ws.switch_gap_ms()[i],
+                  ws.switch_ep_max()[i], ws.switch_hn_min()[i], mr.spec.h_sg);
+    }
+    if (ws.realtime()) {
+      std::printf("%s: real time: sample->command latency p50 %.0f us, p99 %.0f us, max %.0f us; late arm-ticks %llu "
+                  "of %llu (%.2f%%); world tick start late p99 %.0f us, world overruns %llu; paused for load %llu "
+                  "time(s), %.1f s\n",
+                  name.c_str(), ws.latency_p50_us(), ws.latency_p99_us(), ws.latency_max_us(),
+                  static_cast<unsigned long long>(ws.late_commands()), 2ULL * ws.ticks(),
+                  ws.ticks() > 0 ? 50.0 * static_cast<double>(ws.late_commands()) / static_cast<double>(ws.ticks()) : 0.0,
+                  ws.wake_late_p99_us(), static_cast<unsigned long long>(ws.overruns()),
+                  static_cast<unsigned long long>(ws.load_pauses()), static_cast<double>(ws.load_paused_ticks()) * 1e-3);
+    }
+    if (counted && (ws.slip_events() > 0 || ws.contact_lost() > 0)) grasp_ok = false;
+    if (out) {
+      out << name << ".ticks=" << ws.ticks() << "\n" << name << ".slip_events=" << ws.slip_events() << "\n"
+          << name << ".contact_lost=" << ws.contact_lost() << "\n" << name
+          << ".rejected_commands=" << ws.rejected_commands() << "\n" << name
+          << ".late_commands=" << ws.late_commands() << "\n" << name << ".latency_p50_us=" << ws.latency_p50_us()
+          << "\n" << name << ".latency_p99_us=" << ws.latency_p99_us() << "\n" << name
+          << ".failovers=" << ws.failovers() << "\n" << name << ".failover_max_ms=" << ws.failover_max_ms() << "\n"
+          << name << ".braked_ticks=" << ws.braked_ticks() << "\n" << name << ".overruns=" << ws.overruns() << "\n"
+          << name << ".load_pauses=" << ws.load_pauses() << "\n" << name << ".load_paused_ticks=" << ws.load_paused_ticks()
+          << "\n";
+      auto list = [&out, &module = name](const char* key, const auto& seq) {  // (C++17: no binding captures)
+        out << module << "." << key << "=";
+        for (size_t i = 0; i < seq.size(); ++i) out << (i ? "," : "") << static_cast<double>(seq[i]);
+        out << "\n";
+      };
+      list("switch_gap_ms", ws.switch_gap_ms());
+      list("switch_failover", ws.switch_failover());
+      list("switch_ep_max", ws.switch_ep_max());
+      list("switch_hn_min", ws.switch_hn_min());
+      for (size_t i = 0; i < 6; ++i) out << name << ".q_final" << i << "=" << ws.q_final()[i] << "\n";
+      for (size_t i = 0; i < 3; ++i) out << name << ".object_final" << i << "=" << ws.object_final()[i] << "\n";
+    }
+  }
+  for (const auto& c : L.children()) {
+    if (c.status != 0) {
+      std::printf("process %s exited with code %d%s\n", c.label.c_str(), c.status,
+                  c.expected ? " (unplugged, or its module stopped)" : "");
+    }
+  }
+  if (d.coordinator && heard.have_coord) {
+    const size_t done = done_in(heard.last_coord);
+    const size_t dup = heard.last_coord.done_total() > done ? static_cast<size_t>(heard.last_coord.done_total() - done) : 0;
+    std::printf("coordinator: %zu/%zu tasks done, %zu duplicate(s)\n", done, d.tasks.size(), dup);
+    if (out) out << "coordinator.tasks_done=" << done << "\ncoordinator.duplicates=" << dup << "\n";
+    for (size_t t = 0; t < heard.last_coord.done_by().size() && t < d.tasks.size() && out; ++t) {
+      const uint8_t by = heard.last_coord.done_by()[t];
+      if (by != 0 && by <= heard.last_coord.modules().size()) {
+        out << "coordinator.task." << d.tasks[t].name << "=" << heard.last_coord.modules()[by - 1u] << "\n";
+      }
+    }
+  }
+  for (auto& [role, v] : heard.start_cpu) {
+    if (v.empty()) continue;
+    std::sort(v.begin(), v.end());
+    const double median = v[v.size() / 2];
+    std::printf("start-up CPU of a %s (start to active): median %.3f s, max %.3f s over %zu start(s)\n", role.c_str(),
+                median, v.back(), v.size());
+    if (out) out << "startup_cpu." << role << ".median_s=" << median << "\nstartup_cpu." << role << ".starts=" << v.size() << "\n";
+  }
+  std::printf("tandem up: start-up repairs (modules restarted because they did not come up): %llu\n", L.start_repairs());
+  if (L.forced_drains() > 0) {
+    std::printf("tandem up: unplugged modules stopped before their task ended (drain over %.0f s): %llu\n",
+                launcher::DrainWatch::kTimeout, L.forced_drains());
+  }
+  if (out) {
+    out << "start_repairs=" << L.start_repairs() << "\nplan_restarts=" << L.plan_restarts() << "\nforced_drains=" << L.forced_drains()
+        << "\ndeaf_leaders=" << L.deaf_leaders() << "\n";
+  }
+  if (L.plan_restarts() > 0) std::printf("tandem up: modules restarted because their supervisors lost the plan: %llu\n", L.plan_restarts());
+  if (L.governed()) {
+    std::printf("tandem up: modules parked for load during the run: %llu time(s); parked at the end: %s\n",
+                L.parks(), L.parked_text().empty() ? "none" : L.parked_text().c_str());
+    if (out) out << "shedding.parks=" << L.parks() << "\nshedding.parked=" << L.parked_text() << "\n";
+  }
+  return grasp_ok;
 }
 
 }  // namespace
@@ -472,7 +611,7 @@ int up_command(const std::vector<std::string>& args) {
   for (auto& s : specs) L.add_module(std::move(s));
 
   // DDS-Security: every identity's files are there and valid before anything starts; the launcher joins as
-  // "launcher", its children inherit the keys' directory and get their slot's identity (identity_of).
+  // "launcher", its children inherit the keys' directory and get their slot's identity (CommandLines::identity).
   if (!d.security_keys.empty()) {
     const std::string err = runtime::check_keys(d);
     if (!err.empty()) {
@@ -668,18 +807,15 @@ int up_command(const std::vector<std::string>& args) {
   }
   L.start_coordinators(now_s());
 
-  std::map<std::string, msg::RobotSummary> robots;
-  std::map<std::string, msg::WorldSummary> worlds;
-  msg::CoordinatorState& last_coord = outbox.last_coord;
-  bool& have_coord = outbox.have_coord;
-  std::map<std::string, std::vector<double>> start_cpu;  ///< per role: the CPU seconds from start to active
+  Heard heard;
+  outbox.last_coord_ = &heard.last_coord;
   const auto t0 = Clock::now();
   auto last_print = t0;
   auto collect = [&] {
     msg::RobotSummary rs;
-    while (robot_sum.take(rs)) robots[rs.robot_id()] = rs;
+    while (robot_sum.take(rs)) heard.robots[rs.robot_id()] = rs;
     msg::WorldSummary ws;
-    while (world_sum.take(ws)) worlds[ws.module_id()] = ws;
+    while (world_sum.take(ws)) heard.worlds[ws.module_id()] = ws;
     msg::TaskState ts;
     while (task_states.take(ts)) {
       if (ts.deployment() == d.name) L.on_task_state(ts.module_id(), ts.state());
@@ -691,12 +827,12 @@ int up_command(const std::vector<std::string>& args) {
       const auto kept = L.on_coordinator_state(cs.next_task_id(), cs.done_total(), done_in(cs));
       if (kept == launcher::Supervisor::QueueState::Older) continue;
       advanced = advanced || kept == launcher::Supervisor::QueueState::Advanced;
-      last_coord = cs;
-      have_coord = true;
+      heard.last_coord = cs;
+      heard.have_coord = true;
     }
     // Mirrored (Supervisor::on_coordinator_state). Found by the hour-long soak: the primary died while its restarted
     // peer was still starting, both came back with --resume and no state, and no task was done again.
-    if (advanced && d.coordinator) coord_state_out.write(last_coord);
+    if (advanced && d.coordinator) coord_state_out.write(heard.last_coord);
   };
   std::vector<std::string> running_labels;
   auto launcher_published = Clock::now();
@@ -743,7 +879,7 @@ int up_command(const std::vector<std::string>& args) {
         // The CPU one start costs (a soak restarts about a thousand processes an hour): user + system time of the
         // process from its start to its first active status.
         const double cpu = launcher::process_cpu_s(static_cast<int>(ps.pid()));
-        if (cpu >= 0.0) start_cpu[first_active->role].push_back(cpu);
+        if (cpu >= 0.0) heard.start_cpu[first_active->role].push_back(cpu);
       }
       if (ps.role() == "world" && ps.deployment() == d.name) L.on_world_load(ps.module_id(), ps.detail(), ps.tick(), now_s());
     }
@@ -796,136 +932,16 @@ int up_command(const std::vector<std::string>& args) {
   size_t started_modules = 0;
   for (const auto& [name, mr] : L.modules()) started_modules += mr.started ? 1 : 0;
   const auto settle = Clock::now();
-  while (worlds.size() < started_modules && Clock::now() - settle < std::chrono::milliseconds(500)) {
+  while (heard.worlds.size() < started_modules && Clock::now() - settle < std::chrono::milliseconds(500)) {
     robot_sum.wait(0.05);
     collect();
   }
   collect();
 
-  std::printf("\nsummary (%.1f s wall)\n", std::chrono::duration<double>(Clock::now() - t0).count());
-  std::printf("%-16s %8s %12s %12s %12s %10s %10s %9s\n", "robot", "ticks", "e_p Sp RMS", "e_p pos RMS",
-              "e_p phi RMS", "e_h RMS N", "min h_n N", "rejected");
   std::ofstream out;
-  if (!summary_file.empty()) {
-    out.open(summary_file);
-    if (!out) std::fprintf(stderr, "tandem up: cannot write the summary to %s\n", summary_file.c_str());
-    out.precision(17);
-  }
-  bool grasp_ok = true, failed = L.failed();
-  for (const auto& [name, mr] : L.modules()) {
-    if (!mr.started) continue;
-    const bool counted = mr.end.empty() || mr.end == "draining";  // failed or unplugged modules: reported only
-    if (!mr.end.empty()) std::printf("%s: %s\n", name.c_str(), mr.end.c_str());
-    if (out) out << name << ".end=" << (mr.end.empty() ? "ran" : mr.end.substr(0, mr.end.find(':'))) << "\n";
-    for (const auto& [id, r] : robots) {
-      if (id.rfind(name + "/", 0) != 0) continue;
-      char min_force[32] = "-";  // a robot that computed no tick has no force to report
-      if (r.ticks() > 0) std::snprintf(min_force, sizeof min_force, "%.2f", r.min_normal_force());
-      std::printf("%-16s %8llu %12.4e %12.4e %12.4e %10.4f %10s %9llu\n", id.c_str(),
-                  static_cast<unsigned long long>(r.ticks()), r.ep_sel_rms(), r.ep_pos_rms(), r.ep_ori_rms(),
-                  r.eh_rms(), min_force, static_cast<unsigned long long>(r.rejected()));
-      if (counted && r.ticks() > 0 && r.min_normal_force() < mr.spec.h_sg) grasp_ok = false;
-      if (out) {
-        out << id << ".ep_pos_rms=" << r.ep_pos_rms() << "\n" << id << ".ep_ori_rms=" << r.ep_ori_rms() << "\n"
-            << id << ".ep_sel_rms=" << r.ep_sel_rms() << "\n" << id << ".eh_rms=" << r.eh_rms() << "\n"
-            << id << ".min_normal_force=" << r.min_normal_force() << "\n" << id << ".ticks=" << r.ticks() << "\n"
-            << id << ".rejected=" << r.rejected() << "\n";
-      }
-    }
-    const auto w = worlds.find(name);
-    if (w == worlds.end()) {
-      std::printf("%s: no summary from the world\n", name.c_str());
-      if (counted) failed = true;
-      continue;
-    }
-    const msg::WorldSummary& ws = w->second;
-    std::printf("%s: %llu ticks, object at (%.6f, %.6f), slips %llu, contact lost %llu, rejected commands %llu, "
-                "%s %llu, braked arm-ticks %llu\n",
-                name.c_str(), static_cast<unsigned long long>(ws.ticks()), ws.object_final()[0], ws.object_final()[1],
-                static_cast<unsigned long long>(ws.slip_events()), static_cast<unsigned long long>(ws.contact_lost()),
-                static_cast<unsigned long long>(ws.rejected_commands()), ws.realtime() ? "late arm-ticks" : "brakings",
-                static_cast<unsigned long long>(ws.late_commands()), static_cast<unsigned long long>(ws.braked_ticks()));
-    for (size_t i = 0; i < ws.switch_gap_ms().size(); ++i) {
-      std::printf("%s: %s after %.1f ms; over the next 300 ticks worst |e_p| %.3e m, lowest normal force %.2f N "
-                  "(h_sg %.2f N)\n",
-                  name.c_str(), ws.switch_failover()[i] ? "failover" : "takeover", ws.switch_gap_ms()[i],
-                  ws.switch_ep_max()[i], ws.switch_hn_min()[i], mr.spec.h_sg);
-    }
-    if (ws.realtime()) {
-      std::printf("%s: real time: sample->command latency p50 %.0f us, p99 %.0f us, max %.0f us; late arm-ticks %llu "
-                  "of %llu (%.2f%%); world tick start late p99 %.0f us, world overruns %llu; paused for load %llu "
-                  "time(s), %.1f s\n",
-                  name.c_str(), ws.latency_p50_us(), ws.latency_p99_us(), ws.latency_max_us(),
-                  static_cast<unsigned long long>(ws.late_commands()), 2ULL * ws.ticks(),
-                  ws.ticks() > 0 ? 50.0 * static_cast<double>(ws.late_commands()) / static_cast<double>(ws.ticks()) : 0.0,
-                  ws.wake_late_p99_us(), static_cast<unsigned long long>(ws.overruns()),
-                  static_cast<unsigned long long>(ws.load_pauses()), static_cast<double>(ws.load_paused_ticks()) * 1e-3);
-    }
-    if (counted && (ws.slip_events() > 0 || ws.contact_lost() > 0)) grasp_ok = false;
-    if (out) {
-      out << name << ".ticks=" << ws.ticks() << "\n" << name << ".slip_events=" << ws.slip_events() << "\n"
-          << name << ".contact_lost=" << ws.contact_lost() << "\n" << name
-          << ".rejected_commands=" << ws.rejected_commands() << "\n" << name
-          << ".late_commands=" << ws.late_commands() << "\n" << name << ".latency_p50_us=" << ws.latency_p50_us()
-          << "\n" << name << ".latency_p99_us=" << ws.latency_p99_us() << "\n" << name
-          << ".failovers=" << ws.failovers() << "\n" << name << ".failover_max_ms=" << ws.failover_max_ms() << "\n"
-          << name << ".braked_ticks=" << ws.braked_ticks() << "\n" << name << ".overruns=" << ws.overruns() << "\n"
-          << name << ".load_pauses=" << ws.load_pauses() << "\n" << name << ".load_paused_ticks=" << ws.load_paused_ticks()
-          << "\n";
-      auto list = [&out, &module = name](const char* key, const auto& seq) {  // (C++17: no binding captures)
-        out << module << "." << key << "=";
-        for (size_t i = 0; i < seq.size(); ++i) out << (i ? "," : "") << static_cast<double>(seq[i]);
-        out << "\n";
-      };
-      list("switch_gap_ms", ws.switch_gap_ms());
-      list("switch_failover", ws.switch_failover());
-      list("switch_ep_max", ws.switch_ep_max());
-      list("switch_hn_min", ws.switch_hn_min());
-      for (size_t i = 0; i < 6; ++i) out << name << ".q_final" << i << "=" << ws.q_final()[i] << "\n";
-      for (size_t i = 0; i < 3; ++i) out << name << ".object_final" << i << "=" << ws.object_final()[i] << "\n";
-    }
-  }
-  for (const auto& c : L.children()) {
-    if (c.status != 0) {
-      std::printf("process %s exited with code %d%s\n", c.label.c_str(), c.status,
-                  c.expected ? " (unplugged, or its module stopped)" : "");
-    }
-  }
-  if (d.coordinator && have_coord) {
-    const size_t done = done_in(last_coord);
-    const size_t dup = last_coord.done_total() > done ? static_cast<size_t>(last_coord.done_total() - done) : 0;
-    std::printf("coordinator: %zu/%zu tasks done, %zu duplicate(s)\n", done, d.tasks.size(), dup);
-    if (out) out << "coordinator.tasks_done=" << done << "\ncoordinator.duplicates=" << dup << "\n";
-    for (size_t t = 0; t < last_coord.done_by().size() && t < d.tasks.size() && out; ++t) {
-      const uint8_t by = last_coord.done_by()[t];
-      if (by != 0 && by <= last_coord.modules().size()) {
-        out << "coordinator.task." << d.tasks[t].name << "=" << last_coord.modules()[by - 1u] << "\n";
-      }
-    }
-  }
-  for (auto& [role, v] : start_cpu) {
-    if (v.empty()) continue;
-    std::sort(v.begin(), v.end());
-    const double median = v[v.size() / 2];
-    std::printf("start-up CPU of a %s (start to active): median %.3f s, max %.3f s over %zu start(s)\n", role.c_str(),
-                median, v.back(), v.size());
-    if (out) out << "startup_cpu." << role << ".median_s=" << median << "\nstartup_cpu." << role << ".starts=" << v.size() << "\n";
-  }
-  std::printf("tandem up: start-up repairs (modules restarted because they did not come up): %llu\n", L.start_repairs());
-  if (L.forced_drains() > 0) {
-    std::printf("tandem up: unplugged modules stopped before their task ended (drain over %.0f s): %llu\n",
-                launcher::DrainWatch::kTimeout, L.forced_drains());
-  }
-  if (out) {
-    out << "start_repairs=" << L.start_repairs() << "\nplan_restarts=" << L.plan_restarts() << "\nforced_drains=" << L.forced_drains()
-        << "\ndeaf_leaders=" << L.deaf_leaders() << "\n";
-  }
-  if (L.plan_restarts() > 0) std::printf("tandem up: modules restarted because their supervisors lost the plan: %llu\n", L.plan_restarts());
-  if (L.governed()) {
-    std::printf("tandem up: modules parked for load during the run: %llu time(s); parked at the end: %s\n",
-                L.parks(), L.parked_text().empty() ? "none" : L.parked_text().c_str());
-    if (out) out << "shedding.parks=" << L.parks() << "\nshedding.parked=" << L.parked_text() << "\n";
-  }
+  bool failed = L.failed();
+  const bool grasp_ok = print_summary(std::chrono::duration<double>(Clock::now() - t0).count(), L, d, heard,
+                                      summary_file, out, failed);
   launcher_status.set(runtime::Lifecycle::Finalized, "run over");
   if (recorder > 0) {
     std::this_thread::sleep_for(std::chrono::milliseconds(300));  // the last summaries reach the recorder too

@@ -39,10 +39,11 @@ struct Recorder : Executor, Outbox {
   std::vector<std::pair<std::string, ModuleCommand>> controls;
   const std::deque<Child>* children = nullptr;
 
-  std::string place(const Child& /*c*/) const override { return ""; }
+  std::string host;  ///< where every process is placed ("": here)
+  std::string place(const Child& /*c*/) const override { return host; }
   int start(const Child& c) override {
     starts.push_back({c.label, c.strength, c.standby, now, c.resume});
-    return ++next_pid;
+    return host.empty() ? ++next_pid : 0;
   }
   void signal(const Child& c, int sig) override { signals.push_back({c.label, sig, now}); }
   void signal_spawn(const std::string& /*host*/, unsigned long long /*spawn_id*/, const std::string& /*label*/,
@@ -465,4 +466,60 @@ TEST_CASE("launcher supervisor: a module unplugged is drained, and the drain re-
   CHECK(f.rec.said("tandem up: module m1 drained; stopping its processes\n"));
   CHECK(f.sup.modules().at("m1").end == "unplugged");
   CHECK(f.rec.signals_to("m1/world").at(0).sig == SIGTERM);
+}
+
+TEST_CASE("launcher supervisor: on another host, starts are re-sent until the agent reports them, and a silent host is lost", "[launcher]") {
+  Recorder rec;
+  rec.host = "b";
+  SupervisorConfig cfg;
+  cfg.deployment = "test";
+  cfg.coordinated = true;
+  cfg.hosts = {"b"};
+  cfg.host_timeout = 1.0;
+  cfg.run = 77;
+  Supervisor sup(cfg, rec, rec);
+  sup.add_module(module_m1(0, "on-failure"));
+  sup.start_module("m1", 0.0);
+  REQUIRE(rec.starts.size() == 4);
+  CHECK(rec.said("  started m1/world               on b\n"));
+  CHECK(sup.agents_not_serving() == std::vector<std::string>{"b"});
+  rec.now = 0.1;
+  sup.poll(0.1);
+  CHECK(rec.starts.size() == 4);
+  rec.now = 0.3;
+  sup.poll(0.3);
+  CHECK(rec.starts.size() == 8);  // not acknowledged within 200 ms: sent again (same spawn ids)
+  AgentReport st;
+  st.host = "b";
+  st.pid = 500;
+  st.run = 77;
+  long long pid = 2000;
+  for (const auto& c : sup.children()) st.children.push_back({c.spawn_id, c.label, ++pid, true, 0});
+  sup.on_agent_state(st, 0.35);
+  CHECK(sup.agents_not_serving().empty());
+  CHECK(rec.said("  m1/world                       runs on b as pid 2001\n"));
+  rec.now = 0.6;
+  sup.poll(0.6);
+  CHECK(rec.starts.size() == 8);  // acknowledged: not sent again
+  // A kill goes through the agent and is re-sent until the agent reports the process gone.
+  Request k;
+  k.command = Request::Command::Kill;
+  k.target = "m1/left";
+  rec.now = 0.7;
+  sup.on_request(k, 0.7);
+  REQUIRE(rec.signals_to("m1/left").size() == 1);
+  rec.now = 0.95;
+  sup.poll(0.95);
+  CHECK(rec.signals_to("m1/left").size() == 2);
+  CHECK(rec.signals_to("m1/left")[1].sig == SIGKILL);
+  // The agent falls silent: past host_timeout its host is lost and its processes count as failed.
+  rec.now = 1.3;
+  sup.poll(1.3);
+  CHECK(sup.running() == 4);
+  rec.now = 1.4;
+  sup.poll(1.4);
+  CHECK(rec.said("tandem up: host b lost: no word from its agent for 1.0 s; its 4 process(es) count as failed: "
+                 "m1/world, m1/supervisor, m1/left, m1/right\n"));
+  CHECK(sup.running() == 0);
+  CHECK(rec.said("tandem up: module m1 failed (m1/world exited with code 137); stopping its processes, the others go on\n"));
 }

@@ -92,7 +92,6 @@ pid_t spawn(const std::string& exe, const std::vector<std::string>& args, int rt
   return launcher::spawn("tandem up", exe, args, launcher::SpawnOptions{rt_priority, participant_id, identity});
 }
 
-
 /// A module of the deployment (or plugged from a scenario) as the supervisor runs it: its scenario read once.
 launcher::ModuleSpec module_spec(const runtime::ModuleDeployment& cfg, bool* case_found = nullptr) {
   launcher::ModuleSpec s;

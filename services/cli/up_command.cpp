@@ -80,6 +80,26 @@ launcher::LoadSpec load_of(const Deployment& d) {
   return l;
 }
 
+/// The supervisor's view of the deployment (`file` as given, absolute with hosts; `run`: this launcher's run).
+launcher::SupervisorConfig supervisor_config(const Deployment& d, const std::string& file, unsigned long long run) {
+  launcher::SupervisorConfig cfg;
+  cfg.deployment = d.name;
+  cfg.deployment_file = file;
+  cfg.coordinated = d.coordinator;
+  cfg.coordinator_standby = d.coordinator_standby;
+  cfg.coordinator_restart = launcher::RestartRule{d.coordinator_restart, d.coordinator_restart_limit,
+                                                  d.coordinator_restart_window, 0.2};
+  cfg.timeout = d.timeout;
+  cfg.start_timeout = d.start_timeout;
+  for (const auto& h : d.hosts) cfg.hosts.push_back(h.name);
+  cfg.host_timeout = d.host_timeout;
+  cfg.run = run;
+  // Participant ids for children, the one left longest ago first: 20-119 (0-19 stay for Fast DDS's own choice:
+  // the launcher, `tandem status` and other tools).
+  cfg.end_participant_id = static_cast<int>(bus::kMaxParticipantId);
+  return cfg;
+}
+
 /// Tasks a coordinator's queue state lists as done (its compact done-set).
 size_t done_in(const msg::CoordinatorState& cs) {
   return static_cast<size_t>(std::count_if(cs.done_by().begin(), cs.done_by().end(), [](uint8_t b) { return b != 0; }));
@@ -359,6 +379,35 @@ unsigned long long new_run() {
   return r;
 }
 
+/// discovery: server. Starts the Discovery Server (a child like the others: it dies with the launcher; `pid`), or
+/// uses an external one, and makes this process and every process it starts a client of it. False (said why) if
+/// it cannot run.
+bool start_discovery(const Deployment& d, pid_t& pid) {
+  if (d.discovery == "server" && d.discovery_start == "external") {
+    std::printf("  discovery server             %s (external)\n", runtime::discovery_text(d).c_str());
+    runtime::use_discovery(d);
+  } else if (d.discovery == "server") {
+    const std::string exe = "/usr/bin/fast-discovery-server";
+    if (::access(exe.c_str(), X_OK) != 0) {
+      std::fprintf(stderr, "tandem up: discovery: server needs %s (Debian package fastdds-tools)\n", exe.c_str());
+      return false;
+    }
+    pid = spawn(exe, {"-i", "0", "-l", d.discovery_address, "-p", std::to_string(runtime::discovery_port_of(d))});
+    if (pid < 0) return false;
+    std::printf("  started discovery server     pid %d on %s:%d\n", pid, d.discovery_address.c_str(),
+                runtime::discovery_port_of(d));
+    runtime::use_discovery(d);
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));  // listening before the first client comes
+    if (::waitpid(pid, nullptr, WNOHANG) == pid) {
+      std::fprintf(stderr, "tandem up: the Discovery Server exited at start: is %s an address of this machine, and "
+                           "port %d free? (discovery_start: external uses one that runs already)\n",
+                   d.discovery_address.c_str(), runtime::discovery_port_of(d));
+      return false;
+    }
+  }
+  return true;
+}
+
 /// What the run's summary reads besides the supervisor: the summaries heard, the coordinator's last queue state and
 /// the start-up CPU per role.
 struct Heard {
@@ -589,22 +638,8 @@ int up_command(const std::vector<std::string>& args) {
   const unsigned long long run = new_run();
   AgentExecutor agents(lines, d.name, run);
   UpOutbox outbox(d.name, lines);
-  launcher::SupervisorConfig cfg;
-  cfg.deployment = d.name;
-  cfg.deployment_file = file;
-  cfg.coordinated = d.coordinator;
-  cfg.coordinator_standby = d.coordinator_standby;
-  cfg.coordinator_restart = launcher::RestartRule{d.coordinator_restart, d.coordinator_restart_limit,
-                                                  d.coordinator_restart_window, 0.2};
-  cfg.timeout = d.timeout;
-  cfg.start_timeout = d.start_timeout;
-  for (const auto& h : d.hosts) cfg.hosts.push_back(h.name);
-  cfg.host_timeout = d.host_timeout;
-  cfg.run = run;
-  // Participant ids for children, the one left longest ago first: 20-119 (0-19 stay for Fast DDS's own choice:
-  // the launcher, `tandem status` and other tools).
-  cfg.end_participant_id = static_cast<int>(bus::kMaxParticipantId);
-  launcher::Supervisor L(cfg, d.hosts.empty() ? static_cast<launcher::Executor&>(local) : agents, outbox);
+  launcher::Supervisor L(supervisor_config(d, file, run), d.hosts.empty() ? static_cast<launcher::Executor&>(local) : agents,
+                         outbox);
   const auto t_start = Clock::now();
   auto now_s = [&t_start] { return std::chrono::duration<double>(Clock::now() - t_start).count(); };
   for (auto& s : specs) L.add_module(std::move(s));
@@ -649,28 +684,7 @@ int up_command(const std::vector<std::string>& args) {
   // the launcher) and makes itself and every process it starts a client of it.
   const std::time_t launcher_started = std::time(nullptr) - 1;  // shared-memory files of this run: newer
   pid_t discovery_server = -1;
-  if (d.discovery == "server" && d.discovery_start == "external") {
-    std::printf("  discovery server             %s (external)\n", runtime::discovery_text(d).c_str());
-    runtime::use_discovery(d);
-  } else if (d.discovery == "server") {
-    const std::string exe = "/usr/bin/fast-discovery-server";
-    if (::access(exe.c_str(), X_OK) != 0) {
-      std::fprintf(stderr, "tandem up: discovery: server needs %s (Debian package fastdds-tools)\n", exe.c_str());
-      return 2;
-    }
-    discovery_server = spawn(exe, {"-i", "0", "-l", d.discovery_address, "-p", std::to_string(runtime::discovery_port_of(d))});
-    if (discovery_server < 0) return 2;
-    std::printf("  started discovery server     pid %d on %s:%d\n", discovery_server, d.discovery_address.c_str(),
-                runtime::discovery_port_of(d));
-    runtime::use_discovery(d);
-    std::this_thread::sleep_for(std::chrono::milliseconds(300));  // listening before the first client comes
-    if (::waitpid(discovery_server, nullptr, WNOHANG) == discovery_server) {
-      std::fprintf(stderr, "tandem up: the Discovery Server exited at start: is %s an address of this machine, and "
-                           "port %d free? (discovery_start: external uses one that runs already)\n",
-                   d.discovery_address.c_str(), runtime::discovery_port_of(d));
-      return 2;
-    }
-  }
+  if (!start_discovery(d, discovery_server)) return 2;
   launcher::HelperProcess server_stop(discovery_server, 1.0);
   std::unique_ptr<bus::Participant> part_owner;
   try {

@@ -21,6 +21,7 @@
 #include "tandem/sim/scenario_yaml.hpp"
 #include "tandem/view/live_state.hpp"
 #include "tandem/view/server.hpp"
+#include "tandem/view/timeline.hpp"
 
 namespace tandem::cli {
 
@@ -201,12 +202,55 @@ void serve(record::Tap& tap, view::LiveState& live, view::Server& server, const 
   }
 }
 
+/// `tandem view run.mcap`: the same page over a recording, with a time slider (GET /recording, /recording/at?t=S).
+int view_recording(const ViewArgs& a) {
+  view::Timeline tl;
+  try {
+    tl = view::Timeline::from_recording(a.file);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "tandem view: %s\n", e.what());
+    return 2;
+  }
+  view::Server::Options so;
+  so.bind = a.bind;
+  so.port = a.port;
+  so.web_dir = a.web.empty() ? launcher::self_dir() + "/../share/tandem/view" : a.web;
+  so.name = "tandem " + a.file;
+  so.metadata = {{"source", "recording"}};
+  view::Server server(so, {});
+  server.set_json("/recording", [&tl](const std::string&) { return tl.summary(); });
+  server.set_json("/recording/at", [&tl](const std::string& query) {
+    const auto at = query.find("t=");
+    if (at == std::string::npos) throw std::runtime_error("/recording/at needs ?t=SECONDS (log time)");
+    char* end = nullptr;
+    const double t = std::strtod(query.c_str() + at + 2, &end);
+    if (end == query.c_str() + at + 2) throw std::runtime_error("/recording/at: t is not a number");
+    return tl.at(t);
+  });
+  std::string err;
+  if (!server.start(err)) {
+    std::fprintf(stderr, "tandem view: %s\n", err.c_str());
+    return 2;
+  }
+  std::printf("tandem view: %s (%.1f s, %zu plot points, %zu events) at %s\n", a.file.c_str(), tl.end_s() - tl.start_s(),
+              tl.points(), tl.events(), server.url().c_str());
+  std::fflush(stdout);
+  const auto t0 = Clock::now();
+  while (!g_view_stop && !(a.duration > 0.0 && Clock::now() - t0 >= std::chrono::duration<double>(a.duration))) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  server.stop();
+  return 0;
+}
+
 }  // namespace
 
 void view_usage(std::FILE* f) {
   std::fputs(
-      "usage: tandem view <deploy.yaml> [--port 8765] [--bind 127.0.0.1] [--duration SECONDS] [--web DIR]\n"
+      "usage: tandem view <deploy.yaml | run.mcap> [--port 8765] [--bind 127.0.0.1] [--duration SECONDS] [--web DIR]\n"
       "\n"
+      "With a recording (tandem record, tandem up --record): the same page over the recorded run, with a time\n"
+      "slider (Foxglove Studio opens the .mcap file itself). With a deployment file:\n"
       "Joins the deployment's DDS domain as one more participant (read only, as `tandem record`) and serves, on one\n"
       "port, a page of its own at http://ADDRESS:PORT/ and the Foxglove WebSocket protocol (foxglove.websocket.v1,\n"
       "also offered as foxglove.sdk.v1) on the same address: in Foxglove Studio, open a connection to\n"
@@ -229,6 +273,11 @@ void view_usage(std::FILE* f) {
 int view_command(const std::vector<std::string>& args) {
   ViewArgs a;
   if (const int rc = parse_view_args(args, a); rc >= 0) return rc;
+  struct sigaction sa {};
+  sa.sa_handler = on_view_signal;
+  ::sigaction(SIGINT, &sa, nullptr);
+  ::sigaction(SIGTERM, &sa, nullptr);
+  if (a.file.size() > 5 && a.file.compare(a.file.size() - 5, 5, ".mcap") == 0) return view_recording(a);
   runtime::Deployment d;
   record::TapConfig tc;
   Channels ch;
@@ -240,10 +289,6 @@ int view_command(const std::vector<std::string>& args) {
     std::fprintf(stderr, "tandem view: %s\n", e.what());
     return 2;
   }
-  struct sigaction sa {};
-  sa.sa_handler = on_view_signal;
-  ::sigaction(SIGINT, &sa, nullptr);
-  ::sigaction(SIGTERM, &sa, nullptr);
   runtime::use_discovery(d);
   if (const std::string err = runtime::use_security(d, "recorder"); !err.empty()) {
     std::fprintf(stderr, "tandem view: %s\n", err.c_str());
@@ -256,6 +301,7 @@ int view_command(const std::vector<std::string>& args) {
   so.name = "tandem " + d.name;
   so.metadata = {{"deployment", d.name}, {"timing", d.timing}, {"domain", std::to_string(d.domain_id)}};
   view::Server server(so, ch.list);
+  server.set_json("/recording", [](const std::string&) { return std::string("null"); });  // the page: live mode
   view::LiveState live(h_sg);
   ViewSink sink(live, server, ch);
   std::unique_ptr<bus::Participant> part;

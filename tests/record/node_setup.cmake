@@ -10,7 +10,7 @@ endif()
 foreach(f package.json package-lock.json check_recording.mjs check_report.mjs)
   configure_file(${SRC}/tests/tools/mcap/${f} ${WORK}/node/${f} COPYONLY)
 endforeach()
-foreach(f foxglove_client.mjs check_view_page.mjs)  # tandem view's checkers, on the same packages
+foreach(f foxglove_client.mjs check_view_page.mjs check_view_replay.mjs)  # tandem view's checkers, on the same packages
   configure_file(${SRC}/tests/tools/view/${f} ${WORK}/node/${f} COPYONLY)
 endforeach()
 if(NOT have STREQUAL want)

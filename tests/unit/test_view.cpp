@@ -10,6 +10,12 @@
 #include "tandem/view/foxglove.hpp"
 #include "tandem/view/live_state.hpp"
 #include "tandem/view/outbox.hpp"
+#include "tandem/view/timeline.hpp"
+#include "tandem/record/recording.hpp"
+
+#include <unistd.h>
+
+#include <cstdio>
 
 using namespace tandem;
 using nlohmann::json;
@@ -176,4 +182,57 @@ TEST_CASE("view: the page's model follows the serving robot, decimates, and repo
   for (int i = 0; i < 250; ++i) (void)s.on_event(e, 3'000'000'000ULL);
   CHECK(s.recent_events().size() == 200);  // bounded
   CHECK(json::parse(s.on_event(e, 3'000'000'000ULL))["kind"] == "failover");
+}
+
+TEST_CASE("view: a recording's timeline gives the page's state, plot window and events at a chosen time") {
+  const std::string path = "/tmp/tandem-test-" + std::to_string(::getpid()) + "-timeline.mcap";
+  const uint64_t t0 = 1'000'000'000'000ULL;  // log times [ns]
+  {
+    record::RecordingWriter w(path);
+    w.metadata("deployment", {{"deployment", "d"}, {"module.m1.h_sg", "19.62"}});
+    const uint16_t cmd = w.channel("tandem/torque_commands/m1/left", record::TorqueCommand::descriptor());
+    const uint16_t rep = w.channel("tandem/world_report/m1", record::WorldReport::descriptor());
+    const uint16_t ev = w.channel("tandem/events", record::Event::descriptor());
+    for (int k = 0; k < 10000; ++k) {  // 10 s at 1 kHz
+      const uint64_t t = t0 + static_cast<uint64_t>(k) * 1'000'000ULL;
+      record::TorqueCommand c;
+      c.set_tick(static_cast<uint64_t>(k));
+      c.set_strength(100);
+      c.add_e_p(0.001);
+      c.add_e_p(0.0);
+      c.set_normal_force(25.0);
+      w.write(cmd, c, t);
+      if (k % 10 == 0) {
+        record::WorldReport r;
+        r.set_module_id("m1");
+        r.set_tick(static_cast<uint64_t>(k));
+        r.set_normal_min(25.0);
+        w.write(rep, r, t);
+      }
+      if (k == 2000 || k == 8000) {
+        record::Event e;
+        e.set_kind("failover");
+        e.set_subject(k == 2000 ? "first" : "second");
+        w.write(ev, e, t);
+      }
+    }
+    w.close();
+  }
+  const view::Timeline tl = view::Timeline::from_recording(path);
+  std::remove(path.c_str());
+  CHECK(tl.start_s() == Approx(1000.0));
+  CHECK(tl.end_s() == Approx(1009.999));
+  CHECK(tl.points() == 500);  // one in 20 ticks
+  CHECK(tl.events() == 2);
+  const json at5 = json::parse(tl.at(1005.0, 2.0));
+  CHECK(at5["events"].size() == 1);  // only the one before 5 s
+  CHECK(at5["events"][0]["subject"] == "first");
+  CHECK(at5["points"].size() == 100);  // the 2 s window before t: 100 points at 50 Hz
+  CHECK(at5["points"].back()["t"].get<double>() <= 1005.0);
+  REQUIRE(at5["state"]["modules"].size() == 1);
+  CHECK(at5["state"]["modules"][0]["h_sg"].get<double>() == Approx(19.62));  // from the metadata at the file's end
+  CHECK(at5["state"]["modules"][0]["grasp_margin"].get<double>() == Approx(25.0 - 19.62));
+  CHECK(json::parse(tl.at(1009.9))["events"].size() == 2);
+  CHECK(json::parse(tl.at(999.0))["state"].is_null());  // before the recording
+  CHECK_THROWS(view::Timeline::from_recording("/nonexistent/run.mcap"));
 }

@@ -6,7 +6,9 @@
 #  3. a client that subscribes to everything and never reads for 15 s: the viewer's resident memory stays within
 #     the bound stated in docs/view.md, drops are counted, and the deployment's run is not slowed (it finishes);
 #  4. the page in headless Chromium: the process table fills, the plots grow, an event appears when a robot is
-#     killed, no console errors; a screenshot is kept (WORK/page.png).
+#     killed, no console errors; a screenshot is kept (WORK/page.png);
+#  5. the same page over the run's recording (tandem view run.mcap): replay mode, a slider over the run, tables,
+#     plots and events at its time (WORK/replay.png).
 # Usage: view.sh BIN_DIR SRC WORK NODE_DIR DOMAIN
 set -euo pipefail
 bin=$1 src=$2 work=$3 node=$4 domain=$5
@@ -37,7 +39,7 @@ timeout: 20
 modules:
   - {name: m1, scenario: long.yaml, case: SOSM, standby: 1, restart: on-failure}
 YAML
-"$bin/tandem" up d.yaml > up.log 2>&1 & pids+=($!)
+"$bin/tandem" up d.yaml --record "$work/run.mcap" > up.log 2>&1 & pids+=($!); up=$!
 "$bin/tandem" view d.yaml --port 0 > view.log 2>&1 & pids+=($!); viewer=$!
 for _ in $(seq 100); do grep -q "^tandem view: .* at http" view.log && break; sleep 0.1; done
 port=$(sed -n 's/^tandem view: .* at http:\/\/127\.0\.0\.1:\([0-9]*\)\/.*/\1/p' view.log)
@@ -71,5 +73,14 @@ grep -q "^READY" page.log || { cat page.log; fail "the page never got ready"; }
 rc=0; wait "$page" || rc=$?
 cat page.log
 [ "$rc" -eq 0 ] || fail "the page check"
-grep -q "dropped\|drops" view.log || true
+
+echo "== 5. the same page over the recording"
+"$bin/tandem" down d.yaml > down.log 2>&1 || true
+wait "$up" || true
+[ -s run.mcap ] || fail "no recording"
+"$bin/tandem" view "$work/run.mcap" --port 0 > replay.log 2>&1 & pids+=($!)
+for _ in $(seq 100); do grep -q "^tandem view: .* at http" replay.log && break; sleep 0.1; done
+rport=$(sed -n 's/^tandem view: .* at http:\/\/127\.0\.0\.1:\([0-9]*\)\/.*/\1/p' replay.log)
+[ -n "$rport" ] || { cat replay.log; fail "the replay viewer printed no URL"; }
+node "$node/check_view_replay.mjs" "http://127.0.0.1:$rport/" "$work/replay.png" || fail "the replay page"
 echo "PASS"

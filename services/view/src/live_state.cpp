@@ -118,13 +118,11 @@ std::string LiveState::on_event(const record::Event& e, uint64_t now_ns) {
   return text;
 }
 
-std::string LiveState::take_plot() {
-  if (points_.empty()) return "";
+std::string LiveState::plot_json(const std::vector<PlotPoint>& points) {
   json list = json::array();
-  for (const auto& p : points_) {
+  for (const auto& p : points) {
     list.push_back({{"arm", p.arm}, {"tick", p.tick}, {"t", p.t}, {"ep", num(p.ep)}, {"hn", num(p.hn)}});
   }
-  points_.clear();
   return json{{"points", list}}.dump();
 }
 

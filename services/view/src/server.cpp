@@ -69,6 +69,7 @@ bool Server::start(std::string& error) {
   const int n = mg_get_server_ports(ctx_, 4, sp);
   port_ = n > 0 ? sp[0].port : o_.port;
   for (const auto& f : kWebFiles) mg_set_request_handler(ctx_, f.uri, &Server::on_http, this);
+  for (const auto& [uri, fn] : json_) mg_set_request_handler(ctx_, uri.c_str(), &Server::on_http, this);
   static const char* names[] = {kSubprotocols[0], kSubprotocols[1]};
   static mg_websocket_subprotocols subs{2, names};
   mg_set_websocket_handler_with_subprotocols(ctx_, "/", &subs, &Server::on_ws_connect, &Server::on_ws_ready,
@@ -98,6 +99,18 @@ int Server::on_http(mg_connection* c, void* self) {
   auto* s = static_cast<Server*>(self);
   const mg_request_info* ri = mg_get_request_info(c);
   const std::string uri = ri->local_uri != nullptr ? ri->local_uri : "/";
+  if (const auto j = s->json_.find(uri); j != s->json_.end()) {
+    std::string body;
+    try {
+      body = j->second(ri->query_string != nullptr ? ri->query_string : "");
+    } catch (const std::exception& e) {
+      mg_send_http_error(c, 400, "%s", e.what());
+      return 400;
+    }
+    mg_send_http_ok(c, "application/json", static_cast<long long>(body.size()));
+    mg_write(c, body.data(), body.size());
+    return 200;
+  }
   for (const auto& f : kWebFiles) {
     if (uri != f.uri) continue;
     const std::string path = s->o_.web_dir + "/" + f.file;
@@ -245,6 +258,10 @@ void Server::publish(uint32_t channel, uint64_t time_ns, std::string_view payloa
     }
     cl->out.push(channel, message_data(sub, time_ns, payload));
   }
+}
+
+void Server::set_json(const std::string& uri, std::function<std::string(const std::string&)> answer) {
+  json_[uri] = std::move(answer);
 }
 
 void Server::set_history(uint32_t channel, std::vector<std::string> messages) {

@@ -154,4 +154,34 @@ function addEvent(e) {
   while (box.childElementCount > MAX_EVENTS) box.lastElementChild.remove();
 }
 
-connect();
+// A recording (tandem view run.mcap): the same tables, plots and events at the slider's time, over HTTP.
+async function replay(rec) {
+  const slider = document.getElementById('slider');
+  document.getElementById('replay').hidden = false;
+  document.getElementById('conn').textContent = `recording, ${(rec.end - rec.start).toFixed(1)} s`;
+  slider.min = rec.start; slider.max = rec.end; slider.value = rec.end;
+  let busy = false, again = false;
+  const show = async () => {
+    if (busy) { again = true; return; }
+    busy = true;
+    const t = Number(slider.value);
+    document.getElementById('clock').textContent = `${(t - rec.start).toFixed(1)} s of ${(rec.end - rec.start).toFixed(1)} s`;
+    const at = await (await fetch(`/recording/at?t=${t}`)).json();
+    if (at.state && at.state.processes) showState(at.state);
+    for (const p of plots.values()) {
+      for (const s of p.data) s.length = 0;
+      p.u.setData(p.data);
+    }
+    addPoints(at.points);
+    document.getElementById('events').replaceChildren();
+    for (const e of at.events) addEvent(e);
+    received.state++; received.plot++;
+    busy = false;
+    if (again) { again = false; show(); }
+  };
+  slider.addEventListener('input', show);
+  await show();
+}
+
+fetch('/recording').then(r => (r.ok ? r.json() : null)).then(rec => (rec ? replay(rec) : connect()))
+    .catch(() => connect());

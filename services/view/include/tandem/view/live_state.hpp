@@ -11,9 +11,17 @@
 #include <deque>
 #include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace tandem::view {
+
+/// One plot point of an arm: its serving robot's |e_p| (x, y) [m] and h_n [N] at a tick, at log time t [s].
+struct PlotPoint {
+  std::string arm;
+  uint64_t tick = 0;
+  double t = 0.0, ep = 0.0, hn = 0.0;
+};
 
 class LiveState {
  public:
@@ -33,7 +41,9 @@ class LiveState {
   std::string on_event(const record::Event& e, uint64_t now_ns);
 
   /// The plot points since the last call, as {"points": [{"arm","tick","t","ep","hn"}]}; "" if none.
-  std::string take_plot();
+  std::string take_plot() { return points_.empty() ? std::string() : plot_json(take_points()); }
+  std::vector<PlotPoint> take_points() { return std::exchange(points_, {}); }
+  static std::string plot_json(const std::vector<PlotPoint>& points);
   /// Processes, modules, and the drops each channel counted (`drops`: channel topic -> frames dropped).
   std::string state(uint64_t now_ns, const std::map<std::string, uint64_t>& drops = {}) const;
   /// The newest events (oldest first), each as its JSON: what a page that opens late shows first.
@@ -65,11 +75,6 @@ class LiveState {
     long long last_point_tick = -1;
     int strongest = 0;  ///< the strongest strength heard (fallback owner)
   };
-  struct Point {
-    std::string arm;
-    uint64_t tick;
-    double t, ep, hn;
-  };
   int owner_strength(const std::string& arm) const;
 
   std::map<std::string, double> h_sg_;
@@ -77,7 +82,7 @@ class LiveState {
   std::map<std::string, Proc> procs_;
   std::map<std::string, Module> modules_;
   std::map<std::string, Arm> arms_;
-  std::vector<Point> points_;
+  std::vector<PlotPoint> points_;
   std::deque<std::string> events_;
 };
 

@@ -5,6 +5,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -48,6 +49,8 @@ class Server {
   /// Sends to each new subscriber of `channel` first, before anything published (the events a late page missed).
   void set_history(uint32_t channel, std::vector<std::string> messages);
   void broadcast_time(uint64_t time_ns);
+  /// Serves GET `uri` with the JSON `answer` returns for the request's query string (a recording's timeline).
+  void set_json(const std::string& uri, std::function<std::string(const std::string& query)> answer);
   void broadcast_status(int level, const std::string& message);
 
   struct ClientInfo {
@@ -80,6 +83,7 @@ class Server {
   std::vector<std::shared_ptr<Client>> clients_;
   std::map<uint32_t, std::vector<std::string>> history_;
   std::map<uint32_t, uint64_t> dropped_gone_;  ///< drops of clients gone, per channel
+  std::map<std::string, std::function<std::string(const std::string&)>> json_;  ///< set before start()
 };
 
 }  // namespace tandem::view

@@ -39,6 +39,8 @@ await page.evaluate((t) => {
 try {
   await page.waitForFunction((n) => document.querySelectorAll("#events div").length < n, end.events, { timeout: 10000 });
 } catch { await fail("moving the slider to the start did not change the events shown"); }
+const startPoints = await page.evaluate(() => window.tandemView.points().reduce((a, b) => a + b, 0));
+if (!(startPoints < end.points)) await fail(`the plots still show ${startPoints} points at the start (${end.points} at the end)`);
 await page.screenshot({ path: shot, fullPage: true });
 if (problems.length) await fail(problems.join("; "));
 console.log(`check_view_replay: PASS: ${end.max - end.min} s, ${end.events} events and ${end.points} points at the end, ` +

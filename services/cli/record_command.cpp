@@ -51,7 +51,7 @@ const std::set<std::string> kGroups(std::begin(runtime::kRecordGroups), std::end
 /// The recorder: the tap (record::Tap) into one MCAP file.
 class Recorder : public record::TapSink {
  public:
-  Recorder(const runtime::Deployment& d, const std::string& file, const std::string& out, std::set<std::string> groups)
+  Recorder(const runtime::Deployment& d, const std::string& file, const std::string& out, const std::set<std::string>& groups)
       : w_(out) {
     record::TapConfig tc;
     tc.deployment = d.name;

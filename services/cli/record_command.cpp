@@ -5,17 +5,16 @@
 // and are converted and appended to an in-memory chunk (written out every 1 MiB or second).
 #include "record_command.hpp"
 
+#include <sys/resource.h>
 #include <tandemPubSubTypes.h>
 #include <tandem_record.pb.h>
 
-#include <sys/resource.h>
-
 #include <atomic>
 #include <cerrno>
-#include <cstring>
 #include <chrono>
 #include <csignal>
 #include <cstdio>
+#include <cstring>
 #include <functional>
 #include <iterator>
 #include <map>
@@ -25,9 +24,9 @@
 #include <sstream>
 #include <thread>
 
+#include "tandem/dds/bus.hpp"
 #include "tandem/record/recording.hpp"
 #include "tandem/record/tap.hpp"
-#include "tandem/dds/bus.hpp"
 #include "tandem/runtime/deployment.hpp"
 #include "tandem/runtime/security.hpp"
 #include "tandem/runtime/status.hpp"
@@ -44,14 +43,17 @@ using Clock = std::chrono::steady_clock;
 namespace {
 
 std::atomic<bool> g_record_stop{false};
-void on_record_signal(int) { g_record_stop = true; }
+void on_record_signal(int) {
+  g_record_stop = true;
+}
 
 const std::set<std::string> kGroups(std::begin(runtime::kRecordGroups), std::end(runtime::kRecordGroups));
 
 /// The recorder: the tap (record::Tap) into one MCAP file.
 class Recorder : public record::TapSink {
  public:
-  Recorder(const runtime::Deployment& d, const std::string& file, const std::string& out, const std::set<std::string>& groups)
+  Recorder(const runtime::Deployment& d, const std::string& file, const std::string& out,
+           const std::set<std::string>& groups)
       : w_(out) {
     record::TapConfig tc;
     tc.deployment = d.name;
@@ -78,7 +80,8 @@ class Recorder : public record::TapSink {
       meta["modules"] += (meta["modules"].empty() ? "" : ",") + m.name;
       meta["module." + m.name + ".h_sg"] = std::to_string(h_sg);
       meta["module." + m.name + ".period"] = std::to_string(period);
-      meta["module." + m.name + ".arms"] = m.name + "/" + sc.robots[0].name + "," + m.name + "/" + sc.robots[1].name;
+      meta["module." + m.name + ".arms"] =
+          m.name + "/" + sc.robots[0].name + "," + m.name + "/" + sc.robots[1].name;
       meta["module." + m.name + ".scenario"] = m.scenario;
       meta["module." + m.name + ".case"] = m.case_name;
       tc.modules.push_back(m.name);
@@ -89,8 +92,10 @@ class Recorder : public record::TapSink {
     // The per-tick channels first, in arm order, with the arm as metadata (the rest are made on first use).
     if (groups.count("ticks") != 0) {
       for (const auto& arm : tc.arms) {
-        (void)w_.channel(bus::arm_topic(bus::kSensorsTopic, arm), pb::ArmSensors::descriptor(), {{"arm", arm}});
-        (void)w_.channel(bus::arm_topic(bus::kTorquesTopic, arm), pb::TorqueCommand::descriptor(), {{"arm", arm}});
+        (void)w_.channel(bus::arm_topic(bus::kSensorsTopic, arm), pb::ArmSensors::descriptor(),
+                         {{"arm", arm}});
+        (void)w_.channel(bus::arm_topic(bus::kTorquesTopic, arm), pb::TorqueCommand::descriptor(),
+                         {{"arm", arm}});
       }
     }
     tap_ = std::make_unique<record::Tap>(std::move(tc), *this);
@@ -98,7 +103,8 @@ class Recorder : public record::TapSink {
 
   void start(bus::Participant& part) { tap_->start(part); }
 
-  /// Takes what the keyed topics hold (called every 20 ms by the main loop) and writes the file out every second.
+  /// Takes what the keyed topics hold (called every 20 ms by the main loop) and writes the file out every
+  /// second.
   void poll() {
     tap_->poll();
     tap_->locked([this] {
@@ -131,10 +137,11 @@ class Recorder : public record::TapSink {
     w_.metadata("recorder", stats);
     w_.close();
     char buf[256];
-    std::snprintf(buf, sizeof buf, "%llu messages (%llu per-tick samples), %.1f MiB; %llu tick(s) missed in %llu gap(s)",
+    std::snprintf(buf, sizeof buf,
+                  "%llu messages (%llu per-tick samples), %.1f MiB; %llu tick(s) missed in %llu gap(s)",
                   static_cast<unsigned long long>(w_.messages()), static_cast<unsigned long long>(per_tick),
-                  static_cast<double>(w_.bytes()) / (1024.0 * 1024.0), static_cast<unsigned long long>(gap_ticks),
-                  static_cast<unsigned long long>(gaps));
+                  static_cast<double>(w_.bytes()) / (1024.0 * 1024.0),
+                  static_cast<unsigned long long>(gap_ticks), static_cast<unsigned long long>(gaps));
     return buf;
   }
 
@@ -159,25 +166,30 @@ void record_usage(std::FILE* f) {
       "usage: tandem record <deploy.yaml> -o FILE.mcap [--topics LIST] [--duration SECONDS] [--attached]\n"
       "\n"
       "Joins the deployment's DDS domain as its own participant and writes what it hears to an MCAP file\n"
-      "with Protobuf messages (schema idl/tandem_record.proto; each schema record holds the FileDescriptorSet,\n"
-      "so Foxglove Studio, the mcap CLI or any MCAP library decodes it). Start it beside a running deployment,\n"
+      "with Protobuf messages (schema idl/tandem_record.proto; each schema record holds the "
+      "FileDescriptorSet,\n"
+      "so Foxglove Studio, the mcap CLI or any MCAP library decodes it). Start it beside a running "
+      "deployment,\n"
       "or let `tandem up` start it: `record: FILE` in the deployment, or `tandem up --record FILE`.\n"
       "\n"
       "  -o, --out FILE    the recording to write (overwritten)\n"
       "  --topics LIST     comma-separated groups (default: all):\n"
       "                      ticks      arm sensors and torque commands of every arm, every tick\n"
-      "                      world      the worlds' reports (brakes, holds, owners, counters), every 10 ticks\n"
+      "                      world      the worlds' reports (brakes, holds, owners, counters), every 10 "
+      "ticks\n"
       "                      status     every process's status (about every 100 ms)\n"
       "                      tasks      task assignments, task states, the supervisors' plans\n"
       "                      summaries  robot and world summaries at the end of a run\n"
       "                      control    control requests (down, kill, plug, unplug, pause, ...)\n"
       "                      events     lifecycle changes, failovers/takeovers, brakes, pauses, tasks, gaps\n"
-      "  --duration S      stop after S seconds (default: until Ctrl-C, SIGTERM, or the deployment's launcher\n"
+      "  --duration S      stop after S seconds (default: until Ctrl-C, SIGTERM, or the deployment's "
+      "launcher\n"
       "                    finishes)\n"
       "  --attached        started by `tandem up`: stop only on SIGTERM (the launcher stops it last)\n"
       "\n"
       "Per-tick topics are read with the robots' QoS: in lockstep nothing is lost (the world waits for the\n"
-      "recorder to match before its first tick); in real time samples are best effort and a tick the recorder\n"
+      "recorder to match before its first tick); in real time samples are best effort and a tick the "
+      "recorder\n"
       "did not get is logged as a 'gap' event. Use `tandem report FILE.mcap -o DIR` for plots.\n"
       "Exit: 0 written, 1 the file could not be written completely, 2 bad command line or deployment.\n",
       f);
@@ -214,8 +226,10 @@ int record_command(const std::vector<std::string>& args) {
         if (g == "all") {
           groups = kGroups;
         } else if (kGroups.count(g) == 0) {
-          std::fprintf(stderr, "tandem record: unknown topic group '%s'; accepted: all, ticks, world, status, tasks, "
-                               "summaries, control, events\n", g.c_str());
+          std::fprintf(stderr,
+                       "tandem record: unknown topic group '%s'; accepted: all, ticks, world, status, tasks, "
+                       "summaries, control, events\n",
+                       g.c_str());
           return 2;
         } else {
           groups.insert(g);
@@ -247,7 +261,8 @@ int record_command(const std::vector<std::string>& args) {
     }
   }
   if (file.empty() || out.empty()) {
-    std::fprintf(stderr, "tandem record: %s\n\n", file.empty() ? "missing the deployment file" : "missing -o FILE.mcap");
+    std::fprintf(stderr, "tandem record: %s\n\n",
+                 file.empty() ? "missing the deployment file" : "missing -o FILE.mcap");
     record_usage(stderr);
     return 2;
   }
@@ -261,8 +276,8 @@ int record_command(const std::vector<std::string>& args) {
   struct sigaction sa {};
   sa.sa_handler = on_record_signal;
   ::sigaction(SIGTERM, &sa, nullptr);
-  // Started by the launcher, it shares the terminal's process group: Ctrl-C is for the launcher, which stops the
-  // recorder last (SIGTERM), after the modules' final summaries.
+  // Started by the launcher, it shares the terminal's process group: Ctrl-C is for the launcher, which stops
+  // the recorder last (SIGTERM), after the modules' final summaries.
   if (attached) {
     ::signal(SIGINT, SIG_IGN);
   } else {
@@ -277,8 +292,10 @@ int record_command(const std::vector<std::string>& args) {
   // ahead of the busy module processes (nice -10, where permitted). In real time the per-tick processes run
   // SCHED_FIFO above it, and it stays at normal priority so as not to take their time.
   if (d.timing == "lockstep" && ::setpriority(PRIO_PROCESS, 0, -10) != 0 && !attached) {
-    std::printf("tandem record: note: cannot raise the recorder's priority (%s); a loaded machine may make it miss "
-                "ticks, which it reports as gaps\n", std::strerror(errno));
+    std::printf(
+        "tandem record: note: cannot raise the recorder's priority (%s); a loaded machine may make it miss "
+        "ticks, which it reports as gaps\n",
+        std::strerror(errno));
   }
   // The participant outlives the recorder's readers (declared first, destroyed last); it is made before the
   // recorder truncates the file, so that a domain it cannot join leaves an earlier recording alone.
@@ -297,7 +314,9 @@ int record_command(const std::vector<std::string>& args) {
   runtime::StatusPublisher& status = *status_pub;
   status.msg().deployment(d.name);
   status.set(runtime::Lifecycle::Active, "recording to " + out);
-  if (!attached) std::printf("tandem record: recording %s (domain %d) to %s; Ctrl-C to stop\n", d.name.c_str(), d.domain_id, out.c_str());
+  if (!attached)
+    std::printf("tandem record: recording %s (domain %d) to %s; Ctrl-C to stop\n", d.name.c_str(),
+                d.domain_id, out.c_str());
   const auto t0 = Clock::now();
   auto last_status = t0;
   auto launcher_done = Clock::time_point{};

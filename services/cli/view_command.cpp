@@ -1,7 +1,7 @@
-// tandem view: one more participant of a deployment's domain (as the recorder, with the recorder's identity when
-// security is on) that serves the page and the Foxglove WebSocket protocol on one port. It reads the domain
-// through record::Tap, exactly as `tandem record` does; every DDS topic is a protobuf channel at full rate, and the
-// page's own JSON channels (state, decimated plot points, events) come from view::LiveState.
+// tandem view: one more participant of a deployment's domain (as the recorder, with the recorder's identity
+// when security is on) that serves the page and the Foxglove WebSocket protocol on one port. It reads the
+// domain through record::Tap, exactly as `tandem record` does; every DDS topic is a protobuf channel at full
+// rate, and the page's own JSON channels (state, decimated plot points, events) come from view::LiveState.
 #include "view_command.hpp"
 
 #include <csignal>
@@ -31,7 +31,9 @@ using Clock = std::chrono::steady_clock;
 namespace {
 
 std::atomic<bool> g_view_stop{false};
-void on_view_signal(int) { g_view_stop = true; }
+void on_view_signal(int) {
+  g_view_stop = true;
+}
 
 struct ViewArgs {
   std::string file, bind = "127.0.0.1", web;
@@ -39,7 +41,8 @@ struct ViewArgs {
   double duration = 0.0;
 };
 
-/// The deployment's channels: every topic the tap reads (protobuf, the recordings' schemas), then the page's own.
+/// The deployment's channels: every topic the tap reads (protobuf, the recordings' schemas), then the page's
+/// own.
 struct Channels {
   std::vector<view::Channel> list;
   std::map<std::string, uint32_t> by_topic;
@@ -59,8 +62,10 @@ struct Channels {
 /// The tap's sink: the page's model, and each message to the clients subscribed to its topic.
 class ViewSink : public record::TapSink {
  public:
-  ViewSink(view::LiveState& live, view::Server& server, const Channels& ch) : live_(live), server_(server), ch_(ch) {}
-  void on_message(const std::string& topic, const google::protobuf::Message& m, uint64_t log_ns, uint64_t) override {
+  ViewSink(view::LiveState& live, view::Server& server, const Channels& ch)
+      : live_(live), server_(server), ch_(ch) {}
+  void on_message(const std::string& topic, const google::protobuf::Message& m, uint64_t log_ns,
+                  uint64_t) override {
     live_.on_message(topic, m, log_ns);
     send(topic, m, log_ns);
   }
@@ -100,7 +105,8 @@ int parse_view_args(const std::vector<std::string>& args, ViewArgs& a) {
       char* end = nullptr;
       const long p = std::strtol(args[++i].c_str(), &end, 10);
       if (*end != '\0' || p < 0 || p > 65535) {
-        std::fprintf(stderr, "tandem view: --port '%s' is not a port number 0-65535 (0: any free port)\n", args[i].c_str());
+        std::fprintf(stderr, "tandem view: --port '%s' is not a port number 0-65535 (0: any free port)\n",
+                     args[i].c_str());
         return 2;
       }
       a.port = static_cast<int>(p);
@@ -112,7 +118,8 @@ int parse_view_args(const std::vector<std::string>& args, ViewArgs& a) {
       char* end = nullptr;
       a.duration = std::strtod(args[++i].c_str(), &end);
       if (*end != '\0' || !(a.duration > 0.0)) {
-        std::fprintf(stderr, "tandem view: --duration '%s' is not a number of seconds > 0\n", args[i].c_str());
+        std::fprintf(stderr, "tandem view: --duration '%s' is not a number of seconds > 0\n",
+                     args[i].c_str());
         return 2;
       }
     } else if (!x.empty() && x[0] == '-') {
@@ -134,7 +141,8 @@ int parse_view_args(const std::vector<std::string>& args, ViewArgs& a) {
 }
 
 /// The tap's configuration and the channels of deployment `d`; the safe-grasp force of each module.
-void describe(const runtime::Deployment& d, record::TapConfig& tc, Channels& ch, std::map<std::string, double>& h_sg) {
+void describe(const runtime::Deployment& d, record::TapConfig& tc, Channels& ch,
+              std::map<std::string, double>& h_sg) {
   tc.deployment = d.name;
   tc.realtime = d.timing == "realtime";
   tc.groups = {std::begin(runtime::kRecordGroups), std::end(runtime::kRecordGroups)};
@@ -162,10 +170,12 @@ void describe(const runtime::Deployment& d, record::TapConfig& tc, Channels& ch,
   ch.add("tandem/events", record::Event::descriptor());
   ch.state = ch.add_json(view::LiveState::kStateTopic, "tandem.view.State", view::LiveState::state_schema());
   ch.plot = ch.add_json(view::LiveState::kPlotTopic, "tandem.view.Plot", view::LiveState::plot_schema());
-  ch.events_json = ch.add_json(view::LiveState::kEventsTopic, "tandem.view.Event", view::LiveState::event_schema());
+  ch.events_json =
+      ch.add_json(view::LiveState::kEventsTopic, "tandem.view.Event", view::LiveState::event_schema());
 }
 
-/// Until stopped: the keyed topics every 20 ms, plot points every 50 ms, the state every 250 ms, time every 100 ms.
+/// Until stopped: the keyed topics every 20 ms, plot points every 50 ms, the state every 250 ms, time every
+/// 100 ms.
 void serve(record::Tap& tap, view::LiveState& live, view::Server& server, const Channels& ch,
            runtime::StatusPublisher& status, double duration) {
   const auto t0 = Clock::now();
@@ -202,7 +212,8 @@ void serve(record::Tap& tap, view::LiveState& live, view::Server& server, const 
   }
 }
 
-/// `tandem view run.mcap`: the same page over a recording, with a time slider (GET /recording, /recording/at?t=S).
+/// `tandem view run.mcap`: the same page over a recording, with a time slider (GET /recording,
+/// /recording/at?t=S).
 int view_recording(const ViewArgs& a) {
   view::Timeline tl;
   try {
@@ -232,11 +243,12 @@ int view_recording(const ViewArgs& a) {
     std::fprintf(stderr, "tandem view: %s\n", err.c_str());
     return 2;
   }
-  std::printf("tandem view: %s (%.1f s, %zu plot points, %zu events) at %s\n", a.file.c_str(), tl.end_s() - tl.start_s(),
-              tl.points(), tl.events(), server.url().c_str());
+  std::printf("tandem view: %s (%.1f s, %zu plot points, %zu events) at %s\n", a.file.c_str(),
+              tl.end_s() - tl.start_s(), tl.points(), tl.events(), server.url().c_str());
   std::fflush(stdout);
   const auto t0 = Clock::now();
-  while (!g_view_stop && !(a.duration > 0.0 && Clock::now() - t0 >= std::chrono::duration<double>(a.duration))) {
+  while (!g_view_stop &&
+         !(a.duration > 0.0 && Clock::now() - t0 >= std::chrono::duration<double>(a.duration))) {
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
   server.stop();
@@ -247,26 +259,36 @@ int view_recording(const ViewArgs& a) {
 
 void view_usage(std::FILE* f) {
   std::fputs(
-      "usage: tandem view <deploy.yaml | run.mcap> [--port 8765] [--bind 127.0.0.1] [--duration SECONDS] [--web DIR]\n"
+      "usage: tandem view <deploy.yaml | run.mcap> [--port 8765] [--bind 127.0.0.1] [--duration SECONDS] "
+      "[--web DIR]\n"
       "\n"
-      "With a recording (tandem record, tandem up --record): the same page over the recorded run, with a time\n"
+      "With a recording (tandem record, tandem up --record): the same page over the recorded run, with a "
+      "time\n"
       "slider (Foxglove Studio opens the .mcap file itself). With a deployment file:\n"
-      "Joins the deployment's DDS domain as one more participant (read only, as `tandem record`) and serves, on one\n"
-      "port, a page of its own at http://ADDRESS:PORT/ and the Foxglove WebSocket protocol (foxglove.websocket.v1,\n"
+      "Joins the deployment's DDS domain as one more participant (read only, as `tandem record`) and serves, "
+      "on one\n"
+      "port, a page of its own at http://ADDRESS:PORT/ and the Foxglove WebSocket protocol "
+      "(foxglove.websocket.v1,\n"
       "also offered as foxglove.sdk.v1) on the same address: in Foxglove Studio, open a connection to\n"
-      "ws://ADDRESS:PORT. Every DDS topic is a protobuf channel (the schemas the recordings embed), at full rate;\n"
-      "tandem/view/state, tandem/view/plot (|e_p| and h_n of each arm's serving robot, 50 Hz) and tandem/view/events\n"
+      "ws://ADDRESS:PORT. Every DDS topic is a protobuf channel (the schemas the recordings embed), at full "
+      "rate;\n"
+      "tandem/view/state, tandem/view/plot (|e_p| and h_n of each arm's serving robot, 50 Hz) and "
+      "tandem/view/events\n"
       "are the page's JSON channels.\n"
       "\n"
       "  --port N        the port (default 8765; 0: any free port, printed)\n"
-      "  --bind ADDR     the address to listen on (default 127.0.0.1: this machine only; other addresses expose\n"
+      "  --bind ADDR     the address to listen on (default 127.0.0.1: this machine only; other addresses "
+      "expose\n"
       "                  the deployment's data to the network)\n"
       "  --duration S    stop after S seconds (default: until Ctrl-C or SIGTERM)\n"
       "  --web DIR       the page's files (default: share/tandem/view beside the binaries)\n"
       "\n"
-      "Each client has a bounded queue per channel (1000 frames; 64 for the page's state and plot) that drops its\n"
-      "oldest frame when the client falls behind and counts it; the page shows the drops. A slow client never\n"
-      "slows the deployment. Exit: 0 stopped, 2 bad command line, deployment, or a port it cannot listen on.\n",
+      "Each client has a bounded queue per channel (1000 frames; 64 for the page's state and plot) that "
+      "drops its\n"
+      "oldest frame when the client falls behind and counts it; the page shows the drops. A slow client "
+      "never\n"
+      "slows the deployment. Exit: 0 stopped, 2 bad command line, deployment, or a port it cannot listen "
+      "on.\n",
       f);
 }
 
@@ -301,7 +323,8 @@ int view_command(const std::vector<std::string>& args) {
   so.name = "tandem " + d.name;
   so.metadata = {{"deployment", d.name}, {"timing", d.timing}, {"domain", std::to_string(d.domain_id)}};
   view::Server server(so, ch.list);
-  server.set_json("/recording", [](const std::string&) { return std::string("null"); });  // the page: live mode
+  server.set_json("/recording",
+                  [](const std::string&) { return std::string("null"); });  // the page: live mode
   view::LiveState live(h_sg);
   ViewSink sink(live, server, ch);
   std::unique_ptr<bus::Participant> part;

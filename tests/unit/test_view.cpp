@@ -1,21 +1,18 @@
 // tandem view's pure parts: the Foxglove protocol frames (checked byte for byte against the spec's layout and
-// with an independent JSON reading), the bounded client outbox (drops oldest per channel, never starves a rare
-// channel), and the page's model from recording messages.
+// with an independent JSON reading), the bounded client outbox (drops oldest per channel, never starves a
+// rare channel), and the page's model from recording messages.
+#include <unistd.h>
+
 #include <catch2/catch.hpp>
-
+#include <cstdio>
 #include <nlohmann/json.hpp>
-
 #include <string>
 
+#include "tandem/record/recording.hpp"
 #include "tandem/view/foxglove.hpp"
 #include "tandem/view/live_state.hpp"
 #include "tandem/view/outbox.hpp"
 #include "tandem/view/timeline.hpp"
-#include "tandem/record/recording.hpp"
-
-#include <unistd.h>
-
-#include <cstdio>
 
 using namespace tandem;
 using nlohmann::json;
@@ -55,8 +52,14 @@ TEST_CASE("view: Foxglove frames have the spec's layout") {
   CHECK(info["capabilities"] == json::array({"time"}));
   CHECK(info["metadata"]["deployment"] == "soak-small");
 
-  view::Channel pb{7, "tandem/arm_sensors/m1/left", "protobuf", "tandem.record.ArmSensors", std::string("\x0a\x01", 2), "protobuf"};
-  view::Channel js{8, "tandem/view/state", "json", "tandem.view.State", "{\"type\":\"object\"}", "jsonschema"};
+  view::Channel pb{7,
+                   "tandem/arm_sensors/m1/left",
+                   "protobuf",
+                   "tandem.record.ArmSensors",
+                   std::string("\x0a\x01", 2),
+                   "protobuf"};
+  view::Channel js{8,           "tandem/view/state", "json", "tandem.view.State", "{\"type\":\"object\"}",
+                   "jsonschema"};
   const json adv = json::parse(view::advertise({pb, js}));
   REQUIRE(adv["channels"].size() == 2);
   CHECK(adv["channels"][0]["id"] == 7);
@@ -69,7 +72,8 @@ TEST_CASE("view: Foxglove frames have the spec's layout") {
 }
 
 TEST_CASE("view: client requests are parsed, and bad ones get a reason, not a crash") {
-  auto op = view::parse_client_op(R"({"op":"subscribe","subscriptions":[{"id":1,"channelId":3},{"id":2,"channelId":0}]})");
+  auto op = view::parse_client_op(
+      R"({"op":"subscribe","subscriptions":[{"id":1,"channelId":3},{"id":2,"channelId":0}]})");
   REQUIRE(op.kind == view::ClientOp::Kind::Subscribe);
   REQUIRE(op.subscriptions.size() == 2);
   CHECK(op.subscriptions[0] == std::make_pair(1U, 3U));
@@ -79,8 +83,9 @@ TEST_CASE("view: client requests are parsed, and bad ones get a reason, not a cr
   CHECK(view::parse_client_op("{not json").kind == view::ClientOp::Kind::Bad);
   CHECK(view::parse_client_op(R"({"op":"subscribe","subscriptions":[{"id":-1,"channelId":3}]})").kind ==
         view::ClientOp::Kind::Bad);
-  CHECK(view::parse_client_op(R"({"op":"subscribe","subscriptions":[{"id":1,"channelId":4294967296}]})").kind ==
-        view::ClientOp::Kind::Bad);
+  CHECK(
+      view::parse_client_op(R"({"op":"subscribe","subscriptions":[{"id":1,"channelId":4294967296}]})").kind ==
+      view::ClientOp::Kind::Bad);
   const auto adv = view::parse_client_op(R"({"op":"advertise","channels":[]})");
   CHECK(adv.kind == view::ClientOp::Kind::Ignored);
   CHECK_THAT(adv.error, Catch::Contains("advertise") && Catch::Contains("not supported"));
@@ -88,7 +93,8 @@ TEST_CASE("view: client requests are parsed, and bad ones get a reason, not a cr
 
 TEST_CASE("view: an outbox drops a busy channel's oldest frames and still sends the rare channel's at once") {
   view::Outbox box(100);
-  for (int i = 0; i < 1000; ++i) box.push(1, "tick " + std::to_string(i));  // a 1 kHz channel, a client that stalls
+  for (int i = 0; i < 1000; ++i)
+    box.push(1, "tick " + std::to_string(i));  // a 1 kHz channel, a client that stalls
   CHECK(box.dropped(1) == 900);
   CHECK(box.queued() == 100);
   box.push(2, "event");  // a rare one
@@ -129,7 +135,8 @@ TEST_CASE("view: the page's model follows the serving robot, decimates, and repo
   left->set_robot("m1/left@50");
   left->set_strength(50);
   s.on_message("tandem/world_report/m1", wr, 1'000'000'000ULL);
-  // The primary (100) and the serving standby (50) both command; only the server's points count, one in 20 ticks.
+  // The primary (100) and the serving standby (50) both command; only the server's points count, one in 20
+  // ticks.
   for (int k = 0; k < 100; ++k) {
     for (const int strength : {100, 50}) {
       record::TorqueCommand c;
@@ -139,7 +146,8 @@ TEST_CASE("view: the page's model follows the serving robot, decimates, and repo
       c.add_e_p(strength == 50 ? 0.004 : 9.0);
       c.add_e_p(0.0);
       c.set_normal_force(strength == 50 ? 30.0 : -1.0);
-      s.on_message("tandem/torque_commands/m1/left", c, 1'000'000'000ULL + static_cast<uint64_t>(k) * 1'000'000ULL);
+      s.on_message("tandem/torque_commands/m1/left", c,
+                   1'000'000'000ULL + static_cast<uint64_t>(k) * 1'000'000ULL);
     }
   }
   const json plot = json::parse(s.take_plot());
@@ -230,7 +238,8 @@ TEST_CASE("view: a recording's timeline gives the page's state, plot window and 
   CHECK(at5["points"].size() == 100);  // the 2 s window before t: 100 points at 50 Hz
   CHECK(at5["points"].back()["t"].get<double>() <= 1005.0);
   REQUIRE(at5["state"]["modules"].size() == 1);
-  CHECK(at5["state"]["modules"][0]["h_sg"].get<double>() == Approx(19.62));  // from the metadata at the file's end
+  CHECK(at5["state"]["modules"][0]["h_sg"].get<double>() ==
+        Approx(19.62));  // from the metadata at the file's end
   CHECK(at5["state"]["modules"][0]["grasp_margin"].get<double>() == Approx(25.0 - 19.62));
   CHECK(json::parse(tl.at(1009.9))["events"].size() == 2);
   CHECK(json::parse(tl.at(999.0))["state"].is_null());  // before the recording

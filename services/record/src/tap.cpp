@@ -1,6 +1,6 @@
-// The tap (tap.hpp): the recorder's and the viewer's reading of a deployment's domain. Per-tick samples are taken
-// on the listener threads Fast DDS delivers them on (the same data-sharing delivery the robots use); the keyed
-// topics in poll().
+// The tap (tap.hpp): the recorder's and the viewer's reading of a deployment's domain. Per-tick samples are
+// taken on the listener threads Fast DDS delivers them on (the same data-sharing delivery the robots use);
+// the keyed topics in poll().
 #include "tandem/record/tap.hpp"
 
 #include <tandemPubSubTypes.h>
@@ -26,7 +26,8 @@ void copy_to(const Seq& from, google::protobuf::RepeatedField<double>* to) {
   for (const auto v : from) to->Add(static_cast<double>(v));
 }
 
-void copy_owners(const std::vector<msg::ArmOwner>& from, google::protobuf::RepeatedPtrField<pb::ArmOwner>* to) {
+void copy_owners(const std::vector<msg::ArmOwner>& from,
+                 google::protobuf::RepeatedPtrField<pb::ArmOwner>* to) {
   for (const auto& o : from) {
     pb::ArmOwner* p = to->Add();
     p->set_arm(o.arm());
@@ -40,7 +41,10 @@ void copy_owners(const std::vector<msg::ArmOwner>& from, google::protobuf::Repea
 void convert(const msg::ArmSensors& s, pb::ArmSensors& o) {
   o.set_tick(s.tick());
   o.set_t(s.t());
-  o.clear_q(); o.clear_qd(); o.clear_h(); o.clear_tau();
+  o.clear_q();
+  o.clear_qd();
+  o.clear_h();
+  o.clear_tau();
   copy_to(s.q(), o.mutable_q());
   copy_to(s.qd(), o.mutable_qd());
   copy_to(s.h(), o.mutable_h());
@@ -54,7 +58,8 @@ void convert(const msg::ArmSensors& s, pb::ArmSensors& o) {
 }
 void convert(const msg::TorqueCommand& c, pb::TorqueCommand& o) {
   o.set_tick(c.tick());
-  o.clear_tau(); o.clear_e_p();
+  o.clear_tau();
+  o.clear_e_p();
   copy_to(c.tau(), o.mutable_tau());
   o.set_strength(c.strength());
   o.set_leaving(c.leaving());
@@ -199,8 +204,6 @@ pb::ControlRequest convert(const msg::ControlRequest& r) {
   return o;
 }
 
-
-
 /// What the event deriver needs of a world's report.
 WorldView world_view(const msg::WorldReport& wr) {
   WorldView w;
@@ -215,7 +218,6 @@ WorldView world_view(const msg::WorldReport& wr) {
   }
   return w;
 }
-
 
 }  // namespace
 
@@ -239,7 +241,8 @@ struct Tap::Impl {
     pb::TorqueCommand pc;
     long long last_tick = -1, first_tick = -1;
     std::map<int, long long> last_command;  ///< per robot strength: the last tick commanded
-    uint64_t gaps = 0, gap_ticks = 0, sensor_samples = 0, torque_samples = 0, command_gaps = 0, command_gap_ticks = 0;
+    uint64_t gaps = 0, gap_ticks = 0, sensor_samples = 0, torque_samples = 0, command_gaps = 0,
+             command_gap_ticks = 0;
     void on_sensors(fdds::DataReader* r) {
       fdds::SampleInfo info;
       while (r->take_next_sample(&s, &info) == ReturnCode_t::RETCODE_OK) {
@@ -252,8 +255,9 @@ struct Tap::Impl {
           ++gaps;
           gap_ticks += static_cast<uint64_t>(k - last_tick - 1);
           self->event_locked("gap", arm.substr(0, arm.find('/')), arm,
-                             std::to_string(k - last_tick - 1) + " sensor sample(s) not received before tick " +
-                                 std::to_string(k), s.tick(), now);
+                             std::to_string(k - last_tick - 1) +
+                                 " sensor sample(s) not received before tick " + std::to_string(k),
+                             s.tick(), now);
         }
         if (k > last_tick) last_tick = k;
         if (first_tick < 0) first_tick = k;
@@ -275,9 +279,10 @@ struct Tap::Impl {
         if (lc >= 0 && k > lc + 1 && !c.leaving()) {
           ++command_gaps;
           command_gap_ticks += static_cast<uint64_t>(k - lc - 1);
-          self->event_locked("gap", arm.substr(0, arm.find('/')), arm + "@" + std::to_string(c.strength()),
-                             std::to_string(k - lc - 1) + " torque command(s) not received before tick " +
-                                 std::to_string(k), c.tick(), now);
+          self->event_locked(
+              "gap", arm.substr(0, arm.find('/')), arm + "@" + std::to_string(c.strength()),
+              std::to_string(k - lc - 1) + " torque command(s) not received before tick " + std::to_string(k),
+              c.tick(), now);
         }
         if (k > lc) lc = k;
         convert(c, pc);
@@ -317,7 +322,8 @@ struct Tap::Impl {
   bool closing = false;
   std::vector<std::unique_ptr<TickTap>> taps;
   std::map<std::string, std::unique_ptr<bus::Reader<msg::WorldReport, msg::WorldReportPubSubType>>> reports;
-  std::map<std::string, std::unique_ptr<bus::Reader<msg::SupervisorPlan, msg::SupervisorPlanPubSubType>>> plans;
+  std::map<std::string, std::unique_ptr<bus::Reader<msg::SupervisorPlan, msg::SupervisorPlanPubSubType>>>
+      plans;
   std::unique_ptr<bus::Reader<msg::ProcessStatus, msg::ProcessStatusPubSubType>> status;
   std::unique_ptr<bus::Reader<msg::RobotSummary, msg::RobotSummaryPubSubType>> robot_sum;
   std::unique_ptr<bus::Reader<msg::WorldSummary, msg::WorldSummaryPubSubType>> world_sum;
@@ -376,16 +382,16 @@ void Tap::start(dds::Participant& part) {
           part, bus::module_topic(bus::kSupervisorPlanTopic, m), bus::TopicKind::Record);
     }
   }
-  I.status = std::make_unique<bus::Reader<msg::ProcessStatus, msg::ProcessStatusPubSubType>>(part, bus::kStatusTopic,
-                                                                                            bus::TopicKind::Record);
+  I.status = std::make_unique<bus::Reader<msg::ProcessStatus, msg::ProcessStatusPubSubType>>(
+      part, bus::kStatusTopic, bus::TopicKind::Record);
   I.robot_sum = std::make_unique<bus::Reader<msg::RobotSummary, msg::RobotSummaryPubSubType>>(
       part, bus::kRobotSummaryTopic, bus::TopicKind::Record);
   I.world_sum = std::make_unique<bus::Reader<msg::WorldSummary, msg::WorldSummaryPubSubType>>(
       part, bus::kWorldSummaryTopic, bus::TopicKind::Record);
   I.assign = std::make_unique<bus::Reader<msg::TaskAssignment, msg::TaskAssignmentPubSubType>>(
       part, bus::kTaskAssignmentTopic, bus::TopicKind::Record);
-  I.task_state = std::make_unique<bus::Reader<msg::TaskState, msg::TaskStatePubSubType>>(part, bus::kTaskStateTopic,
-                                                                                      bus::TopicKind::Record);
+  I.task_state = std::make_unique<bus::Reader<msg::TaskState, msg::TaskStatePubSubType>>(
+      part, bus::kTaskStateTopic, bus::TopicKind::Record);
   I.control = std::make_unique<bus::Reader<msg::ControlRequest, msg::ControlRequestPubSubType>>(
       part, bus::kControlTopic, bus::TopicKind::Control);
 }
@@ -400,7 +406,8 @@ void Tap::poll() {
     if (!ps.deployment().empty() && ps.deployment() != name) continue;
     if (ps.process_id() == "launcher") I.launcher_state = ps.state();
     if (I.has("status")) I.put(bus::kStatusTopic, convert(ps), now);
-    I.write_events(I.deriver.on_status(ps.process_id(), ps.module_id(), ps.state(), ps.detail(), ps.tick()), now);
+    I.write_events(I.deriver.on_status(ps.process_id(), ps.module_id(), ps.state(), ps.detail(), ps.tick()),
+                   now);
   }
   for (auto& [module, r] : I.reports) {
     msg::WorldReport wr;
@@ -413,7 +420,8 @@ void Tap::poll() {
   for (auto& [module, r] : I.plans) {
     msg::SupervisorPlan p;
     while (r->take(p)) {
-      if (p.module_id() == module) I.put(bus::module_topic(bus::kSupervisorPlanTopic, module), convert(p), now);
+      if (p.module_id() == module)
+        I.put(bus::module_topic(bus::kSupervisorPlanTopic, module), convert(p), now);
     }
   }
   msg::RobotSummary rs;
@@ -445,7 +453,8 @@ void Tap::poll() {
     if (I.has("control")) I.put(bus::kControlTopic, convert(cr), now);
     std::string option = cr.command() == msg::CMD_PLUG && cr.target_kind() == msg::TARGET_ROBOT
                              ? (cr.standby() ? "standby" : "primary")
-                             : cr.scenario().empty() ? "" : cr.scenario() + " " + cr.case_name();
+                         : cr.scenario().empty() ? ""
+                                                 : cr.scenario() + " " + cr.case_name();
     I.write_events(I.deriver.on_control(runtime::command_name(cr.command()), cr.target(), option), now);
   }
 }
@@ -460,14 +469,16 @@ void Tap::close() {
   impl_->closing = true;
 }
 
-int Tap::launcher_state() const { return impl_->launcher_state; }
+int Tap::launcher_state() const {
+  return impl_->launcher_state;
+}
 
 std::map<std::string, ArmTapStats> Tap::stats() {
   std::lock_guard<std::mutex> lock(impl_->mu);
   std::map<std::string, ArmTapStats> out;
   for (const auto& t : impl_->taps) {
-    // Besides the gaps seen between samples: ticks before the first sample and after the last one, against the
-    // world's own count (its summary, when it was heard), and torque commands that skipped ticks.
+    // Besides the gaps seen between samples: ticks before the first sample and after the last one, against
+    // the world's own count (its summary, when it was heard), and torque commands that skipped ticks.
     uint64_t missed = t->gap_ticks + t->command_gap_ticks, holes = t->gaps + t->command_gaps;
     const auto w = impl_->world_ticks.find(t->arm.substr(0, t->arm.find('/')));
     if (w != impl_->world_ticks.end() && w->second > 0) {

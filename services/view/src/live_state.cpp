@@ -1,12 +1,11 @@
 #include "tandem/view/live_state.hpp"
 
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
 #include <nlohmann/json.hpp>
 
 #include "tandem/plan/plan.hpp"
-
-#include <algorithm>
-#include <cstdint>
-#include <cmath>
 
 namespace tandem::view {
 
@@ -22,34 +21,49 @@ std::string arm_of(const std::string& topic, const char* base) {
 
 const char* state_name(uint32_t s) {
   switch (s) {
-    case 0: return "unconfigured";
-    case 1: return "inactive";
-    case 2: return "active";
-    case 3: return "finalized";
-    case 4: return "error";
-    default: return "unknown";
+    case 0:
+      return "unconfigured";
+    case 1:
+      return "inactive";
+    case 2:
+      return "active";
+    case 3:
+      return "finalized";
+    case 4:
+      return "error";
+    default:
+      return "unknown";
   }
 }
 
 const char* arm_state_name(record::ArmState s) {
   switch (s) {
-    case record::ARM_SERVED: return "served";
-    case record::ARM_BRAKED: return "braked";
-    case record::ARM_BRAKED_LOAD: return "braked (load)";
-    default: return "none";
+    case record::ARM_SERVED:
+      return "served";
+    case record::ARM_BRAKED:
+      return "braked";
+    case record::ARM_BRAKED_LOAD:
+      return "braked (load)";
+    default:
+      return "none";
   }
 }
 
 const char* serving_name(record::ServingRole r) {
   switch (r) {
-    case record::ROLE_PRIMARY: return "primary";
-    case record::ROLE_STANDBY: return "standby";
-    default: return "";
+    case record::ROLE_PRIMARY:
+      return "primary";
+    case record::ROLE_STANDBY:
+      return "standby";
+    default:
+      return "";
   }
 }
 
 /// A number JSON can carry (NaN and infinities are not JSON): null otherwise.
-json num(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+json num(double v) {
+  return std::isfinite(v) ? json(v) : json(nullptr);
+}
 
 }  // namespace
 
@@ -76,10 +90,12 @@ void LiveState::on_message(const std::string& topic, const google::protobuf::Mes
     a.strongest = std::max(a.strongest, c.strength());
     if (c.strength() != owner_strength(arm) || c.leaving()) return;
     const auto k = static_cast<long long>(c.tick());
-    if (a.last_point_tick >= 0 && k < a.last_point_tick + o_.plot_every_ticks && k >= a.last_point_tick) return;
+    if (a.last_point_tick >= 0 && k < a.last_point_tick + o_.plot_every_ticks && k >= a.last_point_tick)
+      return;
     a.last_point_tick = k;
     double ep = 0.0;
-    for (int i = 0; i < std::min(2, c.e_p_size()); ++i) ep += c.e_p(i) * c.e_p(i);  // position error (x, y) [m]
+    for (int i = 0; i < std::min(2, c.e_p_size()); ++i)
+      ep += c.e_p(i) * c.e_p(i);  // position error (x, y) [m]
     points_.push_back({arm, c.tick(), static_cast<double>(now_ns) * 1e-9, std::sqrt(ep), c.normal_force()});
     return;
   }
@@ -106,13 +122,13 @@ void LiveState::on_message(const std::string& topic, const google::protobuf::Mes
 }
 
 std::string LiveState::on_event(const record::Event& e, uint64_t now_ns) {
-  std::string text = json{{"t", static_cast<double>(now_ns) * 1e-9},
-                          {"kind", e.kind()},
-                          {"module", e.module_id()},
-                          {"subject", e.subject()},
-                          {"detail", e.detail()},
-                          {"tick", e.tick()}}
-                         .dump();
+  std::string text = json{
+      {"t", static_cast<double>(now_ns) * 1e-9},
+      {"kind", e.kind()},
+      {"module", e.module_id()},
+      {"subject", e.subject()},
+      {"detail", e.detail()},
+      {"tick", e.tick()}}.dump();
   events_.push_back(text);
   while (events_.size() > o_.events_kept) events_.pop_front();
   return text;
@@ -145,32 +161,38 @@ std::string LiveState::state(uint64_t now_ns, const std::map<std::string, uint64
   for (const auto& [name, m] : modules_) {
     json owners = json::array();
     for (const auto& o : m.report.owners()) {
-      owners.push_back({{"arm", o.arm()}, {"state", arm_state_name(o.state())}, {"robot", o.robot()}, {"strength", o.strength()}});
+      owners.push_back({{"arm", o.arm()},
+                        {"state", arm_state_name(o.state())},
+                        {"robot", o.robot()},
+                        {"strength", o.strength()}});
     }
     const auto h = h_sg_.find(name);
     const double h_sg = h == h_sg_.end() ? 0.0 : h->second;
     json braked = json::array();
     for (const bool b : m.report.braked()) braked.push_back(b);
-    mods.push_back({{"name", name},
-                    {"tick", m.report.tick()},
-                    {"h_sg", h_sg},
-                    {"normal_min", num(m.report.normal_min())},
-                    {"grasp_margin", m.reported && h_sg > 0.0 ? num(m.report.normal_min() - h_sg) : json(nullptr)},
-                    {"braked", braked},
-                    {"load_paused", m.report.load_paused()},
-                    {"failed", m.report.failed()},
-                    {"failure", m.report.failure()},
-                    {"slips", m.report.slips()},
-                    {"failovers", m.report.failovers()},
-                    {"owners", owners},
-                    {"task", m.tasked ? json{{"id", m.task.task_id()},
-                                             {"state", plan::task_state_name(static_cast<uint8_t>(m.task.state()))},
-                                             {"done", m.task.tasks_done()}}
-                                      : json(nullptr)}});
+    mods.push_back(
+        {{"name", name},
+         {"tick", m.report.tick()},
+         {"h_sg", h_sg},
+         {"normal_min", num(m.report.normal_min())},
+         {"grasp_margin", m.reported && h_sg > 0.0 ? num(m.report.normal_min() - h_sg) : json(nullptr)},
+         {"braked", braked},
+         {"load_paused", m.report.load_paused()},
+         {"failed", m.report.failed()},
+         {"failure", m.report.failure()},
+         {"slips", m.report.slips()},
+         {"failovers", m.report.failovers()},
+         {"owners", owners},
+         {"task", m.tasked ? json{{"id", m.task.task_id()},
+                                  {"state", plan::task_state_name(static_cast<uint8_t>(m.task.state()))},
+                                  {"done", m.task.tasks_done()}}
+                           : json(nullptr)}});
   }
   json d = json::object();
   for (const auto& [topic, n] : drops) d[topic] = n;
-  return json{{"t", static_cast<double>(now_ns) * 1e-9}, {"processes", procs}, {"modules", mods}, {"drops", d}}.dump();
+  return json{
+      {"t", static_cast<double>(now_ns) * 1e-9}, {"processes", procs}, {"modules", mods}, {"drops", d}}
+      .dump();
 }
 
 std::string LiveState::state_schema() {

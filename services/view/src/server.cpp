@@ -15,9 +15,9 @@ struct Server::Client {
   mg_connection* conn = nullptr;
   std::string address;
   Outbox out;
-  std::mutex mu;                             ///< the subscriptions
-  std::map<uint32_t, uint32_t> sub_of;       ///< channel -> subscription id
-  std::map<uint32_t, uint32_t> channel_of;   ///< subscription id -> channel
+  std::mutex mu;                            ///< the subscriptions
+  std::map<uint32_t, uint32_t> sub_of;      ///< channel -> subscription id
+  std::map<uint32_t, uint32_t> channel_of;  ///< subscription id -> channel
   std::thread writer;
   std::atomic<bool> gone{false};
   std::atomic<uint64_t> sent{0};
@@ -52,13 +52,16 @@ Server::Server(Options o, std::vector<Channel> channels) : o_(std::move(o)), cha
                                 .count());
 }
 
-Server::~Server() { stop(); }
+Server::~Server() {
+  stop();
+}
 
 bool Server::start(std::string& error) {
   mg_init_library(0);
   const std::string ports = o_.bind + ":" + std::to_string(o_.port);
-  const char* options[] = {"listening_ports", ports.c_str(), "num_threads", "16", "request_timeout_ms", "10000",
-                           "enable_keep_alive", "yes", nullptr};
+  const char* options[] = {
+      "listening_ports", ports.c_str(),       "num_threads", "16",   "request_timeout_ms",
+      "10000",           "enable_keep_alive", "yes",         nullptr};
   mg_callbacks cb{};
   ctx_ = mg_start(&cb, this, options);
   if (ctx_ == nullptr) {
@@ -93,7 +96,9 @@ void Server::stop() {
   }
 }
 
-std::string Server::url() const { return "http://" + o_.bind + ":" + std::to_string(port_) + "/"; }
+std::string Server::url() const {
+  return "http://" + o_.bind + ":" + std::to_string(port_) + "/";
+}
 
 int Server::on_http(mg_connection* c, void* self) {
   auto* s = static_cast<Server*>(self);
@@ -115,7 +120,8 @@ int Server::on_http(mg_connection* c, void* self) {
     if (uri != f.uri) continue;
     const std::string path = s->o_.web_dir + "/" + f.file;
     if (::access(path.c_str(), R_OK) != 0) {
-      mg_send_http_error(c, 404, "%s is missing from %s (the build puts the page there)", f.file, s->o_.web_dir.c_str());
+      mg_send_http_error(c, 404, "%s is missing from %s (the build puts the page there)", f.file,
+                         s->o_.web_dir.c_str());
       return 404;
     }
     mg_send_mime_file(c, path.c_str(), f.mime);
@@ -125,7 +131,9 @@ int Server::on_http(mg_connection* c, void* self) {
   return 404;
 }
 
-int Server::on_ws_connect(const mg_connection*, void*) { return 0; }  // accept (the subprotocol is chosen already)
+int Server::on_ws_connect(const mg_connection*, void*) {
+  return 0;
+}  // accept (the subprotocol is chosen already)
 
 void Server::on_ws_ready(mg_connection* c, void* self) {
   auto* s = static_cast<Server*>(self);
@@ -143,8 +151,9 @@ void Server::on_ws_ready(mg_connection* c, void* self) {
     Frame f;
     while (!cl->gone) {
       if (!cl->out.pop(f, std::chrono::milliseconds(200))) continue;
-      const int r = mg_websocket_write(cl->conn, f.text ? MG_WEBSOCKET_OPCODE_TEXT : MG_WEBSOCKET_OPCODE_BINARY,
-                                       f.data->data(), f.data->size());
+      const int r =
+          mg_websocket_write(cl->conn, f.text ? MG_WEBSOCKET_OPCODE_TEXT : MG_WEBSOCKET_OPCODE_BINARY,
+                             f.data->data(), f.data->size());
       if (r <= 0) break;  // the connection is closing: on_ws_close cleans up
       ++cl->sent;
     }
@@ -158,7 +167,8 @@ int Server::on_ws_data(mg_connection* c, int bits, char* data, size_t len, void*
   auto* cl = static_cast<Client*>(mg_get_user_connection_data(c));
   const int opcode = bits & 0x0f;
   if (opcode == MG_WEBSOCKET_OPCODE_CONNECTION_CLOSE) return 0;
-  if (cl == nullptr || opcode != MG_WEBSOCKET_OPCODE_TEXT) return 1;  // binary ops (publishing) are not offered
+  if (cl == nullptr || opcode != MG_WEBSOCKET_OPCODE_TEXT)
+    return 1;  // binary ops (publishing) are not offered
   s->handle_op(*cl, std::string_view(data, len));
   return 1;
 }
@@ -271,7 +281,8 @@ void Server::set_history(uint32_t channel, std::vector<std::string> messages) {
 
 void Server::broadcast_time(uint64_t time_ns) {
   std::lock_guard<std::mutex> lock(mu_);
-  for (const auto& cl : clients_) cl->out.push(0xffffffffU, time_frame(time_ns));  // its own queue: one second kept
+  for (const auto& cl : clients_)
+    cl->out.push(0xffffffffU, time_frame(time_ns));  // its own queue: one second kept
 }
 
 void Server::broadcast_status(int level, const std::string& message) {
@@ -282,7 +293,8 @@ void Server::broadcast_status(int level, const std::string& message) {
 std::vector<Server::ClientInfo> Server::clients() const {
   std::lock_guard<std::mutex> lock(mu_);
   std::vector<ClientInfo> out;
-  for (const auto& cl : clients_) out.push_back({cl->address, cl->sent.load(), cl->out.dropped_total(), cl->out.queued()});
+  for (const auto& cl : clients_)
+    out.push_back({cl->address, cl->sent.load(), cl->out.dropped_total(), cl->out.queued()});
   return out;
 }
 

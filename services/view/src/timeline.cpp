@@ -1,11 +1,11 @@
 #include "tandem/view/timeline.hpp"
 
 #include <google/protobuf/message.h>
-#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <map>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <stdexcept>
 
 #include "tandem/record/mcap.hpp"
@@ -17,7 +17,8 @@ using nlohmann::json;
 Timeline Timeline::from_recording(const std::string& path) {
   Timeline tl;
   std::map<std::string, double> h_sg;
-  std::map<uint16_t, std::unique_ptr<google::protobuf::Message>> protos;  // per channel: an instance of its type
+  std::map<uint16_t, std::unique_ptr<google::protobuf::Message>>
+      protos;  // per channel: an instance of its type
   std::unique_ptr<LiveState> live;
   bool first = true;
   double next_snapshot = 0.0;
@@ -48,13 +49,15 @@ Timeline Timeline::from_recording(const std::string& path) {
             if (topic == "tandem/events") d = record::Event::descriptor();
           }
           std::unique_ptr<google::protobuf::Message> proto;
-          if (d != nullptr) proto.reset(google::protobuf::MessageFactory::generated_factory()->GetPrototype(d)->New());
+          if (d != nullptr)
+            proto.reset(google::protobuf::MessageFactory::generated_factory()->GetPrototype(d)->New());
           it = protos.emplace(m.channel->id, std::move(proto)).first;
         }
         if (!it->second || !it->second->ParseFromArray(m.data, static_cast<int>(m.size))) return;
         ++tl.messages_;
         if (it->second->GetDescriptor() == record::Event::descriptor()) {
-          tl.events_.emplace_back(t, live->on_event(static_cast<const record::Event&>(*it->second), m.log_time));
+          tl.events_.emplace_back(t,
+                                  live->on_event(static_cast<const record::Event&>(*it->second), m.log_time));
         } else {
           live->on_message(m.channel->topic, *it->second, m.log_time);
         }
@@ -90,7 +93,8 @@ Timeline Timeline::from_recording(const std::string& path) {
     }
   }
   tl.states_.emplace_back(tl.end_s_, tl.states_.empty() ? std::string("{}") : tl.states_.back().second);
-  std::sort(tl.points_.begin(), tl.points_.end(), [](const PlotPoint& a, const PlotPoint& b) { return a.t < b.t; });
+  std::sort(tl.points_.begin(), tl.points_.end(),
+            [](const PlotPoint& a, const PlotPoint& b) { return a.t < b.t; });
   return tl;
 }
 
@@ -102,23 +106,22 @@ std::string Timeline::at(double t, double window_s) const {
   out["state"] = s == states_.begin() ? json(nullptr) : json::parse(std::prev(s)->second);
   const auto lo = std::lower_bound(points_.begin(), points_.end(), t - window_s,
                                    [](const PlotPoint& p, double v) { return p.t < v; });
-  const auto hi = std::upper_bound(points_.begin(), points_.end(), t, [](double v, const PlotPoint& p) { return v < p.t; });
+  const auto hi = std::upper_bound(points_.begin(), points_.end(), t,
+                                   [](double v, const PlotPoint& p) { return v < p.t; });
   out["points"] = json::parse(LiveState::plot_json({lo, hi}))["points"];
   auto e = std::upper_bound(events_.begin(), events_.end(), t,
                             [](double v, const std::pair<double, std::string>& x) { return v < x.first; });
   json ev = json::array();
-  for (auto it = e - std::min<std::ptrdiff_t>(200, e - events_.begin()); it != e; ++it) ev.push_back(json::parse(it->second));
+  for (auto it = e - std::min<std::ptrdiff_t>(200, e - events_.begin()); it != e; ++it)
+    ev.push_back(json::parse(it->second));
   out["events"] = ev;
   return out.dump();
 }
 
 std::string Timeline::summary() const {
-  return json{{"start", start_s_},
-              {"end", end_s_},
-              {"deployment", deployment_},
-              {"messages", messages_},
-              {"points", points_.size()},
-              {"events", events_.size()},
+  return json{{"start", start_s_},          {"end", end_s_},
+              {"deployment", deployment_},  {"messages", messages_},
+              {"points", points_.size()},   {"events", events_.size()},
               {"snapshots", states_.size()}}
       .dump();
 }

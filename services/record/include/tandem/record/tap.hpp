@@ -1,7 +1,7 @@
 // The tap: one participant's readers of a deployment's topics, each sample converted to its recording message
-// (idl/tandem_record.proto) and handed to a sink, with the events derived from them (record::EventDeriver) and
-// the per-tick gaps it sees. `tandem record` sinks it into an MCAP file, `tandem view` into its live clients:
-// both read the domain the same way, with the same QoS, and derive the same events.
+// (idl/tandem_record.proto) and handed to a sink, with the events derived from them (record::EventDeriver)
+// and the per-tick gaps it sees. `tandem record` sinks it into an MCAP file, `tandem view` into its live
+// clients: both read the domain the same way, with the same QoS, and derive the same events.
 #pragma once
 
 #include <tandem_record.pb.h>
@@ -25,8 +25,8 @@ namespace tandem::record {
 class TapSink {
  public:
   virtual ~TapSink() = default;
-  /// A sample of DDS topic `topic`, as its recording message; `publish_ns` is the writer's source timestamp for
-  /// per-tick samples, 0 for the rest.
+  /// A sample of DDS topic `topic`, as its recording message; `publish_ns` is the writer's source timestamp
+  /// for per-tick samples, 0 for the rest.
   virtual void on_message(const std::string& topic, const google::protobuf::Message& m, uint64_t log_ns,
                           uint64_t publish_ns) = 0;
   /// A derived event (only with the "events" group).
@@ -34,17 +34,18 @@ class TapSink {
 };
 
 struct TapConfig {
-  std::string deployment;          ///< samples of other deployments (a shared domain) are skipped
-  bool realtime = false;           ///< per-tick topics read with the real-time QoS (best effort), else lockstep's
+  std::string deployment;  ///< samples of other deployments (a shared domain) are skipped
+  bool realtime = false;   ///< per-tick topics read with the real-time QoS (best effort), else lockstep's
   std::vector<std::string> modules;
-  std::vector<std::string> arms;   ///< "<module>/<robot>", both arms of every module
-  std::set<std::string> groups;    ///< ticks, world, status, tasks, summaries, control, events
+  std::vector<std::string> arms;  ///< "<module>/<robot>", both arms of every module
+  std::set<std::string> groups;   ///< ticks, world, status, tasks, summaries, control, events
 };
 
 /// What the tap saw of one arm's per-tick topics.
 struct ArmTapStats {
   uint64_t sensor_samples = 0, torque_samples = 0;
-  uint64_t missed_ticks = 0;  ///< in gaps between samples, before the first and after the last (against the world's count)
+  uint64_t missed_ticks =
+      0;  ///< in gaps between samples, before the first and after the last (against the world's count)
   uint64_t gaps = 0;
 };
 

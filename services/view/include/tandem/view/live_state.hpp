@@ -1,7 +1,8 @@
-// What the viewer's page shows, from the tap's messages (idl/tandem_record.proto types): the processes, the modules
-// (task, grasp margin, brakes, load pause, who serves each arm), per-arm plot points of |e_p| and h_n decimated
-// for the page, and the events. It turns them into the JSON of the viewer's own channels (tandem/view/state,
-// tandem/view/plot, tandem/view/events), which Foxglove Studio can read as well. No socket, no DDS, no clock.
+// What the viewer's page shows, from the tap's messages (idl/tandem_record.proto types): the processes, the
+// modules (task, grasp margin, brakes, load pause, who serves each arm), per-arm plot points of |e_p| and h_n
+// decimated for the page, and the events. It turns them into the JSON of the viewer's own channels
+// (tandem/view/state, tandem/view/plot, tandem/view/events), which Foxglove Studio can read as well. No
+// socket, no DDS, no clock.
 #pragma once
 
 #include <google/protobuf/message.h>

@@ -23,11 +23,13 @@ struct Frame {
 
 class Outbox {
  public:
-  /// `channel_limit`: frames kept per channel; `control_limit`: text frames (serverInfo, advertise, status) kept.
+  /// `channel_limit`: frames kept per channel; `control_limit`: text frames (serverInfo, advertise, status)
+  /// kept.
   explicit Outbox(size_t channel_limit = 1000, size_t control_limit = 256)
       : channel_limit_(channel_limit), control_limit_(control_limit) {}
 
-  /// A protocol frame (serverInfo, advertise, status): before any channel's; the oldest goes if over the limit.
+  /// A protocol frame (serverInfo, advertise, status): before any channel's; the oldest goes if over the
+  /// limit.
   void push_control(std::string text);
   /// A frame of `channel`; returns false if the channel's oldest frame was dropped to make room.
   bool push(uint32_t channel, std::string frame);

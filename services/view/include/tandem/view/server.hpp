@@ -1,6 +1,7 @@
-// The viewer's server (civetweb): the page and its files over HTTP, and the Foxglove WebSocket protocol on the
-// same port (services/view/include/tandem/view/foxglove.hpp). Each client has its own writer thread and a bounded
-// Outbox, so a slow or stalled client never blocks the publisher, the deployment or the other clients.
+// The viewer's server (civetweb): the page and its files over HTTP, and the Foxglove WebSocket protocol on
+// the same port (services/view/include/tandem/view/foxglove.hpp). Each client has its own writer thread and a
+// bounded Outbox, so a slow or stalled client never blocks the publisher, the deployment or the other
+// clients.
 #pragma once
 
 #include <atomic>
@@ -24,12 +25,12 @@ class Server {
  public:
   struct Options {
     std::string bind = "127.0.0.1";  ///< other addresses are opt-in (tandem view --bind)
-    int port = 8765;                  ///< 0: any free port (port() says which)
-    std::string web_dir;              ///< the page's files (index.html, app.js, uplot)
-    std::string name = "tandem";      ///< serverInfo's name
+    int port = 8765;                 ///< 0: any free port (port() says which)
+    std::string web_dir;             ///< the page's files (index.html, app.js, uplot)
+    std::string name = "tandem";     ///< serverInfo's name
     std::vector<std::pair<std::string, std::string>> metadata;
-    size_t channel_limit = 1000;      ///< frames kept per channel and client (a second of a 1 kHz topic)
-    size_t page_limit = 64;           ///< ... for the viewer's own JSON channels (state, plot)
+    size_t channel_limit = 1000;  ///< frames kept per channel and client (a second of a 1 kHz topic)
+    size_t page_limit = 64;       ///< ... for the viewer's own JSON channels (state, plot)
   };
   Server(Options o, std::vector<Channel> channels);
   ~Server();
@@ -43,10 +44,13 @@ class Server {
   std::string url() const;
 
   /// Whether any client subscribes to `channel` now (else the caller need not serialize its message).
-  bool wanted(uint32_t channel) const { return channel < subscribers_.size() && subscribers_[channel]->load() > 0; }
+  bool wanted(uint32_t channel) const {
+    return channel < subscribers_.size() && subscribers_[channel]->load() > 0;
+  }
   /// Sends `payload` on `channel` to every client subscribed to it (queued; dropped oldest-first per client).
   void publish(uint32_t channel, uint64_t time_ns, std::string_view payload);
-  /// Sends to each new subscriber of `channel` first, before anything published (the events a late page missed).
+  /// Sends to each new subscriber of `channel` first, before anything published (the events a late page
+  /// missed).
   void set_history(uint32_t channel, std::vector<std::string> messages);
   void broadcast_time(uint64_t time_ns);
   /// Serves GET `uri` with the JSON `answer` returns for the request's query string (a recording's timeline).
@@ -75,7 +79,8 @@ class Server {
 
   Options o_;
   std::vector<Channel> channels_;
-  std::vector<std::unique_ptr<std::atomic<int>>> subscribers_;  ///< per channel id: subscriptions over all clients
+  std::vector<std::unique_ptr<std::atomic<int>>>
+      subscribers_;  ///< per channel id: subscriptions over all clients
   mg_context* ctx_ = nullptr;
   int port_ = 0;
   std::string session_;

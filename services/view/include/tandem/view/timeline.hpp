@@ -1,6 +1,7 @@
-// The page's data over a whole recording (`tandem view run.mcap`): built in one pass through the file with the
-// same view::LiveState the live view uses, so a recorded run reads like a live one. Kept: a state snapshot every
-// second of log time, every (decimated) plot point, every event. at(t) gives what the page shows at time t.
+// The page's data over a whole recording (`tandem view run.mcap`): built in one pass through the file with
+// the same view::LiveState the live view uses, so a recorded run reads like a live one. Kept: a state
+// snapshot every second of log time, every (decimated) plot point, every event. at(t) gives what the page
+// shows at time t.
 #pragma once
 
 #include <cstdint>

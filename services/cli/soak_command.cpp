@@ -705,7 +705,7 @@ int soak_command(const std::vector<std::string>& args) {
   // The observer and nemesis run ahead of the machine's ordinary processes (and of the hogs they start, which go
   // back to niceness 0), below the deployment's own (launcher::kServiceNice): a starved observer judged progress
   // from data minutes old and skipped faults for want of targets it could not see (docs/benchmarks.md, soak item 6).
-  if (d.timing == "realtime") (void)::setpriority(PRIO_PROCESS, 0, launcher::kServiceNice / 2);
+  (void)::setpriority(PRIO_PROCESS, 0, launcher::kServiceNice / 2);
   const pid_t me = ::getpid();
   const pid_t launcher = ::fork();
   if (launcher < 0) {

@@ -678,6 +678,12 @@ int up_command(const std::vector<std::string>& args) {
                   "RLIMIT_RTPRIO; 'realtime_priority: 0' silences this)\n",
                   d.realtime_priority, why.c_str());
     }
+  } else if (d.timing == "lockstep") {
+    // Lockstep keeps both cores busy with per-tick work: the control plane (this launcher, supervisors,
+    // coordinators, processes starting) runs at kServiceNice ahead of it; the world and robots go to niceness 0
+    // once active (runtime::raise_to_realtime_from_env). Where not permitted, everything runs at one priority.
+    std::string why;
+    (void)launcher::raise_service_priority(why);
   }
 
   // discovery: server. The launcher starts the Discovery Server first (a child like the others: it dies with

@@ -79,7 +79,7 @@ int run(int argc, char** argv) {
   });
   status.msg().serving(core.active() ? msg::ROLE_PRIMARY : msg::ROLE_STANDBY);
   status.set(runtime::Lifecycle::Active, opt.continuous ? "waiting for a task" : "planning");
-  if (runtime::raise_to_realtime_from_env() < 0) std::fprintf(stderr, "tandem: could not raise to SCHED_FIFO once active\n");
+  if (runtime::raise_to_realtime_from_env(/*per_tick=*/false) < 0) std::fprintf(stderr, "tandem: could not raise to SCHED_FIFO once active\n");
 
   msg::TaskState ts;
   ts.module_id(opt.module);

@@ -5,9 +5,11 @@
 #include <sched.h>
 
 #include <dirent.h>
+#include <sys/resource.h>
 
 #include <csignal>
 #include <cstdio>
+#include <cerrno>
 #include <cstdlib>
 #include <limits>
 #include <stdexcept>
@@ -189,10 +191,22 @@ int run_guarded(const char* program, int (*body)(int, char**), int argc, char** 
   return launcher::exit_code::kError;
 }
 
-int raise_to_realtime_from_env() {
+int raise_to_realtime_from_env(bool per_tick) {
   const char* env = std::getenv("TANDEM_RT_PRIORITY");
   const int priority = env != nullptr ? std::atoi(env) : 0;
-  if (priority <= 0) return 0;
+  if (priority <= 0) {
+    // Linux keeps a niceness per thread: every thread of this process back to 0 (always permitted: lowering).
+    errno = 0;
+    const int nice_now = ::getpriority(PRIO_PROCESS, 0);
+    if (!per_tick || errno != 0 || nice_now >= 0) return 0;
+    if (DIR* dir = ::opendir("/proc/self/task")) {
+      while (const dirent* e = ::readdir(dir)) {
+        if (e->d_name[0] >= '0' && e->d_name[0] <= '9') (void)::setpriority(PRIO_PROCESS, static_cast<id_t>(std::atoi(e->d_name)), 0);
+      }
+      ::closedir(dir);
+    }
+    return 0;
+  }
   sched_param sp{};
   sp.sched_priority = priority;
   int raised = 0;

@@ -66,7 +66,11 @@ void install_stop_handlers();
 /// restarts about a thousand processes an hour) and raises every thread it has to SCHED_FIFO at
 /// TANDEM_RT_PRIORITY (set by launcher::spawn) when it turns active; threads created later inherit it.
 /// Returns the number of threads raised (0 without the variable; -1 if the kernel refused).
-int raise_to_realtime_from_env();
+/// Without the variable (lockstep, or real time where SCHED_FIFO is not permitted), a per-tick process (world,
+/// robot: `per_tick`) that inherited the launcher's raised niceness (launcher::kServiceNice) goes back to niceness 0,
+/// so that lockstep's per-tick work, which fills every core, never starves the control plane (supervisors,
+/// coordinators, the launcher, processes starting); a supervisor keeps it.
+int raise_to_realtime_from_env(bool per_tick = true);
 
 /// Runs a process's body: an exception that escapes it (a Fast DDS or allocation failure at set-up) is reported
 /// as "<program>: <what>" and the process exits 1, instead of aborting.

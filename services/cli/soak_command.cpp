@@ -759,6 +759,7 @@ int soak_command(const std::vector<std::string>& args) {
         launcher_status = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
         std::printf("tandem soak: the deployment ended by itself (tandem up exit %d) at %.1f s; see %s\n", launcher_status,
                     t, log_path.c_str());
+        soak.history().ended_by_itself = true;
         break;
       }
       std::this_thread::sleep_for(std::chrono::milliseconds(5));

@@ -407,3 +407,20 @@ TEST_CASE("soak checker: a supervisor kill with no warm standby is judged by the
   REQUIRE(find(v, "recovery") != nullptr);
   CHECK_THAT(find(v, "recovery")->text, Catch::Contains("within 15.0 s"));
 }
+
+TEST_CASE("soak checker: a deployment that ended by itself before the soak stopped it is not a pass") {
+  // A CI soak whose Discovery Server could not take its port: tandem up exited at 0 s, nothing ran, and the
+  // report said PASS.
+  History h = quiet_history(60.0);
+  CHECK(find(check(h, Bounds{}), "progress") == nullptr);
+  h.stop_s = 0.0;
+  h.events.clear();
+  h.tasks_done.clear();
+  h.tasks_done_by.clear();
+  h.ended_by_itself = true;
+  h.launcher_exit = 2;
+  const Verdict v = check(h, Bounds{});
+  CHECK_FALSE(v.ok());
+  REQUIRE(find(v, "progress") != nullptr);
+  CHECK_THAT(find(v, "progress")->text, Catch::Contains("ended by itself at 0.0 s of 60.0 s") && Catch::Contains("exit 2"));
+}

@@ -455,6 +455,12 @@ class Judge {
   }
 
   void progress(size_t inv) {
+    if (h_.ended_by_itself) {
+      ++v_.invariants[inv].checked;
+      violate(inv, h_.stop_s, fault_before(h_.stop_s),
+              fmt("the deployment ended by itself at %.1f s of %.1f s planned (tandem up exit %d): see launcher.log",
+                  h_.stop_s, h_.duration_s, h_.launcher_exit));
+    }
     std::vector<double> done;
     std::map<std::string, std::vector<double>> done_by;
     for (const Event& e : h_.events) {

@@ -93,6 +93,8 @@ struct History {
   std::vector<std::string> leftover_processes;               ///< still running after the run
   std::vector<std::string> leftover_shm;                     ///< /dev/shm files new since the start and left
   int launcher_exit = -1;
+  /// The deployment's launcher exited before the soak stopped it (at stop_s): a run cut short is not a pass.
+  bool ended_by_itself = false;
 };
 
 }  // namespace tandem::soak

@@ -552,7 +552,7 @@ bool print_summary(double wall_s, const launcher::Supervisor& L, const Deploymen
 
 void up_usage(std::FILE* f) {
   std::fputs(
-      "usage: tandem up <deploy.yaml> [--summary FILE] [--record FILE.mcap] [--check]\n"
+      "usage: tandem up <deploy.yaml> [--summary FILE] [--record FILE.mcap] [--view] [--view-port N] [--check]\n"
       "\n"
       "Starts every module of the deployment as separate processes over Fast DDS: tandem-world,\n"
       "tandem-supervisor and one tandem-robot per arm (plus standbys), and the coordinator if the file has\n"
@@ -566,6 +566,8 @@ void up_usage(std::FILE* f) {
       "--summary FILE also writes the summary as key=value lines (full precision).\n"
       "--record FILE.mcap records the run with `tandem record` (as the file's `record:` key does; see 'tandem\n"
       "help record'); `tandem report FILE.mcap -o DIR` makes the plots.\n"
+      "--view starts `tandem view` beside the deployment (the page and Foxglove on http://127.0.0.1:8765/;\n"
+      "--view-port N for another port, 0 for any free one; see 'tandem help view').\n"
       "--check validates the file and every scenario it names, prints the real-time capacity estimate (and a\n"
       "warning when the deployment needs more cores than the machine has), and starts nothing. The estimate is\n"
       "calibrated on this machine in about 0.3 s (a cross-process wake-up, a plant step, a law step).\n"
@@ -579,8 +581,8 @@ void up_usage(std::FILE* f) {
 }
 
 int up_command(const std::vector<std::string>& args) {
-  std::string file, summary_file, record_file;
-  bool check_only = false;
+  std::string file, summary_file, record_file, view_port;
+  bool check_only = false, with_view = false;
   for (size_t i = 0; i < args.size(); ++i) {
     if (args[i] == "--help" || args[i] == "-h") {
       up_usage(stdout);
@@ -591,6 +593,11 @@ int up_command(const std::vector<std::string>& args) {
       summary_file = args[++i];
     } else if (args[i] == "--record" && i + 1 < args.size()) {
       record_file = args[++i];
+    } else if (args[i] == "--view") {
+      with_view = true;
+    } else if (args[i] == "--view-port" && i + 1 < args.size()) {
+      with_view = true;
+      view_port = args[++i];
     } else if (!args[i].empty() && args[i][0] == '-') {
       std::fprintf(stderr, "tandem up: unknown option '%s' (see 'tandem help up')\n", args[i].c_str());
       return 2;
@@ -801,6 +808,15 @@ int up_command(const std::vector<std::string>& args) {
   launcher::HelperProcess recorder_stop(recorder, 30.0,
                                         "tandem up: the recorder did not close its file within 30 s; SIGKILL\n");
   bool recording_failed = false;
+  // --view: the live view (tandem view) beside the deployment, started before the modules and stopped after the
+  // summaries; it prints its URL. Not supervised: a viewer that exits leaves the deployment alone.
+  pid_t viewer = -1;
+  if (with_view) {
+    std::vector<std::string> vargs{"view", file, "--port", view_port.empty() ? "8765" : view_port};
+    viewer = spawn(lines.dir() + "/tandem", vargs, 0, -1, d.security_keys.empty() ? "" : "recorder");
+    if (viewer > 0) std::printf("  started viewer               pid %d\n", viewer);
+  }
+  launcher::HelperProcess viewer_stop(viewer, 5.0, "tandem up: the viewer did not stop within 5 s; SIGKILL\n");
   L.restart_host_clock(now_s());  // the recorder was awaited without reading agent states
   std::set<std::string> start_parked;
   if (capacity.realtime && d.coordinator && d.shed_modules && d.overload_brake) {
@@ -962,6 +978,7 @@ int up_command(const std::vector<std::string>& args) {
   const bool grasp_ok = print_summary(std::chrono::duration<double>(Clock::now() - t0).count(), L, d, heard,
                                       summary_file, out, failed);
   launcher_status.set(runtime::Lifecycle::Finalized, "run over");
+  viewer_stop.stop();
   if (recorder > 0) {
     std::this_thread::sleep_for(std::chrono::milliseconds(300));  // the last summaries reach the recorder too
     std::fflush(stdout);

@@ -8,7 +8,8 @@
 #  4. the page in headless Chromium: the process table fills, the plots grow, an event appears when a robot is
 #     killed, no console errors; a screenshot is kept (WORK/page.png);
 #  5. the same page over the run's recording (tandem view run.mcap): replay mode, a slider over the run, tables,
-#     plots and events at its time (WORK/replay.png).
+#     plots and events at its time (WORK/replay.png);
+#  6. `tandem up --view-port 0` starts the viewer beside a short run and stops it at the end.
 # Usage: view.sh BIN_DIR SRC WORK NODE_DIR DOMAIN
 set -euo pipefail
 bin=$1 src=$2 work=$3 node=$4 domain=$5
@@ -83,4 +84,12 @@ for _ in $(seq 100); do grep -q "^tandem view: .* at http" replay.log && break; 
 rport=$(sed -n 's/^tandem view: .* at http:\/\/127\.0\.0\.1:\([0-9]*\)\/.*/\1/p' replay.log)
 [ -n "$rport" ] || { cat replay.log; fail "the replay viewer printed no URL"; }
 node "$node/check_view_replay.mjs" "http://127.0.0.1:$rport/" "$work/replay.png" || fail "the replay page"
+
+echo "== 6. tandem up --view starts the viewer beside the deployment and stops it at the end"
+sed "s/long.yaml/short.yaml/; s/standby: 1, //" d.yaml > short-d.yaml
+cp "$src/config/scenarios/paper.yaml" short.yaml
+rc=0; "$bin/tandem" up short-d.yaml --view-port 0 > upview.log 2>&1 || rc=$?
+[ "$rc" -eq 0 ] || { tail -20 upview.log; fail "tandem up --view exited $rc"; }
+grep -q "^tandem view: view-test (domain $domain) at http://127.0.0.1:" upview.log || fail "no viewer URL from tandem up --view"
+grep -q "^tandem view: stopped" upview.log || fail "the viewer was not stopped at the end"
 echo "PASS"

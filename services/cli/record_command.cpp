@@ -290,7 +290,8 @@ int record_command(const std::vector<std::string>& args) {
   }
   // Lockstep runs as fast as the machine allows and every tick must reach the file: the recorder is woken
   // ahead of the busy module processes (nice -10, where permitted). In real time the per-tick processes run
-  // SCHED_FIFO above it, and it stays at normal priority so as not to take their time.
+  // SCHED_FIFO above it whatever its niceness (started by `tandem up`, it has the launcher's, -10, as the
+  // control plane has; by hand, the shell's).
   if (d.timing == "lockstep" && ::setpriority(PRIO_PROCESS, 0, -10) != 0 && !attached) {
     std::printf(
         "tandem record: note: cannot raise the recorder's priority (%s); a loaded machine may make it miss "

@@ -4,6 +4,9 @@
 // rate, and the page's own JSON channels (state, decimated plot points, events) come from view::LiveState.
 #include "view_command.hpp"
 
+#include <sys/resource.h>
+
+#include <cmath>
 #include <csignal>
 #include <cstdlib>
 #include <map>
@@ -231,11 +234,14 @@ int view_recording(const ViewArgs& a) {
   view::Server server(so, {});
   server.set_json("/recording", [&tl](const std::string&) { return tl.summary(); });
   server.set_json("/recording/at", [&tl](const std::string& query) {
-    const auto at = query.find("t=");
+    // ?t=SECONDS (log time), the only parameter
+    const std::string key = "t=";
+    size_t at = query.rfind(key, 0) == 0 ? 0 : query.find("&" + key);
     if (at == std::string::npos) throw std::runtime_error("/recording/at needs ?t=SECONDS (log time)");
+    at += query[at] == '&' ? key.size() + 1 : key.size();
     char* end = nullptr;
-    const double t = std::strtod(query.c_str() + at + 2, &end);
-    if (end == query.c_str() + at + 2) throw std::runtime_error("/recording/at: t is not a number");
+    const double t = std::strtod(query.c_str() + at, &end);
+    if (end == query.c_str() + at || !std::isfinite(t)) throw std::runtime_error("/recording/at: t is not a number");
     return tl.at(t);
   });
   std::string err;
@@ -295,6 +301,9 @@ void view_usage(std::FILE* f) {
 int view_command(const std::vector<std::string>& args) {
   ViewArgs a;
   if (const int rc = parse_view_args(args, a); rc >= 0) return rc;
+  // Never ahead of the deployment: a viewer started by `tandem up --view` inherits the launcher's raised niceness
+  // (launcher::kServiceNice), which is for the control plane; before any thread exists, so all inherit 0.
+  (void)::setpriority(PRIO_PROCESS, 0, 0);
   struct sigaction sa {};
   sa.sa_handler = on_view_signal;
   ::sigaction(SIGINT, &sa, nullptr);

@@ -4,7 +4,7 @@
 #  2. a Foxglove-protocol client of our own on the ws package (tests/tools/view/foxglove_client.mjs) subscribes to
 #     a per-tick protobuf channel, decodes it with protobufjs from the advertised schema, and gets consecutive ticks;
 #  3. a client that subscribes to everything and never reads for 15 s: the viewer's resident memory stays within
-#     the bound stated in docs/view.md, drops are counted, and the deployment's run is not slowed (it finishes);
+#     the bound stated in docs/view.md, and the next client is served (drops and late ticks: the benchmark's);
 #  4. the page in headless Chromium: the process table fills, the plots grow, an event appears when a robot is
 #     killed, no console errors; a screenshot is kept (WORK/page.png);
 #  5. the same page over the run's recording (tandem view run.mcap): replay mode, a slider over the run, tables,

@@ -59,9 +59,11 @@ Server::~Server() {
 bool Server::start(std::string& error) {
   mg_init_library(0);
   const std::string ports = o_.bind + ":" + std::to_string(o_.port);
-  const char* options[] = {
-      "listening_ports", ports.c_str(),       "num_threads", "16",   "request_timeout_ms",
-      "10000",           "enable_keep_alive", "yes",         nullptr};
+  // A WebSocket holds one of civetweb's worker threads while it is open: 32 of them serve the page's requests
+  // and the clients; a peer that vanished without closing is found by ping/pong within websocket_timeout_ms.
+  const char* options[] = {"listening_ports", ports.c_str(), "num_threads", "32", "request_timeout_ms", "10000",
+                           "enable_keep_alive", "yes", "enable_websocket_ping_pong", "yes", "websocket_timeout_ms",
+                           "30000", nullptr};
   mg_callbacks cb{};
   ctx_ = mg_start(&cb, this, options);
   if (ctx_ == nullptr) {
@@ -154,7 +156,11 @@ void Server::on_ws_ready(mg_connection* c, void* self) {
       const int r =
           mg_websocket_write(cl->conn, f.text ? MG_WEBSOCKET_OPCODE_TEXT : MG_WEBSOCKET_OPCODE_BINARY,
                              f.data->data(), f.data->size());
-      if (r <= 0) break;  // the connection is closing: on_ws_close cleans up
+      if (r <= 0) {  // closing, or a write that failed or timed out: this client is done (on_ws_close cleans up)
+        cl->gone = true;
+        cl->out.close();
+        break;
+      }
       ++cl->sent;
     }
   });
@@ -167,6 +173,7 @@ int Server::on_ws_data(mg_connection* c, int bits, char* data, size_t len, void*
   auto* cl = static_cast<Client*>(mg_get_user_connection_data(c));
   const int opcode = bits & 0x0f;
   if (opcode == MG_WEBSOCKET_OPCODE_CONNECTION_CLOSE) return 0;
+  if (cl != nullptr && cl->gone) return 0;  // its writer failed: close the connection
   if (cl == nullptr || opcode != MG_WEBSOCKET_OPCODE_TEXT)
     return 1;  // binary ops (publishing) are not offered
   s->handle_op(*cl, std::string_view(data, len));
@@ -259,6 +266,7 @@ void Server::publish(uint32_t channel, uint64_t time_ns, std::string_view payloa
     cs = clients_;
   }
   for (const auto& cl : cs) {
+    if (cl->gone) continue;
     uint32_t sub = 0;
     {
       std::lock_guard<std::mutex> lock(cl->mu);
@@ -282,7 +290,7 @@ void Server::set_history(uint32_t channel, std::vector<std::string> messages) {
 void Server::broadcast_time(uint64_t time_ns) {
   std::lock_guard<std::mutex> lock(mu_);
   for (const auto& cl : clients_)
-    cl->out.push(0xffffffffU, time_frame(time_ns));  // its own queue: one second kept
+    cl->out.push(0xffffffffU, time_frame(time_ns));  // its own queue
 }
 
 void Server::broadcast_status(int level, const std::string& message) {

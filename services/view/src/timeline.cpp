@@ -95,6 +95,9 @@ Timeline Timeline::from_recording(const std::string& path) {
   tl.states_.emplace_back(tl.end_s_, tl.states_.empty() ? std::string("{}") : tl.states_.back().second);
   std::sort(tl.points_.begin(), tl.points_.end(),
             [](const PlotPoint& a, const PlotPoint& b) { return a.t < b.t; });
+  // Log times in file order are not sorted across channels (poll-time stamps beside per-tick ones).
+  std::stable_sort(tl.events_.begin(), tl.events_.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::stable_sort(tl.states_.begin(), tl.states_.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   return tl;
 }
 

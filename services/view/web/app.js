@@ -20,6 +20,9 @@ function connect() {
   ws.onopen = () => { conn.textContent = 'connected'; conn.className = 'ok'; };
   ws.onclose = () => {
     conn.textContent = 'disconnected; retrying'; conn.className = 'bad';
+    // A new connection is a new session: its subscriptions, and the history it replays, start afresh.
+    subs.clear();
+    document.getElementById('events').replaceChildren();
     setTimeout(connect, 1000);
   };
   ws.onmessage = (ev) => {
@@ -166,7 +169,14 @@ async function replay(rec) {
     busy = true;
     const t = Number(slider.value);
     document.getElementById('clock').textContent = `${(t - rec.start).toFixed(1)} s of ${(rec.end - rec.start).toFixed(1)} s`;
-    const at = await (await fetch(`/recording/at?t=${t}`)).json();
+    let at;
+    try {
+      at = await (await fetch(`/recording/at?t=${t}`)).json();
+    } catch (e) {
+      busy = false;
+      document.getElementById('clock').textContent = `cannot read the recording at ${t}: ${e}`;
+      return;
+    }
     if (at.state && at.state.processes) showState(at.state);
     for (const p of plots.values()) {
       for (const s of p.data) s.length = 0;

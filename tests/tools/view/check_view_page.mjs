@@ -33,12 +33,16 @@ await page.waitForTimeout(2000);
 const p2 = await points();
 if (!(p2 > p1)) await fail(`the plots received no new points in 2 s (${p1} then ${p2} batches)`, browser);
 if (!(await page.evaluate(() => typeof uPlot !== "undefined"))) await fail("uPlot was not served with the page", browser);
-console.log(`READY: ${rows} processes, plot batches ${p1} -> ${p2}`);
+// The events about SUBJECT shown so far (start-up's lifecycle events are among them): a kill must add one.
+const about = (s) => [...document.querySelectorAll("#events div")].filter((d) => d.textContent.includes(s)
+                                                                           && /failover|lifecycle|brake/.test(d.textContent)).length;
+const before = await page.evaluate(`(${about.toString()})(${JSON.stringify(subject)})`);
+console.log(`READY: ${rows} processes, plot batches ${p1} -> ${p2}, ${before} event(s) about ${subject}`);
 try {
-  await page.waitForFunction((s) => [...document.querySelectorAll("#events div")].some((d) => d.textContent.includes(s)
-                                       && /failover|lifecycle|brake/.test(d.textContent)),
-                             subject, { timeout: 30000 });
-} catch { await fail(`no event about ${subject} within 30 s of READY`, browser); }
+  await page.waitForFunction(([s, n]) => [...document.querySelectorAll("#events div")].filter((d) => d.textContent.includes(s)
+                                           && /failover|lifecycle|brake/.test(d.textContent)).length > n,
+                             [subject, before], { timeout: 30000 });
+} catch { await fail(`no new event about ${subject} within 30 s of READY (${before} before)`, browser); }
 const event = await page.$$eval("#events div", (ds, s) => ds.map((d) => d.textContent).find((t) => t.includes(s)), subject);
 await page.screenshot({ path: shot, fullPage: true });
 if (problems.length) await fail(problems.join("; "), browser);

@@ -1,5 +1,5 @@
 // The launcher's exit rules (tandem::launcher::on_exit / after_restart): what the exit of each kind of process
-// means, rule by rule, as Launcher::on_exit carries them out (docs/failure-model.md, "Failure tiers").
+// means, rule by rule, as launcher::Supervisor carries them out (docs/failure-model.md, "Failure tiers").
 #include <catch2/catch.hpp>
 
 #include <map>

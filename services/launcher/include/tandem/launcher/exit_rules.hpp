@@ -1,6 +1,6 @@
 // What the exit of one of the launcher's processes means, as a component (no processes, no DDS, no clock): the
-// launcher (services/cli/up_command.cpp, Launcher::on_exit) gathers the facts, asks `on_exit`, and carries the
-// verdict out (restart, stop a module, fail the deployment, print). For a verdict of Restart it asks the restart
+// launcher (launcher::Supervisor::on_exit, services/launcher/src/supervisor.cpp) gathers the facts, asks
+// `on_exit`, and carries the verdict out (restart, stop a module, fail the deployment, print). For a verdict of Restart it asks the restart
 // policy (restart_policy.hpp) and then `after_restart`. The rules, in order, are those of docs/failure-model.md
 // ("Failure tiers"); tests/unit/test_launcher_rules.cpp drives each.
 #pragma once

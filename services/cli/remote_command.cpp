@@ -10,6 +10,7 @@
 
 #include <unistd.h>
 
+#include "tandem/launcher/spawn.hpp"
 #include "tandem/runtime/deployment.hpp"
 #include "tandem/runtime/role.hpp"
 #include "tandem/runtime/security.hpp"
@@ -89,6 +90,8 @@ int status_command(const std::vector<std::string>& args) {
     std::fprintf(stderr, "tandem status: %s\n", err.c_str());
     return 2;
   }
+  std::string why;
+  (void)launcher::raise_service_priority(why);  // as a live command (below)
   bus::Participant part(d.domain_id, "tandem-status", runtime::transport_of(d));
   bus::Reader<msg::ProcessStatus, msg::ProcessStatusPubSubType> status(part, bus::kStatusTopic, bus::TopicKind::Status);
   LiveView view(d.name);
@@ -140,6 +143,11 @@ int send_request(const char* verb, const Deployment& d, msg::ControlRequest req)
     std::fprintf(stderr, "tandem %s: %s\n", verb, err.c_str());
     return 2;
   }
+  // A live command is part of the control plane: ahead of a lockstep deployment's per-tick work, which fills every
+  // core (a drain test's `tandem unplug` found no launcher within 10 s beside it), where permitted; before any
+  // thread exists, so that Fast DDS's threads inherit it.
+  std::string why;
+  (void)launcher::raise_service_priority(why);
   bus::Participant part(d.domain_id, std::string("tandem-") + verb, runtime::transport_of(d));
   bus::Writer<msg::ControlRequest, msg::ControlRequestPubSubType> control(part, bus::kControlTopic, bus::TopicKind::Control);
   bus::Reader<msg::ProcessStatus, msg::ProcessStatusPubSubType> status(part, bus::kStatusTopic, bus::TopicKind::Status);

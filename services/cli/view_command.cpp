@@ -215,6 +215,18 @@ void serve(record::Tap& tap, view::LiveState& live, view::Server& server, const 
   }
 }
 
+/// The server's options from the command line: address, port, the page's files, and what serverInfo says.
+view::Server::Options server_options(const ViewArgs& a, std::string name,
+                                     std::vector<std::pair<std::string, std::string>> metadata) {
+  view::Server::Options so;
+  so.bind = a.bind;
+  so.port = a.port;
+  so.web_dir = a.web.empty() ? launcher::self_dir() + "/../share/tandem/view" : a.web;
+  so.name = std::move(name);
+  so.metadata = std::move(metadata);
+  return so;
+}
+
 /// `tandem view run.mcap`: the same page over a recording, with a time slider (GET /recording,
 /// /recording/at?t=S).
 int view_recording(const ViewArgs& a) {
@@ -225,13 +237,7 @@ int view_recording(const ViewArgs& a) {
     std::fprintf(stderr, "tandem view: %s\n", e.what());
     return 2;
   }
-  view::Server::Options so;
-  so.bind = a.bind;
-  so.port = a.port;
-  so.web_dir = a.web.empty() ? launcher::self_dir() + "/../share/tandem/view" : a.web;
-  so.name = "tandem " + a.file;
-  so.metadata = {{"source", "recording"}};
-  view::Server server(so, {});
+  view::Server server(server_options(a, "tandem " + a.file, {{"source", "recording"}}), {});
   server.set_json("/recording", [&tl](const std::string&) { return tl.summary(); });
   server.set_json("/recording/at", [&tl](const std::string& query) {
     // ?t=SECONDS (log time), the only parameter
@@ -325,13 +331,9 @@ int view_command(const std::vector<std::string>& args) {
     std::fprintf(stderr, "tandem view: %s\n", err.c_str());
     return 2;
   }
-  view::Server::Options so;
-  so.bind = a.bind;
-  so.port = a.port;
-  so.web_dir = a.web.empty() ? launcher::self_dir() + "/../share/tandem/view" : a.web;
-  so.name = "tandem " + d.name;
-  so.metadata = {{"deployment", d.name}, {"timing", d.timing}, {"domain", std::to_string(d.domain_id)}};
-  view::Server server(so, ch.list);
+  view::Server server(server_options(a, "tandem " + d.name,
+                                     {{"deployment", d.name}, {"timing", d.timing}, {"domain", std::to_string(d.domain_id)}}),
+                      ch.list);
   server.set_json("/recording",
                   [](const std::string&) { return std::string("null"); });  // the page: live mode
   view::LiveState live(h_sg);

@@ -88,6 +88,7 @@ class OsProcesses : public launcher::Processes {
     opt.rt_priority = s.rt_priority;
     opt.participant_id = s.participant_id;
     opt.identity = s.identity;
+    opt.own_group = s.own_group;
     return launcher::spawn("tandem agent", s.exe, s.args, opt);
   }
   void signal(int pid, int sig) override { ::kill(pid, sig); }

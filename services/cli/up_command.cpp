@@ -108,8 +108,8 @@ size_t done_in(const msg::CoordinatorState& cs) {
 /// Starts a process on this machine (launcher::spawn); with rt_priority > 0 the child runs SCHED_FIFO at that
 /// priority, and so do the threads it creates (Fast DDS's receive and event threads inherit it).
 pid_t spawn(const std::string& exe, const std::vector<std::string>& args, int rt_priority = 0,
-            int participant_id = -1, const std::string& identity = "") {
-  return launcher::spawn("tandem up", exe, args, launcher::SpawnOptions{rt_priority, participant_id, identity});
+            int participant_id = -1, const std::string& identity = "", bool own_group = true) {
+  return launcher::spawn("tandem up", exe, args, launcher::SpawnOptions{rt_priority, participant_id, identity, own_group});
 }
 
 /// A module of the deployment (or plugged from a scenario) as the supervisor runs it: its scenario read once.
@@ -218,7 +218,9 @@ class LocalExecutor : public launcher::Executor {
   explicit LocalExecutor(const CommandLines& lines) : lines_(lines) {}
   std::string place(const Child& /*c*/) const override { return ""; }
   int start(const Child& c) override {
-    return spawn(lines_.exe(c), lines_.args(c), lines_.rt_priority(c), c.participant_id, lines_.identity(c));
+    const std::vector<std::string> args = lines_.args(c);
+    return spawn(lines_.exe(c), args, lines_.rt_priority(c), c.participant_id, lines_.identity(c),
+                 launcher::own_group_for(c.role, args));
   }
   void signal(const Child& c, int sig) override { ::kill(c.pid, sig); }
   void signal_spawn(const std::string& /*host*/, unsigned long long /*spawn_id*/, const std::string& /*label*/,
@@ -813,7 +815,8 @@ int up_command(const std::vector<std::string>& args) {
   pid_t viewer = -1;
   if (with_view) {
     std::vector<std::string> vargs{"view", file, "--port", view_port.empty() ? "8765" : view_port};
-    viewer = spawn(lines.dir() + "/tandem", vargs, 0, -1, d.security_keys.empty() ? "" : "recorder");
+    // An observer at niceness 0 (it sets it itself): in the launcher's group, not a group of its own.
+    viewer = spawn(lines.dir() + "/tandem", vargs, 0, -1, d.security_keys.empty() ? "" : "recorder", false);
     if (viewer > 0) std::printf("  started viewer               pid %d\n", viewer);
   }
   launcher::HelperProcess viewer_stop(viewer, 5.0, "tandem up: the viewer did not stop within 5 s; SIGKILL\n");

@@ -1,10 +1,11 @@
 // CPU hog for overload tests and soaks: one busy process per core, pinned, optionally SCHED_FIFO above the
 // deployment, burning `busy` ms then sleeping `idle` ms, for `seconds`. Stops at SIGTERM/SIGINT; its children
 // die with it (PR_SET_PDEATHSIG).
-// usage: tandem_hog [--cores N] [--busy MS] [--idle MS] [--seconds S] [--fifo PRIO]
+// usage: tandem_hog [--cores N] [--busy MS] [--idle MS] [--seconds S] [--fifo PRIO] [--nice N]
 #include <sched.h>
 #include <signal.h>
 #include <sys/prctl.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <time.h>
 #include <unistd.h>
@@ -13,6 +14,8 @@
 #include <cstdlib>
 #include <cstring>
 #include <vector>
+
+#include "tandem/launcher/sched_group.hpp"
 
 namespace {
 volatile sig_atomic_t g_stop = 0;
@@ -25,7 +28,7 @@ double now_s() {
 }  // namespace
 
 int main(int argc, char** argv) {
-  int cores = static_cast<int>(sysconf(_SC_NPROCESSORS_ONLN)), fifo = 0;
+  int cores = static_cast<int>(sysconf(_SC_NPROCESSORS_ONLN)), fifo = 0, nice = 0;
   double busy_ms = 30, idle_ms = 10, seconds = 2;
   for (int i = 1; i < argc; ++i) {
     const bool has = i + 1 < argc;
@@ -34,13 +37,14 @@ int main(int argc, char** argv) {
     else if (std::strcmp(argv[i], "--idle") == 0 && has) idle_ms = std::atof(argv[++i]);
     else if (std::strcmp(argv[i], "--seconds") == 0 && has) seconds = std::atof(argv[++i]);
     else if (std::strcmp(argv[i], "--fifo") == 0 && has) fifo = std::atoi(argv[++i]);
+    else if (std::strcmp(argv[i], "--nice") == 0 && has) nice = std::atoi(argv[++i]);
     else {
-      std::fprintf(stderr, "usage: tandem_hog [--cores N] [--busy MS] [--idle MS] [--seconds S] [--fifo PRIO 1-98]\n");
+      std::fprintf(stderr, "usage: tandem_hog [--cores N] [--busy MS] [--idle MS] [--seconds S] [--fifo PRIO 1-98] [--nice N]\n");
       return 2;
     }
   }
-  if (cores < 1 || cores > 256 || busy_ms <= 0 || idle_ms < 0 || seconds <= 0 || fifo < 0 || fifo > 98) {
-    std::fprintf(stderr, "tandem_hog: --cores in [1, 256], --busy > 0, --idle >= 0, --seconds > 0, --fifo in [0, 98]\n");
+  if (cores < 1 || cores > 256 || busy_ms <= 0 || idle_ms < 0 || seconds <= 0 || fifo < 0 || fifo > 98 || nice < -20 || nice > 19) {
+    std::fprintf(stderr, "tandem_hog: --cores in [1, 256], --busy > 0, --idle >= 0, --seconds > 0, --fifo in [0, 98], --nice in [-20, 19]\n");
     return 2;
   }
   signal(SIGTERM, on_signal);
@@ -50,6 +54,10 @@ int main(int argc, char** argv) {
     const pid_t pid = fork();
     if (pid == 0) {
       prctl(PR_SET_PDEATHSIG, SIGTERM);
+      // Each busy process as an unrelated program (a build's compiler, another user's job): a session and so a
+      // scheduling autogroup of its own at its niceness (launcher/sched_group.hpp), not a share of the caller's.
+      if (setpriority(PRIO_PROCESS, 0, nice) != 0) std::fprintf(stderr, "tandem_hog: niceness %d not permitted\n", nice);
+      tandem::launcher::own_sched_group(nice);
       cpu_set_t set;
       CPU_ZERO(&set);
       CPU_SET(c % static_cast<int>(sysconf(_SC_NPROCESSORS_ONLN)), &set);

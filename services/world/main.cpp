@@ -141,6 +141,7 @@ int run(int argc, char** argv) {
   status.set(runtime::Lifecycle::Active, opt.realtime ? "real time" : "lockstep");
   if (runtime::raise_to_realtime_from_env() < 0) std::fprintf(stderr, "tandem: could not raise to SCHED_FIFO once active\n");
   long k = 0;
+  std::array<long, 2> write_failures{0, 0};
   for (; k < m.steps && !runtime::g_stop; ++k) {
     while (plans.take(plan_in)) {
       std::string why;
@@ -201,7 +202,15 @@ int run(int argc, char** argv) {
         s.plan_strength(plan_rank.strength);
         s.plan_version(plan_version);
         s.plan_since(plan_since);
-        sensors[j]->write(s);
+        if (!sensors[j]->write(s)) {
+          // Fast DDS refused the sample (a writer history held full by a reader that does not acknowledge): said
+          // at the 1st, 2nd, 4th, 8th ... failure of the arm, so that a soak's log shows it without flooding.
+          const long n = ++write_failures[j];
+          if ((n & (n - 1)) == 0) {
+            std::fprintf(stderr, "tandem-world %s: tick %ld: the sample for %s was not written (%ld so far)\n",
+                         opt.module.c_str(), k, ctx.arm_id(static_cast<int>(j)).c_str(), n);
+          }
+        }
       }
     };
     publish_samples(false);

@@ -863,7 +863,9 @@ TEST_CASE("both cores loaded mid-task: the modules pause for load with the objec
   const int domain = test_domain(19);
   const std::string deploy = work_dir() + "/overload.yaml";
   // Normal scheduling for the modules (where 5 late ticks in a row also happen now and then without the hog:
-  // a pause for load more), so that four busy processes (two per core, 2 s of the motion) starve their robots: commands come late, each module holds the object still, brakes both arms,
+  // a pause for load more), so that four busy processes (two per core, 2 s of the motion, each in a session of its
+  // own at niceness -5: at 0 they no longer starve robots that have scheduling groups of their own, see
+  // launcher/sched_group.hpp) starve their robots: commands come late, each module holds the object still, brakes both arms,
   // sheds its load, and resumes when a full-rate trial shows its robots keep up again.
   std::ofstream(deploy) << "name: overload\ndomain_id: " << domain << "\ntransport: shm\ntiming: realtime\n"
                         << "realtime_priority: 0\ntimeout: 20\nmodules:\n"
@@ -871,7 +873,7 @@ TEST_CASE("both cores loaded mid-task: the modules pause for load with the objec
                         << "  - {name: m2, scenario: " << kill_scenario() << ", case: SOSM}\n";
   const std::string summary = work_dir() + "/overload.summary", up_log = work_dir() + "/overload.log";
   const std::string cmd = kBin + "/tandem up " + deploy + " --summary " + summary + " > " + up_log + " 2>&1 & up=$!; " +
-                          after_first_tick(up_log, 1.5) + kBin + "/tandem_hog --cores 4 --busy 1000 --idle 0 --seconds 2; " +
+                          after_first_tick(up_log, 1.5) + kBin + "/tandem_hog --cores 4 --busy 1000 --idle 0 --seconds 2 --nice -5; " +
                           "wait $up; echo up_rc=$?";
   const Run r = run("bash -c '" + cmd + "'");
   const std::string log = read_file(up_log);

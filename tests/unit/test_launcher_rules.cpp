@@ -2,7 +2,14 @@
 // means, rule by rule, as launcher::Supervisor carries them out (docs/failure-model.md, "Failure tiers").
 #include <catch2/catch.hpp>
 
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <fstream>
 #include <map>
+#include <sstream>
 #include <string>
 #include <utility>
 #include <vector>
@@ -11,6 +18,7 @@
 #include "tandem/launcher/drain_watch.hpp"
 #include "tandem/launcher/exit_rules.hpp"
 #include "tandem/launcher/plug_rules.hpp"
+#include "tandem/launcher/spawn.hpp"
 
 using namespace tandem::launcher;
 
@@ -456,4 +464,60 @@ TEST_CASE("launcher rules: a due restart comes back as the primary only in its o
   DueRestart w;
   w.role = Role::World;
   CHECK_FALSE(due_restart(w).start);
+}
+
+TEST_CASE("own_group_for: the control plane and real-time per-tick processes get a group, lockstep's per-tick ones do not",
+          "[launcher]") {
+  CHECK(own_group_for("supervisor", {"--module", "m1", "--timing", "lockstep"}));
+  CHECK(own_group_for("coordinator", {}));
+  CHECK(own_group_for("world", {"--module", "m1", "--timing", "realtime"}));
+  CHECK(own_group_for("robot", {"--timing", "realtime", "--arm", "left"}));
+  CHECK_FALSE(own_group_for("world", {"--module", "m1", "--timing", "lockstep"}));
+  CHECK_FALSE(own_group_for("robot", {"--arm", "left"}));  // the roles' default timing is lockstep
+  CHECK_FALSE(own_group_for("robot", {"--timing"}));       // no value: not real time
+}
+
+namespace {
+// Runs a shell through launcher::spawn that writes "<pid> <session id>" and its /proc autogroup line to `out`.
+std::string spawned_session(bool own_group, const std::string& out) {
+  SpawnOptions opt;
+  opt.own_group = own_group;
+  const std::string script = "read a b c d e sid rest < /proc/$$/stat; echo \"$$ $sid\" > " + out +
+                             "; cat /proc/$$/autogroup >> " + out + " 2>/dev/null; true";
+  const pid_t pid = spawn("test", "/bin/sh", {"-c", script}, opt);
+  REQUIRE(pid > 0);
+  int status = 0;
+  REQUIRE(::waitpid(pid, &status, 0) == pid);
+  REQUIRE(WIFEXITED(status));
+  std::ifstream in(out);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+}  // namespace
+
+TEST_CASE("launcher::spawn: a child leads a session, and so an autogroup, of its own at the niceness it inherited",
+          "[launcher]") {
+  const std::string out = "/tmp/tandem-spawn-session-" + std::to_string(::getpid());
+  errno = 0;
+  const int before = ::getpriority(PRIO_PROCESS, 0);
+  const bool raised = ::setpriority(PRIO_PROCESS, 0, kServiceNice) == 0;
+  const std::string own = spawned_session(true, out);
+  const std::string shared = spawned_session(false, out);
+  (void)::setpriority(PRIO_PROCESS, 0, before);
+  std::remove(out.c_str());
+  INFO("own group: " << own << "shared: " << shared);
+  long pid = 0, sid = 0;
+  std::istringstream(own) >> pid >> sid;
+  CHECK(pid > 0);
+  CHECK(sid == pid);  // a session leader
+  std::istringstream(shared) >> pid >> sid;
+  CHECK(sid != pid);
+  CHECK(sid == ::getsid(0));  // the parent's session
+  // With autogroups on and the niceness permitted: the child's group has it (the file reads "/autogroup-N nice V").
+  std::ifstream enabled("/proc/sys/kernel/sched_autogroup_enabled");
+  int on = 0;
+  if (raised && (enabled >> on) && on == 1 && own.find(" nice ") != std::string::npos) {
+    CHECK(own.find(" nice " + std::to_string(kServiceNice)) != std::string::npos);
+  }
 }

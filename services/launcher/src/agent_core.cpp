@@ -1,4 +1,5 @@
 #include "tandem/launcher/agent_core.hpp"
+#include "tandem/launcher/spawn.hpp"
 
 #include <csignal>
 #include <cstdio>
@@ -166,6 +167,7 @@ void AgentCore::start(const AgentRequestIn& r) {
   s.rt_priority = rt_permitted ? r.rt_priority : 0;
   s.participant_id = r.participant_id;
   s.identity = r.identity;
+  s.own_group = own_group_for(r.role, r.args);
   c.pid = p_.start(s);
   c.running = c.pid > 0;
   c.status = c.running ? -1 : 127;

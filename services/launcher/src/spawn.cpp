@@ -1,5 +1,7 @@
 #include "tandem/launcher/spawn.hpp"
 
+#include "tandem/launcher/sched_group.hpp"
+
 #include <sched.h>
 #include <sys/prctl.h>
 #include <sys/resource.h>
@@ -40,6 +42,9 @@ pid_t spawn(const std::string& who, const std::string& exe, const std::vector<st
   for (auto& e : env_text) envp.push_back(e.data());
   envp.push_back(nullptr);
   const pid_t parent = ::getpid();
+  errno = 0;
+  const int nice_now = ::getpriority(PRIO_PROCESS, 0);
+  const int inherited_nice = errno == 0 ? nice_now : 0;
   const pid_t pid = ::fork();
   if (pid < 0) {
     std::fprintf(stderr, "%s: cannot start %s: fork failed: %s\n", who.c_str(), exe.c_str(), std::strerror(errno));
@@ -50,6 +55,9 @@ pid_t spawn(const std::string& who, const std::string& exe, const std::vector<st
   ::signal(SIGTERM, SIG_DFL);
   ::prctl(PR_SET_PDEATHSIG, SIGTERM);  // never outlive the parent
   if (::getppid() != parent) ::_exit(127);
+  // Its own session and autogroup at the niceness it inherited: otherwise every child shares the launcher's session
+  // group, which the scheduler weighs as one process against another session's load (sched_group.hpp).
+  if (opt.own_group) own_sched_group(inherited_nice);
   // Nothing of the parent's but stdin/out/err: Fast DDS opens its sockets without close-on-exec, and a child
   // that held the launcher's discovery and data ports would keep them bound after the launcher is gone.
   ::close_range(3, ~0U, 0);
@@ -57,6 +65,14 @@ pid_t spawn(const std::string& who, const std::string& exe, const std::vector<st
   static const char msg[] = "tandem: cannot exec a role process\n";
   (void)!::write(2, msg, sizeof msg - 1);
   ::_exit(127);
+}
+
+bool own_group_for(const std::string& role, const std::vector<std::string>& args) {
+  if (role != "world" && role != "robot") return true;
+  for (size_t i = 0; i + 1 < args.size(); ++i) {
+    if (args[i] == "--timing") return args[i + 1] == "realtime";
+  }
+  return false;  // the roles' default timing is lockstep
 }
 
 bool fifo_permitted(int priority, std::string& why) {
@@ -77,6 +93,9 @@ bool raise_service_priority(std::string& why) {
     why = std::strerror(errno);
     return false;
   }
+  // A session leader (`setsid tandem up ...`, or a launcher that `tandem soak` started) has an autogroup of its own:
+  // rank it the same way. Never the group of a shell the process merely runs in, which the user's jobs share.
+  if (leads_session()) (void)set_autogroup_nice(kServiceNice);
   return true;
 }
 

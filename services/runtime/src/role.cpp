@@ -1,5 +1,6 @@
 #include <exception>
 #include "tandem/launcher/exit_codes.hpp"
+#include "tandem/launcher/sched_group.hpp"
 #include "tandem/runtime/role.hpp"
 
 #include <sched.h>
@@ -205,6 +206,8 @@ int raise_to_realtime_from_env(bool per_tick) {
       }
       ::closedir(dir);
     }
+    // And its autogroup (launcher::spawn gave it its own, at the niceness it inherited).
+    if (launcher::leads_session()) (void)launcher::set_autogroup_nice(0);
     return 0;
   }
   sched_param sp{};

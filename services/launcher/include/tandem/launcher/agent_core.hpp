@@ -32,6 +32,7 @@ class Processes {
     int rt_priority = 0;
     int participant_id = -1;
     std::string identity;
+    bool own_group = true;  ///< launcher::SpawnOptions::own_group
   };
   /// Starts a process; its pid, or <= 0 if it could not be started.
   virtual int start(const Spec& s) = 0;

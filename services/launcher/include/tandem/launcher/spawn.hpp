@@ -13,7 +13,17 @@ struct SpawnOptions {
   int rt_priority = 0;      ///< > 0: the child (and the threads it creates) run SCHED_FIFO at this priority
   int participant_id = -1;  ///< TANDEM_PARTICIPANT_ID for the child, -1: Fast DDS's choice
   std::string identity;     ///< TANDEM_IDENTITY (DDS-Security) for the child, "": inherited environment only
+  /// The child leads a session, and so a scheduling autogroup, of its own, at the niceness it inherits
+  /// (sched_group.hpp); false: it stays in its parent's session and group (see own_group_for).
+  bool own_group = true;
 };
+
+/// Whether a role process gets an autogroup of its own: the control plane (supervisors, coordinators) always, and
+/// the per-tick processes (world, robot) in real time, where they run SCHED_FIFO and the group only speeds their
+/// start-up. Not lockstep's per-tick processes, which compute as fast as the machine allows: each in a group of
+/// its own would weigh like a whole session against every other session's load (4 modules: 28 sessions' worth);
+/// in their launcher's group they weigh like the one session they are.
+bool own_group_for(const std::string& role, const std::vector<std::string>& args);
 
 /// Starts `exe` with `args`; the child gets SIGTERM when its parent dies. Returns its pid, -1 if fork failed
 /// (with a message naming `who` and the executable on stderr). An exec failure shows as exit code 127.

@@ -61,7 +61,7 @@ bool start_role(const char* role, int argc, char** argv, bool needs_arm, RoleOpt
 extern std::atomic<bool> g_stop;
 void install_stop_handlers();
 
-/// Real-time once active (docs/architecture.md, "Scheduling"): a role process is started at normal priority
+/// Real-time once active (docs/architecture.md, "Real-time timing"): a role process is started at normal priority
 /// (its start-up, discovery and handshakes must not preempt the running modules' per-tick processes; a soak
 /// restarts about a thousand processes an hour) and raises every thread it has to SCHED_FIFO at
 /// TANDEM_RT_PRIORITY (set by launcher::spawn) when it turns active; threads created later inherit it.

@@ -115,12 +115,13 @@ std::string machine_text() {
   return std::to_string(::sysconf(_SC_NPROCESSORS_ONLN)) + " cores (" + cpu + "), " + u.sysname + " " + u.release;
 }
 
-/// The deployment the soak runs: the user's file with the chosen timing, absolute scenario paths, and a
+/// The deployment the soak runs: the user's file with the chosen timing (and transport, if chosen), absolute scenario paths, and a
 /// coordinator whose queue lasts the whole run (the file's own tasks first, then "soak-N" moves back and forth).
 std::string derived_deployment(const std::string& file, const runtime::Deployment& d, const std::string& timing,
-                               double duration_s, size_t& generated) {
+                               const std::string& transport, double duration_s, size_t& generated) {
   YAML::Node root = YAML::LoadFile(file);
   root["timing"] = timing;
+  if (!transport.empty()) root["transport"] = transport;
   for (size_t i = 0; i < d.modules.size() && i < root["modules"].size(); ++i) {
     // Absolute: the derived file lives in the report directory, which may be anywhere.
     std::error_code ec;
@@ -152,7 +153,7 @@ std::string derived_deployment(const std::string& file, const runtime::Deploymen
   YAML::Emitter out;
   out.SetSeqFormat(YAML::Flow);
   out << root;
-  return std::string("# Written by tandem soak from ") + file + " (timing, absolute scenario paths, soak tasks)\n" +
+  return std::string("# Written by tandem soak from ") + file + " (timing, transport, absolute scenario paths, soak tasks)\n" +
          out.c_str() + "\n";
 }
 
@@ -577,7 +578,7 @@ class Soak : public NemesisActions {
 void soak_usage(std::FILE* f) {
   std::fputs(
       "usage: tandem soak <deploy.yaml> [--duration 10m] [--seed N] [--faults FILE|PRESET] [--report DIR]\n"
-      "                   [--timing realtime|lockstep] [--print-schedule]\n"
+      "                   [--timing realtime|lockstep] [--transport udp|shm] [--print-schedule]\n"
       "\n"
       "Runs the deployment (its own `tandem up`) for the given time under a seeded schedule of faults, records\n"
       "what the deployment reports over DDS, judges the recording against the invariants and writes a report.\n"
@@ -589,6 +590,8 @@ void soak_usage(std::FILE* f) {
       "  --report DIR     where the report goes (default soak-<deployment>-<seed>): summary.md, summary.txt,\n"
       "                   index.html, SVG plots, schedule.yaml, the derived deploy.yaml and launcher.log\n"
       "  --timing T       realtime (default) or lockstep, whatever the file says\n"
+      "  --transport T    udp or shm instead of the file's: over shared memory a SIGKILLed process can leave its\n"
+      "                   port to stall its peers (docs/failure-model.md); lockstep, which has the CPU, can take udp\n"
       "  --print-schedule print the schedule (YAML) and exit without starting anything\n"
       "\n"
       "Faults: SIGKILL of a robot serving an arm, a standby robot, the serving supervisor or coordinator, or a\n"
@@ -603,7 +606,7 @@ void soak_usage(std::FILE* f) {
 }
 
 int soak_command(const std::vector<std::string>& args) {
-  std::string file, faults = "mixed", report, timing = "realtime";
+  std::string file, faults = "mixed", report, timing = "realtime", transport;
   double duration = 600.0;
   uint64_t seed = 1;
   bool print_only = false;
@@ -634,6 +637,11 @@ int soak_command(const std::vector<std::string>& args) {
         timing = value(i, "--timing");
         if (timing != "realtime" && timing != "lockstep") {
           throw std::invalid_argument("--timing '" + timing + "': accepted: realtime, lockstep");
+        }
+      } else if (a == "--transport") {
+        transport = value(i, "--transport");
+        if (transport != "udp" && transport != "shm") {
+          throw std::invalid_argument("--transport '" + transport + "': accepted: udp, shm");
         }
       } else if (a == "--print-schedule") {
         print_only = true;
@@ -680,7 +688,7 @@ int soak_command(const std::vector<std::string>& args) {
   const std::string derived = report + "/deploy.yaml";
   size_t generated = 0;
   try {
-    std::ofstream(derived) << derived_deployment(file, d, timing, duration, generated);
+    std::ofstream(derived) << derived_deployment(file, d, timing, transport, duration, generated);
     std::ofstream(report + "/schedule.yaml") << to_yaml(sched);
     d = runtime::load_deployment(derived);
   } catch (const std::exception& e) {
@@ -689,8 +697,8 @@ int soak_command(const std::vector<std::string>& args) {
   }
   std::string command = "tandem soak";
   for (const auto& a : args) command += " " + a;
-  std::printf("tandem soak %s: %zu module(s), %s timing, %.0f s, seed %llu, %zu fault(s) scheduled (%s); report in %s\n",
-              d.name.c_str(), d.modules.size(), timing.c_str(), duration, static_cast<unsigned long long>(seed),
+  std::printf("tandem soak %s: %zu module(s), %s timing over %s, %.0f s, seed %llu, %zu fault(s) scheduled (%s); report in %s\n",
+              d.name.c_str(), d.modules.size(), timing.c_str(), d.transport.c_str(), duration, static_cast<unsigned long long>(seed),
               sched.faults.size(), rules.source.c_str(), report.c_str());
   std::fflush(stdout);
 

@@ -8,6 +8,7 @@ set(cases
   "--duration|10x|--duration '10x': expected a time above 0"
   "--seed|-3|--seed '-3': expected a whole number"
   "--timing|fast|accepted: realtime, lockstep"
+  "--transport|tcp|accepted: udp, shm"
   "--faults|gentle|presets: mixed, ci, kills, none"
   "--faults|${WORK}/bad-soak/typo.yaml|unknown key 'ofen'"
   "--faults|${WORK}/bad-soak/target.yaml|accepted: robot, standby, module"

@@ -381,10 +381,51 @@ unsigned long long new_run() {
   return r;
 }
 
+/// The Discovery Server's own participant: a server over UDP only. With Fast DDS's built-in transports it also
+/// listens on shared memory, and its clients on this machine reach it there; a client SIGKILLed while it held the
+/// server's port lock (the soak kills about a thousand processes an hour) left the server deaf to every client
+/// that came after: soak run 18 (soak-small, seed 12) heard no process started after 151 s, a coordinator's
+/// kill, and the deployment wore away as its processes were restarted and never heard (docs/failure-model.md,
+/// "Shared memory and SIGKILL"). Over UDP a dead client leaves nothing held. The clients keep their transports.
+constexpr const char* kDiscoveryServerProfile = R"(<?xml version="1.0" encoding="UTF-8" ?>
+<dds xmlns="http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles">
+  <profiles>
+    <transport_descriptors>
+      <transport_descriptor>
+        <transport_id>tandem_udp</transport_id>
+        <type>UDPv4</type>
+      </transport_descriptor>
+    </transport_descriptors>
+    <participant profile_name="tandem_discovery_server" is_default_profile="true">
+      <rtps>
+        <userTransports><transport_id>tandem_udp</transport_id></userTransports>
+        <useBuiltinTransports>false</useBuiltinTransports>
+        <builtin><discovery_config><discoveryProtocol>SERVER</discoveryProtocol></discovery_config></builtin>
+      </rtps>
+    </participant>
+  </profiles>
+</dds>
+)";
+
+/// Writes kDiscoveryServerProfile to a new file in /tmp; its path, "" if it could not.
+std::string write_discovery_profile() {
+  char path[] = "/tmp/tandem-discovery-XXXXXX.xml";
+  const int fd = ::mkstemps(path, 4);
+  if (fd < 0) return "";
+  const std::string text = kDiscoveryServerProfile;
+  const bool ok = ::write(fd, text.data(), text.size()) == static_cast<ssize_t>(text.size());
+  ::close(fd);
+  if (!ok) {
+    ::unlink(path);
+    return "";
+  }
+  return path;
+}
+
 /// discovery: server. Starts the Discovery Server (a child like the others: it dies with the launcher; `pid`), or
 /// uses an external one, and makes this process and every process it starts a client of it. False (said why) if
 /// it cannot run.
-bool start_discovery(const Deployment& d, pid_t& pid) {
+bool start_discovery(const Deployment& d, pid_t& pid, std::string& profile) {
   if (d.discovery == "server" && d.discovery_start == "external") {
     std::printf("  discovery server             %s (external)\n", runtime::discovery_text(d).c_str());
     runtime::use_discovery(d);
@@ -394,7 +435,15 @@ bool start_discovery(const Deployment& d, pid_t& pid) {
       std::fprintf(stderr, "tandem up: discovery: server needs %s (Debian package fastdds-tools)\n", exe.c_str());
       return false;
     }
-    pid = spawn(exe, {"-i", "0", "-l", d.discovery_address, "-p", std::to_string(runtime::discovery_port_of(d))});
+    std::vector<std::string> args{"-i", "0", "-l", d.discovery_address, "-p", std::to_string(runtime::discovery_port_of(d))};
+    profile = write_discovery_profile();
+    if (profile.empty()) {
+      std::fprintf(stderr, "tandem up: note: cannot write the Discovery Server's UDP-only profile in /tmp (%s); it runs "
+                           "with Fast DDS's default transports\n", std::strerror(errno));
+    } else {
+      args.insert(args.end(), {"-x", profile});
+    }
+    pid = spawn(exe, args);
     if (pid < 0) return false;
     std::printf("  started discovery server     pid %d on %s:%d\n", pid, d.discovery_address.c_str(),
                 runtime::discovery_port_of(d));
@@ -699,7 +748,14 @@ int up_command(const std::vector<std::string>& args) {
   // the launcher) and makes itself and every process it starts a client of it.
   const std::time_t launcher_started = std::time(nullptr) - 1;  // shared-memory files of this run: newer
   pid_t discovery_server = -1;
-  if (!start_discovery(d, discovery_server)) return 2;
+  std::string discovery_profile;
+  struct RemoveFile {
+    std::string& path;
+    ~RemoveFile() {
+      if (!path.empty()) ::unlink(path.c_str());
+    }
+  } remove_profile{discovery_profile};  // after the server has stopped (declared before server_stop)
+  if (!start_discovery(d, discovery_server, discovery_profile)) return 2;
   launcher::HelperProcess server_stop(discovery_server, 1.0);
   std::unique_ptr<bus::Participant> part_owner;
   try {

@@ -10,6 +10,7 @@
 #include <chrono>
 #include <cstdio>
 #include <functional>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <thread>
@@ -27,6 +28,10 @@ namespace fdds = eprosima::fastdds::dds;
 using Clock = std::chrono::steady_clock;
 
 namespace {
+/// An active robot that gets no sample for this long while its module's plan still comes replaces its sensor
+/// reader (the world publishes every tick, every 50 ms while it waits in lockstep, and at least every 100 ms
+/// while paused for load).
+constexpr double kRenewAfterS = 1.0;
 
 int run(int argc, char** argv) {
   runtime::RoleOptions opt;
@@ -70,12 +75,14 @@ int run(int argc, char** argv) {
   bool activated = false;
   double interval_worst_us = 0.0;
   auto last_input = Clock::now();
+  auto last_plan = Clock::now();  // the module's plan stream (a 20 ms heartbeat): the module is alive
   msg::SupervisorPlan plan_in;
   std::string why;
   bool cut_off = false;  // the module's leader fell silent for this robot (RobotCore::cut_off): exit 6
   auto take_plans = [&] {  // under mu
     while (plans.take(plan_in)) {
       if (plan_in.module_id() != opt.module) continue;
+      last_plan = Clock::now();
       why.clear();
       const plan::PlanFollower::Offer o = core.offer_plan(runtime::from_wire(plan_in), &why);
       if (o == plan::PlanFollower::Offer::Rejected) {
@@ -170,9 +177,12 @@ int run(int argc, char** argv) {
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
-  bus::Reader<msg::ArmSensors, msg::ArmSensorsPubSubType> sensors(
-      part, bus::arm_topic(bus::kSensorsTopic, my_arm), opt.realtime ? bus::TopicKind::SensorsRealtime : bus::TopicKind::Sensors,
-      &listener);
+  using SensorReader = bus::Reader<msg::ArmSensors, msg::ArmSensorsPubSubType>;
+  auto make_sensor_reader = [&] {
+    return std::make_unique<SensorReader>(part, bus::arm_topic(bus::kSensorsTopic, my_arm),
+                                          opt.realtime ? bus::TopicKind::SensorsRealtime : bus::TopicKind::Sensors, &listener);
+  };
+  std::unique_ptr<SensorReader> sensors = make_sensor_reader();
   // Secured: ready to serve only when this side of each inbound pair works too: the sensor reader has matched the
   // world's writer and a plan has been heard. A secured pair can match on one side only (seen: the world's sensor
   // writer matched a robot that never got a sample nor a plan, and the world ticked with that arm braked); the
@@ -184,7 +194,7 @@ int run(int argc, char** argv) {
     {
       std::lock_guard<std::mutex> lock(mu);
       take_plans();
-      const bool matched = sensors.matched() >= 1, planned = core.has_plan();
+      const bool matched = sensors->matched() >= 1, planned = core.has_plan();
       if (matched && planned) break;
       const char* waiting = !matched ? (planned ? "waiting for the world's samples" : "waiting for the world's samples and a plan")
                                      : "waiting for a plan";
@@ -202,6 +212,8 @@ int run(int argc, char** argv) {
   status.set(runtime::Lifecycle::Inactive, "waiting for the first tick");
 
   long reported_tick = -1;
+  auto renewed_at = Clock::now();
+  int renewals = 0;
   while (!runtime::g_stop) {
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
     std::unique_lock<std::mutex> lock(mu);
@@ -234,7 +246,22 @@ int run(int argc, char** argv) {
       cut_off = true;
       break;
     }
-    if (std::chrono::duration<double>(now - last_input).count() > opt.timeout) {
+    // Samples stopped while the module's plan still comes: the world lives, and this reader is what hears nothing
+    // (seen over shared memory after SIGKILLs nearby: a standby that got no sample for 28 s while its arm's other
+    // robot did, and a whole arm's readers at once in lockstep). A new reader, outside the lock (its listener takes it).
+    const double silent_s = std::chrono::duration<double>(now - last_input).count();
+    if (activated && silent_s > kRenewAfterS && std::chrono::duration<double>(now - last_plan).count() < 0.5 &&
+        std::chrono::duration<double>(now - renewed_at).count() > 2.0 * kRenewAfterS) {
+      ++renewals;
+      std::fprintf(stderr, "tandem-robot %s: no sample for %.1f s after tick %ld while the module's plan comes: a new "
+                   "sensor reader (%d so far)\n", robot_id.c_str(), silent_s, core.done(), renewals);
+      lock.unlock();
+      sensors.reset();
+      sensors = make_sensor_reader();
+      lock.lock();
+      renewed_at = Clock::now();
+    }
+    if (silent_s > opt.timeout) {
       std::fprintf(stderr, "tandem-robot %s: no input for %.1f s after tick %ld; stopping\n", my_arm.c_str(),
                    opt.timeout, core.done());
       break;

@@ -796,6 +796,35 @@ TEST_CASE("a world stalled for 0.4 s re-anchors its clock instead of a catch-up 
   CHECK_FALSE(processes_left(domain));
 }
 
+TEST_CASE("a robot that hears no sample for 1 s while its module's plan comes gets a new sensor reader, and serves on", "[distributed]") {
+  const int domain = test_domain(24);
+  const std::string deploy = write_deployment("renew", domain, "SOSM", "realtime", 0, "", "shm");
+  const std::string summary = work_dir() + "/renew.summary", up_log = work_dir() + "/renew.log";
+  const std::string t = kBin + "/tandem ";
+  // The world stands still for 1.6 s (SIGSTOP): its robots hear no sample while the supervisor's plan (a 20 ms
+  // heartbeat) still comes, which is what a reader that Fast DDS stopped feeding looks like from the robot.
+  const std::string cmd = t + "up " + deploy + " --summary " + summary + " > " + up_log + " 2>&1 & up=$!; " +
+                          "for i in $(seq 200); do grep -q \"task  *[1-9][0-9]\\.\" " + up_log + " && break; sleep 0.05; done; " +
+                          "pid=$(pgrep -f \"tandem-[w]orld .*--domain " + std::to_string(domain) + " \"); echo pid=$pid; " +
+                          "kill -STOP $pid; sleep 1.6; kill -CONT $pid; wait $up; echo up_rc=$?";
+  const Run r = run("bash -c '" + cmd + "'");
+  const std::string log = read_file(up_log);
+  INFO(r.output << "\n--- tandem up ---\n" << log);
+  REQUIRE(r.output.find("pid=\n") == std::string::npos);  // the world was found and stopped
+  CHECK(r.output.find("up_rc=0") != std::string::npos);
+  CHECK(log.find("m1/left: no sample for 1.") != std::string::npos);
+  CHECK(log.find("m1/right: no sample for 1.") != std::string::npos);
+  CHECK(log.find("a new sensor reader (1 so far)") != std::string::npos);
+  const auto kv = read_summary(summary);
+  CHECK(kv.at("m1.ticks") == 5000);
+  // Both robots answered to the end through their new readers, and the grasp held.
+  CHECK(kv.at("m1/left.ticks") == 5000);
+  CHECK(kv.at("m1/right.ticks") == 5000);
+  CHECK(kv.at("m1.slip_events") == 0);
+  CHECK(kv.at("m1.contact_lost") == 0);
+  CHECK_FALSE(processes_left(domain));
+}
+
 TEST_CASE("tandem up --check estimates the real-time load and warns when the machine is too small", "[distributed]") {
   const int domain = test_domain(20);
   const std::string big = work_dir() + "/capacity.yaml";

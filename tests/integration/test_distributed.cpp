@@ -569,6 +569,32 @@ TEST_CASE("a robot is restarted after a crash, and given up on after the intensi
   CHECK_FALSE(processes_left(domain));
 }
 
+TEST_CASE("lockstep: both arms braked at once are released when their restarted robots answer", "[distributed]") {
+  const int domain = test_domain(25);
+  // No standby: killing both robots brakes both arms (no live controller); each comes back restarted. With both
+  // arms braked a lockstep tick is complete at once, and the world once took no command then: the new robots
+  // answered every tick, their commands piled up unread (the world's memory grew), and the arms stayed braked.
+  const std::string deploy = write_deployment("bothbraked", domain, "SOSM", "lockstep", 0,
+                                              "    restart: on-failure\n    restart_backoff: 3\n", kCrashTransport, long_scenario());
+  const std::string summary = work_dir() + "/bothbraked.summary", up_log = work_dir() + "/bothbraked.log";
+  const std::string kill = kBin + "/tandem kill " + deploy + " ";
+  const std::string cmd = kBin + "/tandem up " + deploy + " --summary " + summary + " > " + up_log + " 2>&1 & up=$!; " +
+                          after_first_tick(up_log, 0.3) + kill + "m1/left & " + kill + "m1/right; wait %1; " +
+                          "wait $up; echo up_rc=$?";
+  const Run r = run("bash -c '" + cmd + "'");
+  const std::string log = read_file(up_log);
+  INFO(r.output << "\n--- tandem up ---\n" << log);
+  CHECK(log.find("m1/left braked") != std::string::npos);
+  CHECK(log.find("m1/right braked") != std::string::npos);
+  CHECK(log.find("m1/left released") != std::string::npos);
+  CHECK(log.find("m1/right released") != std::string::npos);
+  CHECK(r.output.find("up_rc=0") != std::string::npos);
+  const auto kv = read_summary(summary);
+  CHECK(kv.at("m1.slip_events") == 0);
+  CHECK(kv.at("m1.contact_lost") == 0);
+  CHECK_FALSE(processes_left(domain));
+}
+
 TEST_CASE("a restart still pending when the module's task ends is dropped, not waited for", "[distributed]") {
   const int domain = test_domain(16);
   // The primary robot is killed mid-run; its restart waits 30 s of backoff, far past the end of the 5 s task

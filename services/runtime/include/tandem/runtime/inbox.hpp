@@ -24,7 +24,9 @@ class Inbox : public eprosima::fastdds::dds::DataReaderListener {
     int source = 0;
     long long at_ns = 0;
   };
-  explicit Inbox(bool notify) : notify_(notify) {}
+  /// Holds at most `max_items`: beyond that the oldest item is dropped (and counted), so that a reader of the
+  /// queue that falls behind costs memory up to a bound, not without one.
+  explicit Inbox(bool notify, size_t max_items = 4096) : notify_(notify), max_items_(max_items) {}
   /// The readers whose samples come here; an item's `source` is the index of its reader.
   void set_sources(const std::array<eprosima::fastdds::dds::DataReader*, N>& readers) {
     std::lock_guard<std::mutex> lock(mu_);
@@ -41,6 +43,10 @@ class Inbox : public eprosima::fastdds::dds::DataReaderListener {
       if (!info.valid_data || source < 0) continue;
       timespec now{};
       ::clock_gettime(CLOCK_MONOTONIC, &now);
+      if (items_.size() >= max_items_) {
+        items_.pop_front();
+        ++dropped_;
+      }
       items_.push_back({scratch_, source, static_cast<long long>(now.tv_sec) * 1000000000LL + now.tv_nsec});
     }
     lock.unlock();
@@ -53,6 +59,11 @@ class Inbox : public eprosima::fastdds::dds::DataReaderListener {
     items_.pop_front();
     return true;
   }
+  /// Items dropped because the queue was full.
+  unsigned long long dropped() const {
+    std::lock_guard<std::mutex> lock(mu_);
+    return dropped_;
+  }
   /// Waits up to `seconds` for an item (with notify set).
   void wait(double seconds) {
     std::unique_lock<std::mutex> lock(mu_);
@@ -61,7 +72,9 @@ class Inbox : public eprosima::fastdds::dds::DataReaderListener {
 
  private:
   bool notify_;
-  std::mutex mu_;
+  size_t max_items_;
+  unsigned long long dropped_ = 0;
+  mutable std::mutex mu_;
   std::condition_variable cv_;
   std::deque<Item> items_;
   std::array<eprosima::fastdds::dds::DataReader*, N> readers_{};

@@ -548,6 +548,20 @@ TEST_CASE("leadership: a late joiner with no state waits 3 s, a restarted one (-
   CHECK_FALSE(deaf.primary());
 }
 
+TEST_CASE("leadership: a restarted standby does not take over in its first 3 s, when a live primary may not be discovered yet",
+          "[coordinator]") {
+  Leadership r({"coordinator@r10", true, true}, 100.0);
+  CHECK(r.on_state(state_with(9, {1, 1, 1, 0}, 3), 100.05));  // the launcher's copy, at once
+  std::string log;
+  CHECK(r.step(101.0, 4, &log) == Step::Wait);   // silent 0.95 s: past kTakeoverS, but this one is 1 s old
+  CHECK(r.step(102.9, 4, &log) == Step::Wait);
+  CHECK_FALSE(r.primary());
+  CHECK(r.on_state(state_with(10, {1, 1, 1, 1}, 4), 102.95) == true);  // the live primary, heard at last
+  CHECK(r.step(103.2, 5, &log) == Step::Wait);   // and not silent
+  CHECK(r.step(103.5, 5, &log) == Step::TakeOver);  // silent 0.55 s, 3.5 s old: the rule of every standby
+  CHECK(r.last_state()->next_task_id == 10);
+}
+
 TEST_CASE("leadership: a standby held back by one before it in line that cannot lead takes over 2 s later", "[coordinator]") {
   // Found by a soak-small hour: coordinator@r21, a restart that never heard a queue state, stood first in line; r22
   // had the launcher's copy of the state but waited for r21 for 900 s, and no task was done.

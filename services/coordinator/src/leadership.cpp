@@ -71,6 +71,10 @@ Leadership::Step Leadership::step(double now, size_t tasks, std::string* log) {
                       "cannot hear the queue; exiting, to come back with a fresh participant";
       return Step::Deaf;
     }
+    // A restarted one in its first kFirstStateS: the silence may be a primary it has not discovered yet, and the
+    // state it holds the launcher's copy, older than the live queue (soak run 20: r10, 1.0 s after its start,
+    // took over from r9 on such a copy, and a task heard done went back to the queue).
+    if (o_.resume && now - start_ < kFirstStateS) return Step::Wait;
     const bool may = last_state_ || !o_.resume;
     const double bound = last_state_ ? kTakeoverS : kFirstStateS;
     if (!may || silent(now) <= bound) return Step::Wait;

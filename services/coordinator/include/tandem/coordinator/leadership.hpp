@@ -4,6 +4,9 @@
 //   coordinator may also hear an older copy (the launcher republishes the last state it saw);
 // - it takes over when the primary's state has been silent for kTakeoverS (kFirstStateS if it never heard one,
 //   then from the whole queue), and only if no live standby before it by id is active (first in line);
+// - a restarted one (--resume) does not take over in its first kFirstStateS: a live primary may not be discovered
+//   yet, and the state it heard may be only the launcher's copy (found by tandem soak: a restarted standby took
+//   over 1.0 s after its start beside a live primary, and a task heard done went back to the queue);
 // - a restarted one (--resume: a queue existed before it started) never takes over without a state heard: the
 //   launcher's republished copy may reach a late joiner only after seconds, and a fresh queue would do every
 //   task again (found by tandem soak: the queue went back from 1747 tasks done to none);

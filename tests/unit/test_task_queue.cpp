@@ -562,6 +562,26 @@ TEST_CASE("leadership: a restarted standby does not take over in its first 3 s, 
   CHECK(r.last_state()->next_task_id == 10);
 }
 
+TEST_CASE("leadership: a standby that stood still counts the primary's silence from its return", "[coordinator]") {
+  Leadership l({"coordinator@1", true, false}, 0.0);
+  for (double t = 0.02; t < 1.01; t += 0.02) CHECK(l.on_loop(t).empty());  // a loop pass every 20 ms
+  CHECK(l.on_state(state_with(5, {1, 1, 0, 0}, 2), 1.0));
+  const std::string line = l.on_loop(1.6);  // its own loop stood still 0.6 s (the primary's state came at 1.0)
+  CHECK(line.find("stood still for 600 ms") != std::string::npos);
+  std::string log;
+  CHECK(l.step(1.6, 4, &log) == Step::Wait);  // before the fix: silent 0.6 s, a takeover on its own deafness
+  CHECK(l.on_loop(1.62).empty());
+  CHECK(l.step(2.05, 4, &log) == Step::Wait);
+  CHECK(l.step(2.11, 4, &log) == Step::TakeOver);  // 0.51 s of silence heard awake
+  // A primary's state heard after the stall keeps it a standby.
+  Leadership m({"coordinator@1", true, false}, 0.0);
+  CHECK(m.on_state(state_with(5, {1, 1, 0, 0}, 2), 1.0));
+  (void)m.on_loop(1.6);
+  CHECK(m.on_state(state_with(6, {1, 1, 1, 0}, 3), 1.7));
+  CHECK(m.step(2.1, 4, &log) == Step::Wait);
+  CHECK_FALSE(m.primary());
+}
+
 TEST_CASE("leadership: a standby held back by one before it in line that cannot lead takes over 2 s later", "[coordinator]") {
   // Found by a soak-small hour: coordinator@r21, a restart that never heard a queue state, stood first in line; r22
   // had the launcher's copy of the state but waited for r21 for 900 s, and no task was done.

@@ -20,6 +20,12 @@ std::string Leadership::on_loop(double now) {
            "): listening for a successor before deciding anything";
     doubt_until_ = now + kDoubtS;
     last_stall_ = now;
+  } else if (!primary_ && now - last_loop_ > kStandbyDeafS) {
+    // A standby that stood still heard nothing meanwhile: the primary's silence counts from now, not from before
+    // its own stall (both coordinators stalled together in soak run 20, the standby took over on a silence that
+    // was its own, and both left).
+    line = "stood still for " + ms(now - last_loop_) + "; the primary's silence counts from now";
+    listen_from_ = now;
   }
   last_loop_ = now;
   return line;

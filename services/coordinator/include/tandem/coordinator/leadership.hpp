@@ -18,6 +18,9 @@
 //   primary that hears another primary later leaves too if it stalled within kStallMemoryS, and two primaries
 //   that never stalled keep the smaller id;
 // - a standby that hears a state with every task done exits with the primary;
+// - a standby whose own loop stood still (kStandbyDeafS) counts the primary's silence from its return: it heard
+//   nothing meanwhile (found by tandem soak: both coordinators stalled together, the standby took over on a silence
+//   that was its own, and both left);
 // - a standby with a state that first_in_line holds back for kPassOverS more takes over all the same: the one before
 //   it in line is alive but cannot lead (found by a soak-small hour: a restarted standby that never heard a queue
 //   state, which a --resume one must not lead without, stood first in line for 900 s, and no task was done);
@@ -27,6 +30,7 @@
 // Unit tests: tests/unit/test_task_queue.cpp ("leadership: ...").
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <map>
 #include <optional>
@@ -51,6 +55,8 @@ class Leadership {
   static constexpr double kStallMemoryS = 10.0;
   static constexpr double kPassOverS = 2.0;
   static constexpr double kDeafS = 10.0;
+  /// A standby's loop (at most 20 ms a pass) that stood still longer than this heard nothing meanwhile.
+  static constexpr double kStandbyDeafS = 0.1;
 
   Leadership(const LeadershipOptions& o, double now) : o_(o), primary_(!o.standby), start_(now), last_loop_(now) {}
 
@@ -82,8 +88,9 @@ class Leadership {
   /// primary reads the queue states then, and adopts a more advanced one).
   bool recently_stalled(double now) const { return now - last_stall_ <= kStallMemoryS; }
   const std::optional<Snapshot>& last_state() const { return last_state_; }
-  /// Seconds since the primary's last state (since the start if none was heard).
-  double silent(double now) const { return now - (last_state_ ? last_state_at_ : start_); }
+  /// Seconds since the primary's last state (since the start if none was heard), or since this standby's own loop
+  /// last stood still, whichever is later.
+  double silent(double now) const { return now - std::max(last_state_ ? last_state_at_ : start_, listen_from_); }
   uint64_t malformed_states() const { return malformed_; }
 
  private:
@@ -95,6 +102,7 @@ class Leadership {
   double last_stall_ = -1e300;
   std::optional<Snapshot> last_state_;
   double last_state_at_ = 0.0;
+  double listen_from_ = -1e300;  ///< a standby's own stall ended here: silence before it is not the primary's
   uint64_t malformed_ = 0;
   std::map<std::string, double> peers_;  ///< other active coordinators -> when last heard
 };

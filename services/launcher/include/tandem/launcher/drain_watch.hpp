@@ -8,7 +8,7 @@
 // - say once, after kWarnAfter, that it is still asking;
 // - past kTimeout, acknowledged or not, stop the module with its task unfinished (a task that cannot end, an arm
 //   braked with no robot left, would keep the module and its slot forever): its task goes back to the queue.
-// services/cli/up_command.cpp carries the steps out; tests/unit/test_launcher_rules.cpp drives it.
+// services/cli/up_run.cpp carries the steps out; tests/unit/test_launcher_rules.cpp drives it.
 #pragma once
 
 namespace tandem::launcher {

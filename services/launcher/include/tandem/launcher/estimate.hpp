@@ -2,7 +2,7 @@
 // machine has, calibrated on this machine (capacity.hpp: a cross-process wake-up; here a plant step and a law step of
 // its first module), with a warning when it does not fit, and the admission that follows from it (the modules, in
 // file order, that fit; the others start parked: docs/failure-model.md, "Shedding whole modules"). In lockstep there
-// is no real-time load. `tandem up` (services/cli/up_command.cpp) prints it and `tandem up --check` too.
+// is no real-time load. `tandem up` (services/cli/up_run.cpp) prints it and `tandem up --check` too.
 #pragma once
 
 #include <cstddef>

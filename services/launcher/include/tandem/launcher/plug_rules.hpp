@@ -1,5 +1,5 @@
 // What the launcher does with a live `plug` or `unplug` (ControlRequest), as a component: the launcher
-// (services/cli/up_command.cpp) gathers the facts about the module, its arm and its processes, asks these rules,
+// (services/cli/up_run.cpp) gathers the facts about the module, its arm and its processes, asks these rules,
 // and carries the decision out (start a process, stop a module, send a drain or a pause) or answers the refusal.
 // No processes, no DDS, no clock: tests/unit/test_launcher_rules.cpp drives each rule. docs/failure-model.md, "Live
 // commands", says what a user sees.

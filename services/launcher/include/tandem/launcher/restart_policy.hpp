@@ -1,7 +1,7 @@
 // The launcher's restart policy as a component (no processes, no clock: times in seconds are passed in), as
 // Erlang/OTP supervisors do it: a child that exits is restarted by policy (never, on-failure, always) after a
 // backoff that doubles with each restart inside the window (up to a cap), and given up on after `limit` restarts within
-// `window` seconds (the intensity limit). services/cli/up_command.cpp asks it; tests/unit drive it.
+// `window` seconds (the intensity limit). services/cli/up_run.cpp asks it; tests/unit drive it.
 #pragma once
 
 #include <map>

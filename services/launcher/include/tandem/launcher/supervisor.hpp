@@ -1,5 +1,5 @@
 // The launcher's supervision of its children as a component: events in, actions out, and no DDS, no clock and no
-// fork/kill/waitpid inside. `tandem up` (services/cli/up_command.cpp) feeds it what happens (a process exited, a
+// fork/kill/waitpid inside. `tandem up` (services/cli/up_run.cpp) feeds it what happens (a process exited, a
 // status or task state heard, a live command, an agent's report, the time as seconds since the launcher started)
 // and it acts through two interfaces: an Executor starts and signals processes (here by fork/exec and kill(2), or
 // through the agent of another host), and an Outbox carries what it says (log lines, requests to a module's

@@ -9,6 +9,8 @@
 // - the leading supervisor dies at random ticks: its replica takes over and the references stay continuous.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
+
 #include <cmath>
 #include <memory>
 #include <optional>
@@ -369,6 +371,12 @@ TEST_CASE("a drop is a failure: the world brakes both arms for good, the supervi
   CHECK(rig.w.braked(1));  // and no robot releases them: both answered every tick since
   CHECK(rig.sup[0]->state() == tp::TaskStateCode::Failed);
   CHECK(rig.log.find("module failed") != std::string::npos);
+  // With the flight record of its last ticks: the right arm got zero torque, in time, from its robot (strength 100).
+  CHECK(rig.log.find("its last 60 ticks:") != std::string::npos);
+  CHECK(rig.log.find("right c from 100 tau 0.00 0.00 0.00") != std::string::npos);
+  const std::string record = rig.w.flight_record(3);
+  CHECK(std::count(record.begin(), record.end(), '\n') == 3);
+  CHECK(record.find("tick " + std::to_string(rig.k - 1) + ":") != std::string::npos);
   // The path stopped: the plan never reaches the task's end, so the task is never finished.
   CHECK_FALSE(rig.sup[0]->plan().motion_over(rig.k + 10000));
 }

@@ -609,10 +609,35 @@ void WorldCore::fail(const std::string& why) {
   }
   report_now_ = true;
   serving_changed_ = true;
-  log("module failed: " + failure_ + "; both arms braked, the module takes no task until it is cleared");
+  log("module failed: " + failure_ + "; both arms braked, the module takes no task until it is cleared; its last " +
+      std::to_string(kFlightTicks) + " ticks:\n" + flight_record(kFlightTicks));
+}
+
+std::string WorldCore::flight_record(long ticks) const {
+  std::string out;
+  const long first = std::max(0L, std::max(k_ - ticks + 1, k_ - static_cast<long>(kHistory) + 1));
+  char line[256];
+  for (long k = first; k <= k_; ++k) {
+    const TickRecord& r = history_[static_cast<size_t>(k) % kHistory];
+    std::snprintf(line, sizeof line,
+                  "  tick %ld: h_n %.2f %.2f N, h_t %.2f %.2f N, e_p %.2e %.2e m; left %c from %d tau %.2f %.2f %.2f; "
+                  "right %c from %d tau %.2f %.2f %.2f\n",
+                  k, r.hn[0], r.hn[1], r.ht[0], r.ht[1], r.ep[0], r.ep[1], r.how[0], r.from[0], r.tau[0](0), r.tau[0](1),
+                  r.tau[0](2), r.how[1], r.from[1], r.tau[1](0), r.tau[1](1), r.tau[1](2));
+    out += line;
+  }
+  return out;
 }
 
 void WorldCore::step() {
+  TickRecord& rec = history_[static_cast<size_t>(k_) % kHistory];  // this tick's inputs, for the flight record
+  for (size_t j = 0; j < 2; ++j) {
+    rec.hn[j] = contact_.normal[j];
+    rec.ht[j] = contact_.tangential[j];
+    rec.tau[j] = tau_[j];
+    rec.from[j] = applied_from_[j];
+    rec.how[j] = link_[j].stopping ? 's' : link_[j].braked ? 'b' : have_[j] ? 'c' : 'l';
+  }
   plant_.step(tau_, t_, m_.period, m_.substeps);
   const model::PlantCounters& pc = plant_.counters();
   no_contact_run_ = pc.contact_lost > contact_lost_seen_ ? no_contact_run_ + 1 : 0;

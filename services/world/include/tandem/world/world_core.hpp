@@ -247,6 +247,8 @@ class WorldCore {
   /// Torque a brake takes to hold arm j still now: g(q) + J^T h.
   model::Vec3 holding_torque(int j) const;
   bool paused_for_load() const { return load_paused_ || load_pending_; }
+  /// The last `ticks` ticks of the flight recorder, one line each (for the log, when the module fails).
+  std::string flight_record(long ticks) const;
   bool failed() const { return failed_; }
   const std::string& failure() const { return failure_; }
   bool answered_once() const { return link_[0].last_tick >= 0 && link_[1].last_tick >= 0; }
@@ -319,8 +321,14 @@ class WorldCore {
   struct TickRecord {
     std::array<double, 2> ep{0.0, 0.0};
     double hn_min = 0.0;
+    // The flight recorder a drop prints (fail()): what each contact carried and what each arm got.
+    std::array<double, 2> hn{0.0, 0.0}, ht{0.0, 0.0};  ///< normal and tangential force per contact [N]
+    std::array<model::Vec3, 2> tau{model::Vec3::Zero(), model::Vec3::Zero()};  ///< the torque applied
+    std::array<int32_t, 2> from{0, 0};  ///< whose torque: a robot's strength, 0 the brake, -1 the world's drive
+    std::array<char, 2> how{'.', '.'};  ///< c: its command came, l: late or missing, b: braked, s: stopping
   };
   static constexpr size_t kHistory = 256;
+  static constexpr long kFlightTicks = 60;  ///< ticks of the flight record a drop prints
   std::array<TickRecord, kHistory> history_{};
   struct Window {
     int arm;

@@ -213,6 +213,7 @@ int run(int argc, char** argv) {
 
   long reported_tick = -1;
   auto renewed_at = Clock::now();
+  auto last_pass = Clock::now();
   int renewals = 0;
   while (!runtime::g_stop) {
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
@@ -221,6 +222,10 @@ int run(int argc, char** argv) {
     const long done = core.done();
     if (done + 1 >= m.steps) break;
     const auto now = Clock::now();
+    // This process itself stood still (SIGSTOP, starvation): the silence meanwhile was its own, not its reader's
+    // (run 20's two renewals both came right after the robot's own stall fault).
+    if (std::chrono::duration<double>(now - last_pass).count() > 0.2) last_input = std::max(last_input, now);
+    last_pass = now;
     if (done >= 0 && !activated) {
       activated = true;
       status.set(runtime::Lifecycle::Active, "controlling");

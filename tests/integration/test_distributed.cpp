@@ -851,6 +851,29 @@ TEST_CASE("a robot that hears no sample for 1 s while its module's plan comes ge
   CHECK_FALSE(processes_left(domain));
 }
 
+TEST_CASE("a robot that stood still itself does not take its own silence for a deaf reader", "[distributed]") {
+  const int domain = test_domain(26);
+  const std::string deploy = write_deployment("selfstall", domain, "SOSM", "realtime", 1, "", "shm");
+  const std::string summary = work_dir() + "/selfstall.summary", up_log = work_dir() + "/selfstall.log";
+  const std::string t = kBin + "/tandem ";
+  // The left arm's standby stands still for 1.5 s (SIGSTOP) while the module goes on: when it continues, the
+  // samples of the meantime are gone, but its reader is fine; it must not replace it.
+  const std::string cmd = t + "up " + deploy + " --summary " + summary + " > " + up_log + " 2>&1 & up=$!; " +
+                          "for i in $(seq 200); do grep -q \"task  *[1-9][0-9]\\.\" " + up_log + " && break; sleep 0.05; done; " +
+                          "pid=$(pgrep -f \"tandem-[r]obot .*--domain " + std::to_string(domain) + " .*--arm left --strength 50\"); " +
+                          "echo pid=$pid; kill -STOP $pid; sleep 1.5; kill -CONT $pid; wait $up; echo up_rc=$?";
+  const Run r = run("bash -c '" + cmd + "'");
+  const std::string log = read_file(up_log);
+  INFO(r.output << "\n--- tandem up ---\n" << log);
+  REQUIRE(r.output.find("pid=\n") == std::string::npos);  // the standby was found and stopped
+  CHECK(r.output.find("up_rc=0") != std::string::npos);
+  CHECK(log.find("a new sensor reader") == std::string::npos);
+  const auto kv = read_summary(summary);
+  CHECK(kv.at("m1.ticks") == 5000);
+  CHECK(kv.at("m1.slip_events") == 0);
+  CHECK_FALSE(processes_left(domain));
+}
+
 TEST_CASE("tandem up --check estimates the real-time load and warns when the machine is too small", "[distributed]") {
   const int domain = test_domain(20);
   const std::string big = work_dir() + "/capacity.yaml";

@@ -47,8 +47,12 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "tandem_hog: --cores in [1, 256], --busy > 0, --idle >= 0, --seconds > 0, --fifo in [0, 98], --nice in [-20, 19]\n");
     return 2;
   }
-  signal(SIGTERM, on_signal);
-  signal(SIGINT, on_signal);
+  // Without SA_RESTART: a stop interrupts the waitpid below, which then passes it on to the busy processes (each in
+  // a session of its own, so a terminal's Ctrl-C or a `kill` of this process reaches only this one).
+  struct sigaction sa {};
+  sa.sa_handler = on_signal;
+  sigaction(SIGTERM, &sa, nullptr);
+  sigaction(SIGINT, &sa, nullptr);
   std::vector<pid_t> kids;
   for (int c = 0; c < cores; ++c) {
     const pid_t pid = fork();

@@ -253,7 +253,7 @@ int agent_command(const std::vector<std::string>& args) {
     agent.core().rt_permitted = launcher::fifo_permitted(std::max(1, d.realtime_priority), why);
     // As the launcher: a real-time deployment's processes start at kServiceNice (inherited from the agent).
     if ((agent.core().rt_permitted && d.timing == "realtime" && d.realtime_priority > 0) || d.timing == "lockstep") {
-      (void)launcher::raise_service_priority(why);
+      (void)launcher::raise_service_priority(why, d.timing != "lockstep");  // lockstep: its group holds per-tick work
     }
     if (!agent.core().rt_permitted && d.timing == "realtime" && d.realtime_priority > 0) {
       std::printf("tandem agent %s: note: SCHED_FIFO is not permitted here (%s); processes run with normal "

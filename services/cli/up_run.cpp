@@ -93,8 +93,9 @@ int UpRun::prepare() {
     // Lockstep keeps both cores busy with per-tick work: the control plane (this launcher, supervisors,
     // coordinators, processes starting) runs at kServiceNice ahead of it; the world and robots go to niceness 0
     // once active (runtime::raise_to_realtime_from_env). Where not permitted, everything runs at one priority.
+    // This process's own scheduling group keeps its nice value: the per-tick processes stay in it.
     std::string why;
-    (void)launcher::raise_service_priority(why);
+    (void)launcher::raise_service_priority(why, false);
   }
   return -1;
 }

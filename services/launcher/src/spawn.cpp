@@ -87,7 +87,7 @@ bool fifo_permitted(int priority, std::string& why) {
   return true;
 }
 
-bool raise_service_priority(std::string& why) {
+bool raise_service_priority(std::string& why, bool group) {
   // Linux keeps a niceness per thread: PRIO_PROCESS with 0 is the calling thread, and new threads inherit it.
   if (::setpriority(PRIO_PROCESS, 0, kServiceNice) != 0) {
     why = std::strerror(errno);
@@ -95,7 +95,7 @@ bool raise_service_priority(std::string& why) {
   }
   // A session leader (`setsid tandem up ...`, or a launcher that `tandem soak` started) has an autogroup of its own:
   // rank it the same way. Never the group of a shell the process merely runs in, which the user's jobs share.
-  if (leads_session()) (void)set_autogroup_nice(kServiceNice);
+  if (group && leads_session()) (void)set_autogroup_nice(kServiceNice);
   return true;
 }
 

@@ -39,7 +39,11 @@ inline constexpr int kServiceNice = -10;
 
 /// Sets this process's niceness to kServiceNice, inherited by the threads it creates afterwards and by its
 /// children (call it before any thread starts); false, with the system's reason in `why`, if not permitted.
-bool raise_service_priority(std::string& why);
+/// With `group` (the default) and this process leading its own session, its scheduling autogroup gets the same
+/// niceness; not in lockstep, where the per-tick processes stay in this process's group (own_group_for): a group
+/// raised to -10 with four modules' per-tick work in it starved the control plane (a soak-four lockstep launcher that
+/// led its session did 2 tasks in 45 s where one that did not did 50).
+bool raise_service_priority(std::string& why, bool group = true);
 
 /// Whether this process may use SCHED_FIFO at `priority` (tried on the calling thread, then undone); `why`
 /// gets the system's reason when not.

@@ -178,6 +178,14 @@ std::string after_first_tick(const std::string& log, double seconds) {
          std::to_string(seconds) + "; ";
 }
 
+/// Shell: once the task is past 10% (the world's status in `log`), the process `pgrep -f pattern` finds stands still
+/// for `seconds` (SIGSTOP, then SIGCONT); prints "pid=<pid>" first.
+std::string stall_mid_task(const std::string& log, const std::string& pattern, double seconds) {
+  return "for i in $(seq 200); do grep -q \"task  *[1-9][0-9]\\.\" " + log + " && break; sleep 0.05; done; " +
+         "pid=$(pgrep -f \"" + pattern + "\"); echo pid=$pid; kill -STOP $pid; sleep " + std::to_string(seconds) +
+         "; kill -CONT $pid; ";
+}
+
 std::string read_file_text(const std::string& path) {
   std::ifstream in(path);
   std::stringstream ss;
@@ -801,9 +809,8 @@ TEST_CASE("a world stalled for 0.4 s re-anchors its clock instead of a catch-up 
   // The simulated plant itself stops mid-task (as a long scheduler stall would stop it). Caught up in a burst,
   // 400 ticks would be simulated back to back on torques computed for the tick before the stall.
   const std::string cmd = t + "up " + deploy + " --summary " + summary + " > " + up_log + " 2>&1 & up=$!; " +
-                          "for i in $(seq 200); do grep -q \"task  *[1-9][0-9]\\.\" " + up_log + " && break; sleep 0.05; done; " +
-                          "pid=$(pgrep -f \"tandem-[w]orld .*--domain " + std::to_string(domain) + " \"); echo pid=$pid; " +
-                          "kill -STOP $pid; sleep 0.4; kill -CONT $pid; wait $up; echo up_rc=$?";
+                          stall_mid_task(up_log, "tandem-[w]orld .*--domain " + std::to_string(domain) + " ", 0.4) +
+                          "wait $up; echo up_rc=$?";
   const Run r = run("bash -c '" + cmd + "'");
   const std::string log = read_file(up_log);
   INFO(r.output << "\n--- tandem up ---\n" << log);
@@ -831,9 +838,8 @@ TEST_CASE("a robot that hears no sample for 1 s while its module's plan comes ge
   // The world stands still for 1.6 s (SIGSTOP): its robots hear no sample while the supervisor's plan (a 20 ms
   // heartbeat) still comes, which is what a reader that Fast DDS stopped feeding looks like from the robot.
   const std::string cmd = t + "up " + deploy + " --summary " + summary + " > " + up_log + " 2>&1 & up=$!; " +
-                          "for i in $(seq 200); do grep -q \"task  *[1-9][0-9]\\.\" " + up_log + " && break; sleep 0.05; done; " +
-                          "pid=$(pgrep -f \"tandem-[w]orld .*--domain " + std::to_string(domain) + " \"); echo pid=$pid; " +
-                          "kill -STOP $pid; sleep 1.6; kill -CONT $pid; wait $up; echo up_rc=$?";
+                          stall_mid_task(up_log, "tandem-[w]orld .*--domain " + std::to_string(domain) + " ", 1.6) +
+                          "wait $up; echo up_rc=$?";
   const Run r = run("bash -c '" + cmd + "'");
   const std::string log = read_file(up_log);
   INFO(r.output << "\n--- tandem up ---\n" << log);
@@ -860,9 +866,8 @@ TEST_CASE("a robot that stood still itself does not take its own silence for a d
   // The left arm's standby stands still for 1.5 s (SIGSTOP) while the module goes on: when it continues, the
   // samples of the meantime are gone, but its reader is fine; it must not replace it.
   const std::string cmd = t + "up " + deploy + " --summary " + summary + " > " + up_log + " 2>&1 & up=$!; " +
-                          "for i in $(seq 200); do grep -q \"task  *[1-9][0-9]\\.\" " + up_log + " && break; sleep 0.05; done; " +
-                          "pid=$(pgrep -f \"tandem-[r]obot .*--domain " + std::to_string(domain) + " .*--arm left --strength 50\"); " +
-                          "echo pid=$pid; kill -STOP $pid; sleep 1.5; kill -CONT $pid; wait $up; echo up_rc=$?";
+                          stall_mid_task(up_log, "tandem-[r]obot .*--domain " + std::to_string(domain) + " .*--arm left --strength 50", 1.5) +
+                          "wait $up; echo up_rc=$?";
   const Run r = run("bash -c '" + cmd + "'");
   const std::string log = read_file(up_log);
   INFO(r.output << "\n--- tandem up ---\n" << log);

@@ -579,12 +579,15 @@ TEST_CASE("a robot is restarted after a crash, and given up on after the intensi
 
 TEST_CASE("lockstep: both arms braked at once are released when their restarted robots answer", "[distributed]") {
   const int domain = test_domain(25);
-  // No standby: killing both robots brakes both arms (no live controller, after 1 s); each comes back restarted
-  // (after 1.5 s and, the backoff doubling, 3 s: the second arm is back well before the 9 s task ends). With both
-  // arms braked a lockstep tick is complete at once, and the world once took no command then: the new robots
-  // answered every tick, their commands piled up unread (the world's memory grew), and the arms stayed braked.
+  // No standby: killing both robots brakes both arms (no live controller after 1 s of waiting, then driven to rest,
+  // ~0.15 s of ticks); each comes back restarted after 4 s. The backoff must outlast the spread of the two kills
+  // (each `tandem kill` finds the launcher on its own: measured up to 1 s apart) plus that 1 s wait: with 1.5 s
+  // the first robot was back before the second arm stopped, and no arm braked (CI, and 3 runs in 6 here). With
+  // both arms braked a lockstep tick is complete at once, and the world once took no command then: the new
+  // robots answered every tick, their commands piled up unread (the world's memory grew), and the arms stayed
+  // braked. Braked, the world ticks at ~1 kHz: ~3000 of the 9000 ticks, so both are back well before the end.
   const std::string deploy = write_deployment("bothbraked", domain, "SOSM", "lockstep", 0,
-                                              "    restart: on-failure\n    restart_backoff: 1.5\n", kCrashTransport, long_scenario());
+                                              "    restart: on-failure\n    restart_backoff: 4\n", kCrashTransport, long_scenario());
   const std::string summary = work_dir() + "/bothbraked.summary", up_log = work_dir() + "/bothbraked.log";
   const std::string kill = kBin + "/tandem kill " + deploy + " ";
   const std::string cmd = kBin + "/tandem up " + deploy + " --summary " + summary + " > " + up_log + " 2>&1 & up=$!; " +

@@ -141,7 +141,7 @@ int run(int argc, char** argv) {
   status.set(runtime::Lifecycle::Active, opt.realtime ? "real time" : "lockstep");
   if (runtime::raise_to_realtime_from_env() < 0) std::fprintf(stderr, "tandem: could not raise to SCHED_FIFO once active\n");
   long k = 0;
-  std::array<long, 2> write_failures{0, 0};
+  std::array<long, 2> write_failures{0, 0}, history_clears{0, 0};
   for (; k < m.steps && !runtime::g_stop; ++k) {
     while (plans.take(plan_in)) {
       std::string why;
@@ -202,7 +202,14 @@ int run(int argc, char** argv) {
         s.plan_strength(plan_rank.strength);
         s.plan_version(plan_version);
         s.plan_since(plan_since);
-        if (!sensors[j]->write(s)) {
+        const bool written = sensors[j]->write(s);
+        if (sensors[j]->history_clears() != history_clears[j]) {
+          history_clears[j] = sensors[j]->history_clears();
+          std::fprintf(stderr, "tandem-world %s: tick %ld: the sample writer of %s had a full pool (a change never "
+                       "acknowledged, Fast DDS 2.9): its history cleared (%ld so far)\n", opt.module.c_str(), k,
+                       ctx.arm_id(static_cast<int>(j)).c_str(), history_clears[j]);
+        }
+        if (!written) {
           // Fast DDS refused the sample (a writer history held full by a reader that does not acknowledge): said
           // at the 1st, 2nd, 4th, 8th ... failure of the arm, so that a soak's log shows it without flooding.
           const long n = ++write_failures[j];

@@ -61,11 +61,31 @@ class Writer {
     fdds::Topic* t = p.topic(topic_name, new PubSubType());
     writer_ = p.publisher()->create_datawriter(t, writer_qos(kind, strength, p.data_sharing()));
     if (writer_ == nullptr) throw std::runtime_error("cannot create a DDS writer on " + topic_name);
+    reliable_shared_ = shares_data(kind, p.data_sharing()) && kind != TopicKind::SensorsRealtime &&
+                       kind != TopicKind::TorquesRealtime;
   }
   ~Writer() { p_.publisher()->delete_datawriter(writer_); }
   Writer(const Writer&) = delete;
   Writer& operator=(const Writer&) = delete;
-  bool write(T& sample) { return writer_->write(&sample); }
+  /// Writes one sample. A reliable data-sharing writer whose payload pool ran dry is unstuck once (see
+  /// below) and the sample written again; false if it still cannot be written.
+  bool write(T& sample) {
+    const ReturnCode_t rc = writer_->write(&sample, fdds::HANDLE_NIL);
+    if (rc == ReturnCode_t::RETCODE_OK) return true;
+    if (!reliable_shared_ || rc != ReturnCode_t::RETCODE_OUT_OF_RESOURCES) return false;
+    // Fast DDS 2.9: a volatile reader that matches while another reader's acknowledgement is being processed
+    // can leave one change never reported as acknowledged by all. It is never removed, and the data-sharing pool
+    // frees its slots only in order behind it: some 260 writes later every write fails, for good (the history
+    // holds too few changes for keep-last to evict it). Seen as a lockstep arm braked for good after a third
+    // robot was plugged (soak run 24; fixed upstream by Fast DDS PR #5859, in 3.5). Clearing the history frees
+    // the whole ring; a reader that had not yet read the cleared samples misses them (readers detect that).
+    size_t removed = 0;
+    writer_->clear_history(&removed);
+    ++history_clears_;
+    return writer_->write(&sample, fdds::HANDLE_NIL) == ReturnCode_t::RETCODE_OK;
+  }
+  /// How often write() found the pool dry and cleared the history (0 in a healthy run).
+  long history_clears() const { return history_clears_; }
   /// Waits until every matched reader has acknowledged what was written (reliable topics), up to timeout_s.
   bool wait_for_acks(double timeout_s) {
     const auto sec = static_cast<int32_t>(timeout_s);
@@ -81,6 +101,8 @@ class Writer {
  private:
   Participant& p_;
   fdds::DataWriter* writer_ = nullptr;
+  bool reliable_shared_ = false;
+  long history_clears_ = 0;
 };
 
 template <class T, class PubSubType>

@@ -16,7 +16,9 @@
 #include <thread>
 #include <unistd.h>
 
+#include "robot_wire.hpp"
 #include "tandem/launcher/exit_codes.hpp"
+#include "tandem/robot/input_watch.hpp"
 #include "tandem/robot/robot_core.hpp"
 #include "tandem/runtime/plan_wire.hpp"
 #include "tandem/runtime/role.hpp"
@@ -28,10 +30,7 @@ namespace fdds = eprosima::fastdds::dds;
 using Clock = std::chrono::steady_clock;
 
 namespace {
-/// An active robot that gets no sample for this long while its module's plan still comes replaces its sensor
-/// reader (the world publishes every tick, every 50 ms while it waits in lockstep, and at least every 100 ms
-/// while paused for load).
-constexpr double kRenewAfterS = 1.0;
+double seconds(Clock::time_point t) { return std::chrono::duration<double>(t.time_since_epoch()).count(); }
 
 int run(int argc, char** argv) {
   runtime::RoleOptions opt;
@@ -74,15 +73,16 @@ int run(int argc, char** argv) {
   cmd.strength(opt.strength);
   bool activated = false;
   double interval_worst_us = 0.0;
-  auto last_input = Clock::now();
-  auto last_plan = Clock::now();  // the module's plan stream (a 20 ms heartbeat): the module is alive
+  robot::InputWatch::Rules rules;
+  rules.timeout_s = opt.timeout;
+  robot::InputWatch watch(rules, seconds(Clock::now()));  // under mu
   msg::SupervisorPlan plan_in;
   std::string why;
   bool cut_off = false;  // the module's leader fell silent for this robot (RobotCore::cut_off): exit 6
   auto take_plans = [&] {  // under mu
     while (plans.take(plan_in)) {
       if (plan_in.module_id() != opt.module) continue;
-      last_plan = Clock::now();
+      watch.on_plan(seconds(Clock::now()));
       why.clear();
       const plan::PlanFollower::Offer o = core.offer_plan(runtime::from_wire(plan_in), &why);
       if (o == plan::PlanFollower::Offer::Rejected) {
@@ -96,33 +96,21 @@ int run(int argc, char** argv) {
   // One tick, in the thread that received the sample: the core computes, the command goes out at once.
   msg::ArmSensors s;
   auto on_sample = [&](const msg::ArmSensors& smp) {  // under mu
-    last_input = Clock::now();
-    model::ArmSensors in;
-    for (int i = 0; i < 3; ++i) {
-      in.q(i) = smp.q()[static_cast<size_t>(i)];
-      in.qd(i) = smp.qd()[static_cast<size_t>(i)];
-    }
-    in.h = model::Vec2(smp.h()[0], smp.h()[1]);
-    // Another robot's torque, the world's drive (from -1) or the brake's holding torque (braked) drove the arm
-    // over the last period: track it (bumpless transfer and release).
+    const auto t_in = Clock::now();
+    watch.on_sample(seconds(t_in));
+    // Another robot's torque, the world's drive or the brake's holding torque drove the arm over the last period:
+    // the core tracks it (bumpless transfer and release).
     const model::Vec3 applied(smp.tau()[0], smp.tau()[1], smp.tau()[2]);
-    const bool other = smp.from() != opt.strength && (smp.from() != 0 || smp.braked());
+    const bool other = robot_wire::driven_by_other(smp, opt.strength);
     core.world_plan({smp.plan_epoch(), smp.plan_strength()}, smp.plan_version(), static_cast<long>(smp.plan_since()),
                     static_cast<long>(smp.tick()));
     if (core.cut_off()) return;  // a stale plan is never served: the main loop leaves the arm
     const std::optional<model::Vec3> tau =
-        core.on_sample(static_cast<long>(smp.tick()), in, smp.braked(), other ? &applied : nullptr);
+        core.on_sample(static_cast<long>(smp.tick()), robot_wire::inputs(smp), smp.braked(), other ? &applied : nullptr);
     if (!tau) return;
-    cmd.tick(static_cast<uint64_t>(core.done()));
-    const model::ControlOutput& out = core.last_output();
-    for (int i = 0; i < 3; ++i) {
-      cmd.tau()[static_cast<size_t>(i)] = (*tau)(i);
-      cmd.e_p()[static_cast<size_t>(i)] = out.e_p(i);
-    }
-    cmd.e_h(out.e_h);
-    cmd.normal_force(out.normal_force);
+    robot_wire::fill_command(core, *tau, cmd);
     torque_writer->write(cmd);
-    interval_worst_us = std::max(interval_worst_us, std::chrono::duration<double, std::micro>(Clock::now() - last_input).count());
+    interval_worst_us = std::max(interval_worst_us, std::chrono::duration<double, std::micro>(Clock::now() - t_in).count());
   };
   struct Listener : fdds::DataReaderListener {
     std::function<void(fdds::DataReader*)> fn;
@@ -212,20 +200,12 @@ int run(int argc, char** argv) {
   status.set(runtime::Lifecycle::Inactive, "waiting for the first tick");
 
   long reported_tick = -1;
-  auto renewed_at = Clock::now();
-  auto last_pass = Clock::now();
-  int renewals = 0;
   while (!runtime::g_stop) {
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
     std::unique_lock<std::mutex> lock(mu);
     take_plans();
     const long done = core.done();
     if (done + 1 >= m.steps) break;
-    const auto now = Clock::now();
-    // This process itself stood still (SIGSTOP, starvation): the silence meanwhile was its own, not its reader's
-    // (run 20's two renewals both came right after the robot's own stall fault).
-    if (std::chrono::duration<double>(now - last_pass).count() > 0.2) last_input = std::max(last_input, now);
-    last_pass = now;
     if (done >= 0 && !activated) {
       activated = true;
       status.set(runtime::Lifecycle::Active, "controlling");
@@ -233,11 +213,7 @@ int run(int argc, char** argv) {
     }
     if (done >= 0 && done / 100 != reported_tick / 100) {
       reported_tick = done;
-      status.msg().tick(static_cast<uint64_t>(done));
-      status.msg().tracking_error(core.tracking_error());
-      status.msg().late(core.rejected());
-      status.msg().wear(core.wear());
-      status.msg().workload(core.workload());
+      robot_wire::fill_status(core, status);
       status.msg().latency_p99_us(interval_worst_us);  // worst control step + write of the interval
       interval_worst_us = 0.0;
       status.publish();
@@ -251,25 +227,23 @@ int run(int argc, char** argv) {
       cut_off = true;
       break;
     }
-    // Samples stopped while the module's plan still comes: the world lives, and this reader is what hears nothing
-    // (seen over shared memory after SIGKILLs nearby: a standby that got no sample for 28 s while its arm's other
-    // robot did, and a whole arm's readers at once in lockstep). A new reader, outside the lock (its listener takes it).
-    const double silent_s = std::chrono::duration<double>(now - last_input).count();
-    if (activated && silent_s > kRenewAfterS && std::chrono::duration<double>(now - last_plan).count() < 0.5 &&
-        std::chrono::duration<double>(now - renewed_at).count() > 2.0 * kRenewAfterS) {
-      ++renewals;
+    // Samples stopped while the module's plan still comes (robot::InputWatch): a new reader, outside the lock
+    // (its listener takes it).
+    const double now = seconds(Clock::now());
+    const robot::InputWatch::Action act = watch.on_pass(now, activated);
+    if (act == robot::InputWatch::Action::GiveUp) {
+      std::fprintf(stderr, "tandem-robot %s: no input for %.1f s after tick %ld; stopping\n", my_arm.c_str(),
+                   opt.timeout, core.done());
+      break;
+    }
+    if (act == robot::InputWatch::Action::RenewReader) {
       std::fprintf(stderr, "tandem-robot %s: no sample for %.1f s after tick %ld while the module's plan comes: a new "
-                   "sensor reader (%d so far)\n", robot_id.c_str(), silent_s, core.done(), renewals);
+                   "sensor reader (%d so far)\n", robot_id.c_str(), watch.silent_s(now), core.done(), watch.renewals());
       lock.unlock();
       sensors.reset();
       sensors = make_sensor_reader();
       lock.lock();
-      renewed_at = Clock::now();
-    }
-    if (silent_s > opt.timeout) {
-      std::fprintf(stderr, "tandem-robot %s: no input for %.1f s after tick %ld; stopping\n", my_arm.c_str(),
-                   opt.timeout, core.done());
-      break;
+      watch.renewed(seconds(Clock::now()));
     }
   }
   std::unique_lock<std::mutex> lock(mu);
@@ -281,24 +255,11 @@ int run(int argc, char** argv) {
   std::this_thread::sleep_for(std::chrono::milliseconds(5));  // real time (best effort): give it a tick or two
   torque_writer.reset();       // give the arm up: the world follows the next strongest robot at once, then report
   lock.lock();
-  const sim::RobotMeter::Summary sm = core.summary();
   const long done = core.done();
   msg::RobotSummary rs;
-  rs.arm_id(my_arm);
-  rs.robot_id(robot_id);
-  rs.ticks(static_cast<uint64_t>(done + 1));
-  rs.ep_pos_rms(sm.ep_pos_rms);
-  rs.ep_ori_rms(sm.ep_ori_rms);
-  rs.ep_sel_rms(sm.ep_sel_rms);
-  rs.eh_rms(sm.eh_rms);
-  rs.min_normal_force(sm.min_normal_force);
-  rs.max_normal_force(sm.max_normal_force);
-  rs.rejected(core.rejected());
+  robot_wire::fill_summary(core, my_arm, robot_id, rs);
   summary.write(rs);
-  status.msg().tick(static_cast<uint64_t>(std::max(done, 0L)));
-  status.msg().wear(core.wear());
-  status.msg().workload(core.workload());
-  status.msg().late(core.rejected());
+  robot_wire::fill_status(core, status);
   const bool finished = done + 1 >= m.steps;
   if (finished) {
     status.set(runtime::Lifecycle::Finalized, "task done");

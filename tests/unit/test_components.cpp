@@ -20,6 +20,7 @@
 #include "tandem/launcher/governor.hpp"
 #include "tandem/launcher/restart_policy.hpp"
 #include "tandem/plan/plan.hpp"
+#include "tandem/robot/input_watch.hpp"
 #include "tandem/robot/robot_core.hpp"
 #include "tandem/sim/embedded.hpp"
 #include "tandem/sim/module_setup.hpp"
@@ -1113,4 +1114,69 @@ TEST_CASE("governor: admission parks what the estimate does not fit, and the las
   CHECK(g.decide(t).kind == Governor::Decision::Kind::None);  // a alone: never parked
   Governor none({"a", "b"});
   CHECK(none.admit(5, 0.0).empty());
+}
+
+TEST_CASE("robot input watch: a deaf sensor reader is renewed while the plan comes, not for the robot's own stall", "[components]") {
+  using tandem::robot::InputWatch;
+  using A = InputWatch::Action;
+  InputWatch::Rules r;  // renew after 1 s, plans fresh within 0.5 s, a pass 0.2 s late is a stall, give up after 10 s
+  InputWatch w(r, 0.0);
+  double t = 0.0;
+  // Samples every ms and plans every 20 ms, passes every 10 ms: nothing to do, even before the robot is active.
+  int renew = 0, give_up = 0;
+  for (; t < 3.0; t += 0.001) {
+    w.on_sample(t);
+    if (std::fmod(t, 0.02) < 0.001) w.on_plan(t);
+    if (std::fmod(t, 0.01) < 0.001) {
+      const A a = w.on_pass(t, t > 0.5);
+      renew += a == A::RenewReader;
+      give_up += a == A::GiveUp;
+    }
+  }
+  CHECK(renew == 0);
+  CHECK(give_up == 0);
+  // Samples stop, plans go on: renewed once the silence passes 1 s, then not again for 2 s, then again.
+  const double quiet_from = t;
+  std::vector<double> renewals;
+  for (; t < quiet_from + 4.5; t += 0.01) {
+    w.on_plan(t);
+    if (w.on_pass(t, true) == A::RenewReader) {
+      renewals.push_back(t - quiet_from);
+      w.renewed(t + 0.05);  // making the reader took 50 ms
+    }
+  }
+  REQUIRE(renewals.size() == 2);
+  CHECK(renewals[0] == Approx(1.0).margin(0.015));
+  CHECK(renewals[1] == Approx(1.0 + 0.05 + 2.0).margin(0.015));
+  CHECK(w.renewals() == 2);
+
+  // Samples and plans both stop (the module is gone, not the reader): no renewal; given up after 10 s.
+  InputWatch gone(r, 0.0);
+  gone.on_sample(0.0);
+  gone.on_plan(0.0);
+  A last = A::None;
+  double gave_up_at = -1.0;
+  for (double u = 0.01; u < 12.0 && gave_up_at < 0; u += 0.01) {
+    last = gone.on_pass(u, true);
+    CHECK(last != A::RenewReader);
+    if (last == A::GiveUp) gave_up_at = u;
+  }
+  CHECK(gave_up_at == Approx(10.0).margin(0.015));
+
+  // The robot's own stall (a pass 1.6 s after the last, SIGSTOP): the silence was its own; no renewal on return.
+  InputWatch stalled(r, 0.0);
+  stalled.on_sample(0.0);
+  stalled.on_plan(0.0);
+  CHECK(stalled.on_pass(0.01, true) == A::None);
+  stalled.on_plan(1.6);  // the plan's reader catches up at once on return; the samples come a tick later
+  CHECK(stalled.on_pass(1.61, true) == A::None);
+  CHECK(stalled.silent_s(1.61) == Approx(0.0));
+  // Silence after the return does count: samples still missing 1 s later, plans coming: renewed.
+  A after = A::None;
+  for (double u = 1.62; u < 2.7 && after == A::None; u += 0.01) {
+    stalled.on_plan(u);
+    after = stalled.on_pass(u, true);
+  }
+  CHECK(after == A::RenewReader);
+  CHECK(stalled.renewals() == 1);
 }

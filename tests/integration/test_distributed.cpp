@@ -579,29 +579,32 @@ TEST_CASE("a robot is restarted after a crash, and given up on after the intensi
 
 TEST_CASE("lockstep: both arms braked at once are released when their restarted robots answer", "[distributed]") {
   const int domain = test_domain(25);
-  // No standby: killing both robots brakes both arms (no live controller after 1 s of waiting, then driven to rest,
-  // ~0.15 s of ticks); each comes back restarted after 4 s. The backoff must outlast the spread of the two kills
-  // (each `tandem kill` finds the launcher on its own: measured up to 1 s apart) plus that 1 s wait: with 1.5 s
-  // the first robot was back before the second arm stopped, and no arm braked (CI, and 3 runs in 6 here). With
-  // both arms braked a lockstep tick is complete at once, and the world once took no command then: the new
-  // robots answered every tick, their commands piled up unread (the world's memory grew), and the arms stayed
-  // braked. Braked, the world ticks at ~1 kHz: ~3000 of the 9000 ticks, so both are back well before the end.
+  // No standby: both robots SIGKILLed at once brake both arms (no live controller after 1 s of waiting, then driven
+  // to rest, ~0.15 s of ticks); both come back restarted 4 s later. One signal for both: two `tandem kill`s each
+  // find the launcher on their own, up to 1 s apart, and with a short backoff the first robot was back before the
+  // second arm stopped (no arm braked), with a long one the released arm ran the task out before the second robot
+  // answered. With both arms braked a lockstep tick is complete at once, and the world once took no command then:
+  // the new robots answered every tick, their commands piled up unread (the world's memory grew), and the arms
+  // stayed braked. Braked, the world ticks at ~1 kHz (~4000 of the 20 s scenario's 20000 ticks).
+  std::string scenario = work_dir() + "/paper-20s.yaml";
+  (void)std::system(("sed 's/^  duration: 5.0 /  duration: 20.0 /' " + kSrc + "/config/scenarios/paper.yaml > " + scenario).c_str());
   const std::string deploy = write_deployment("bothbraked", domain, "SOSM", "lockstep", 0,
-                                              "    restart: on-failure\n    restart_backoff: 4\n", kCrashTransport, long_scenario());
+                                              "    restart: on-failure\n    restart_backoff: 4\n", kCrashTransport, scenario);
   const std::string summary = work_dir() + "/bothbraked.summary", up_log = work_dir() + "/bothbraked.log";
-  const std::string kill = kBin + "/tandem kill " + deploy + " ";
   const std::string cmd = kBin + "/tandem up " + deploy + " --summary " + summary + " > " + up_log + " 2>&1 & up=$!; " +
-                          after_first_tick(up_log, 0.3) + kill + "m1/left & " + kill + "m1/right; wait %1; " +
-                          "wait $up; echo up_rc=$?";
+                          after_first_tick(up_log, 0.3) + "pkill -9 -f \"tandem-[r]obot .*--domain " +
+                          std::to_string(domain) + " \"; echo killed=$?; wait $up; echo up_rc=$?";
   const Run r = run("bash -c '" + cmd + "'");
   const std::string log = read_file(up_log);
   INFO(r.output << "\n--- tandem up ---\n" << log);
+  REQUIRE(r.output.find("killed=0") != std::string::npos);
   CHECK(log.find("m1/left braked") != std::string::npos);
   CHECK(log.find("m1/right braked") != std::string::npos);
   CHECK(log.find("m1/left released") != std::string::npos);
   CHECK(log.find("m1/right released") != std::string::npos);
   CHECK(r.output.find("up_rc=0") != std::string::npos);
   const auto kv = read_summary(summary);
+  CHECK(kv.at("m1.ticks") == 20000);
   CHECK(kv.at("m1.slip_events") == 0);
   CHECK(kv.at("m1.contact_lost") == 0);
   CHECK_FALSE(processes_left(domain));
@@ -614,16 +617,18 @@ TEST_CASE("lockstep over shared memory: robots plugged one after another into a 
   // ~260 writes later every write of that arm's samples failed, for good: the arm braked and stayed braked (soak
   // run 24, every module). Reproduced here by plugging a third to seventh reader (without the fix: 1 run in 3 failed
   // with three plugs, 2 in 3 with five);
-  // dds::Writer clears the stuck history and writes again.
-  std::string scenario = work_dir() + "/paper-20s.yaml";
-  (void)std::system(("sed 's/^  duration: 5.0 /  duration: 20.0 /' " + kSrc + "/config/scenarios/paper.yaml > " + scenario).c_str());
+  // dds::Writer clears the stuck history and writes again. Lockstep's samples go by the shared-memory transport
+  // now (a killed reader could abort the world over data-sharing); a secured deployment keeps data-sharing, and
+  // TANDEM_SENSORS_DATA_SHARING=1 asks for it here.
+  std::string scenario = work_dir() + "/paper-40s.yaml";  // long enough for the five plugs on a busy machine
+  (void)std::system(("sed 's/^  duration: 5.0 /  duration: 40.0 /' " + kSrc + "/config/scenarios/paper.yaml > " + scenario).c_str());
   const std::string deploy = write_deployment("plugthird", domain, "SOSM", "lockstep", 0, "", "shm", scenario);
   const std::string summary = work_dir() + "/plugthird.summary", up_log = work_dir() + "/plugthird.log";
   const std::string t = kBin + "/tandem ";
   std::string plugs;
   for (int i = 0; i < 5; ++i) plugs += t + "plug " + deploy + " robot m1/left --standby; sleep 1; ";
-  const std::string cmd = t + "up " + deploy + " --summary " + summary + " > " + up_log + " 2>&1 & up=$!; " +
-                          after_first_tick(up_log, 0.3) + plugs + "wait $up; echo up_rc=$?";
+  const std::string cmd = "TANDEM_SENSORS_DATA_SHARING=1 " + t + "up " + deploy + " --summary " + summary + " > " +
+                          up_log + " 2>&1 & up=$!; " + after_first_tick(up_log, 0.3) + plugs + "wait $up; echo up_rc=$?";
   const Run r = run("bash -c '" + cmd + "'");
   const std::string log = read_file(up_log);
   INFO(r.output << "\n--- tandem up ---\n" << log);
@@ -632,7 +637,7 @@ TEST_CASE("lockstep over shared memory: robots plugged one after another into a 
   CHECK(log.find("was not written") == std::string::npos);
   CHECK(log.find("has no live controller") == std::string::npos);
   const auto kv = read_summary(summary);
-  CHECK(kv.at("m1.ticks") == 20000);
+  CHECK(kv.at("m1.ticks") == 40000);
   CHECK(kv.at("m1.braked_ticks") == 0);
   CHECK(kv.at("m1.slip_events") == 0);
   CHECK_FALSE(processes_left(domain));

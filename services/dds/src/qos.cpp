@@ -32,12 +32,14 @@ std::string private_shm_dir() {
 
 bool shares_data(TopicKind kind, bool data_sharing) {
   if (!per_tick(kind) || !data_sharing) return false;
-  if (kind != TopicKind::Torques && kind != TopicKind::TorquesRealtime) return true;
-  static const bool forced = [] {
-    const char* v = std::getenv("TANDEM_TORQUES_DATA_SHARING");
+  if (kind == TopicKind::SensorsRealtime) return true;
+  auto env_is_1 = [](const char* name) {
+    const char* v = std::getenv(name);
     return v != nullptr && std::string(v) == "1";
-  }();
-  return forced || secured();
+  };
+  static const bool torques_forced = env_is_1("TANDEM_TORQUES_DATA_SHARING");
+  static const bool sensors_forced = env_is_1("TANDEM_SENSORS_DATA_SHARING");
+  return (kind == TopicKind::Sensors ? sensors_forced : torques_forced) || secured();
 }
 
 namespace {

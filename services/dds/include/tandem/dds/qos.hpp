@@ -38,13 +38,17 @@ inline bool per_tick(TopicKind kind) {
 }
 
 /// Whether a per-tick topic's samples go by data-sharing (`data_sharing`: the participant's transport allows it).
-/// Sensor samples do. Torque commands of a plain deployment go by the shared-memory transport instead: their
-/// writers are the robots, which the failure model kills and restarts, and Fast DDS 2.9.1's data-sharing reader
-/// aborts its whole process when a writer dies at the wrong moment (an assertion in ReaderPool::
+/// Real-time sensor samples do. Torque commands of a plain deployment go by the shared-memory transport instead:
+/// their writers are the robots, which the failure model kills and restarts, and Fast DDS 2.9.1's data-sharing
+/// reader aborts its whole process when a writer dies at the wrong moment (an assertion in ReaderPool::
 /// init_shared_segment, or an uncaught "Interprocess mutex timeout when locking" on a lock the dead writer held;
-/// seen: a world in a soak; bench/peer_kill.sh reproduces both). The transport's reader survives it. A secured
-/// deployment keeps torques on data-sharing, whose segments are private to the user (docs/security.md); the
-/// transport's are not. TANDEM_TORQUES_DATA_SHARING=1 restores data-sharing for torques (benchmarks only).
+/// seen: a world in a soak; bench/peer_kill.sh reproduces both). The transport's reader survives it. Lockstep's
+/// sensor samples (reliable) go by the transport too: there the world, their writer, aborted on the same
+/// uncaught timeout when a robot reading its samples was killed (five worlds in lockstep soaks, none in three
+/// real-time hours; docs/soak.md, finding 45). A secured deployment keeps every per-tick topic on data-sharing,
+/// whose segments are private to the user (docs/security.md); the transport's are not.
+/// TANDEM_TORQUES_DATA_SHARING=1 and TANDEM_SENSORS_DATA_SHARING=1 restore data-sharing for torques and for
+/// lockstep's sensor samples (benchmarks and tests only).
 bool shares_data(TopicKind kind, bool data_sharing);
 
 /// Topic names. The per-tick topics are per module ("<base>/<module>"), so that a world and its robots receive

@@ -1,7 +1,7 @@
 // tandem record: a DDS participant of a deployment's domain that writes the chosen topics to an MCAP file
 // with Protobuf messages (services/record, docs/recording.md). Started by `tandem up` when the deployment has
 // `record:` (or `tandem up --record FILE`), or by hand beside a running deployment. It only reads: per-tick
-// samples arrive by the same data-sharing delivery the robots use, on the recorder's own listener threads,
+// samples arrive by the same delivery the robots use (dds::shares_data), on the recorder's own listener threads,
 // and are converted and appended to an in-memory chunk (written out every 1 MiB or second).
 #include "record_command.hpp"
 

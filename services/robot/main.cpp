@@ -1,8 +1,9 @@
-// tandem-robot: the controller of one arm, wiring only: robot::RobotCore (services/robot/include) follows the
-// module's plan and computes the law; this process feeds it its arm's sensor samples and the plans from DDS
-// and sends each command from the DDS thread that received the sample (no hand-off to another thread:
-// docs/architecture.md, "Per-tick data flow"). It also publishes status every 100 ticks and the summary at the
-// end; its last command says it is leaving.
+// tandem-robot: the controller of one arm, wiring only. robot::RobotCore (services/robot/include) follows the
+// module's plan and computes the law; robot::InputWatch says when the sensor reader is deaf or the inputs are
+// gone. This process feeds them its arm's sensor samples and the plans from DDS and sends each command from the
+// DDS thread that received the sample (no hand-off to another thread: docs/architecture.md, "Per-tick data
+// flow"). It also publishes status every 100 ticks and the summary at the end; its last command says it is
+// leaving.
 #include <tandemPubSubTypes.h>
 
 #include <algorithm>
@@ -200,6 +201,10 @@ int run(int argc, char** argv) {
   status.set(runtime::Lifecycle::Inactive, "waiting for the first tick");
 
   long reported_tick = -1;
+  {
+    std::lock_guard<std::mutex> lock(mu);
+    watch.renewed(seconds(Clock::now()));  // no renewal in the loop's first 2 s (start-up is not deafness)
+  }
   while (!runtime::g_stop) {
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
     std::unique_lock<std::mutex> lock(mu);

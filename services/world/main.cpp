@@ -187,27 +187,16 @@ int run(int argc, char** argv) {
       for (size_t j = 0; j < 2; ++j) {
         const world::SampleOut& o = samples[j];
         if (!o.publish && !all) continue;
-        s.tick(static_cast<uint64_t>(k));
-        s.t(o.t);
-        for (size_t i = 0; i < 3; ++i) {
-          s.q()[i] = o.q(static_cast<int>(i));
-          s.qd()[i] = o.qd(static_cast<int>(i));
-        }
-        s.h()[0] = o.h(0);
-        s.h()[1] = o.h(1);
-        s.braked(o.braked);
-        for (size_t i = 0; i < 3; ++i) s.tau()[i] = o.tau_applied(static_cast<int>(i));
-        s.from(o.applied_from);
-        s.plan_epoch(plan_rank.epoch);
-        s.plan_strength(plan_rank.strength);
-        s.plan_version(plan_version);
-        s.plan_since(plan_since);
+        world_wire::fill_sample(o, k, plan_rank, plan_version, plan_since, s);
         const bool written = sensors[j]->write(s);
         if (sensors[j]->history_clears() != history_clears[j]) {
-          history_clears[j] = sensors[j]->history_clears();
-          std::fprintf(stderr, "tandem-world %s: tick %ld: the sample writer of %s had a full pool (a change never "
-                       "acknowledged, Fast DDS 2.9): its history cleared (%ld so far)\n", opt.module.c_str(), k,
-                       ctx.arm_id(static_cast<int>(j)).c_str(), history_clears[j]);
+          // Said at the 1st, 2nd, 4th, 8th ... clear of the arm, as the failures below.
+          const long n = history_clears[j] = sensors[j]->history_clears();
+          if ((n & (n - 1)) == 0) {
+            std::fprintf(stderr, "tandem-world %s: tick %ld: the sample writer of %s had a full pool (a change never "
+                         "acknowledged, Fast DDS 2.9): its history cleared (%ld so far)\n", opt.module.c_str(), k,
+                         ctx.arm_id(static_cast<int>(j)).c_str(), n);
+          }
         }
         if (!written) {
           // Fast DDS refused the sample (a writer history held full by a reader that does not acknowledge): said

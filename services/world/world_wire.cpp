@@ -2,6 +2,25 @@
 
 namespace tandem::world_wire {
 
+void fill_sample(const world::SampleOut& o, long k, const plan::SupervisorRank& plan_rank, uint64_t plan_version,
+                 long plan_since, msg::ArmSensors& s) {
+  s.tick(static_cast<uint64_t>(k));
+  s.t(o.t);
+  for (size_t i = 0; i < 3; ++i) {
+    s.q()[i] = o.q(static_cast<int>(i));
+    s.qd()[i] = o.qd(static_cast<int>(i));
+    s.tau()[i] = o.tau_applied(static_cast<int>(i));
+  }
+  s.h()[0] = o.h(0);
+  s.h()[1] = o.h(1);
+  s.braked(o.braked);
+  s.from(o.applied_from);
+  s.plan_epoch(plan_rank.epoch);
+  s.plan_strength(plan_rank.strength);
+  s.plan_version(plan_version);
+  s.plan_since(plan_since);
+}
+
 void fill_summary(const world::WorldCore& core, const std::string& module, long ticks, bool realtime,
                   unsigned long long overruns, const runtime::Histogram& latency_us,
                   const runtime::Histogram& wake_late_us, msg::WorldSummary& ws) {

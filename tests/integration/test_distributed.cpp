@@ -627,6 +627,9 @@ TEST_CASE("lockstep over shared memory: robots plugged one after another into a 
   const std::string t = kBin + "/tandem ";
   std::string plugs;
   for (int i = 0; i < 5; ++i) plugs += t + "plug " + deploy + " robot m1/left --standby; sleep 1; ";
+  // The world's sample writers really go by data-sharing here (they map its segments): otherwise this tests nothing.
+  plugs += "echo ds_maps=$(grep -c fast_datasharing /proc/$(pgrep -f \"tandem-[w]orld .*--domain " +
+           std::to_string(domain) + " \")/maps); ";
   const std::string cmd = "TANDEM_SENSORS_DATA_SHARING=1 " + t + "up " + deploy + " --summary " + summary + " > " +
                           up_log + " 2>&1 & up=$!; " + after_first_tick(up_log, 0.3) + plugs + "wait $up; echo up_rc=$?";
   const Run r = run("bash -c '" + cmd + "'");
@@ -634,6 +637,9 @@ TEST_CASE("lockstep over shared memory: robots plugged one after another into a 
   INFO(r.output << "\n--- tandem up ---\n" << log);
   CHECK(r.output.find("up_rc=0") != std::string::npos);
   CHECK(log.find("plugged a robot into m1/left as a standby (ownership strength 46)") != std::string::npos);
+  const auto ds = r.output.find("ds_maps=");
+  REQUIRE(ds != std::string::npos);
+  CHECK(std::atoi(r.output.c_str() + ds + 8) > 0);
   CHECK(log.find("was not written") == std::string::npos);
   CHECK(log.find("has no live controller") == std::string::npos);
   const auto kv = read_summary(summary);

@@ -1163,20 +1163,38 @@ TEST_CASE("robot input watch: a deaf sensor reader is renewed while the plan com
   }
   CHECK(gave_up_at == Approx(10.0).margin(0.015));
 
-  // The robot's own stall (a pass 1.6 s after the last, SIGSTOP): the silence was its own; no renewal on return.
+  // The robot's own stall (a pass 1.6 s after the last, SIGSTOP), well after start-up (t = 5 s): the silence was its
+  // own; no renewal on return, and the silence counts from the return (without the rule: renewed at once).
   InputWatch stalled(r, 0.0);
-  stalled.on_sample(0.0);
-  stalled.on_plan(0.0);
-  CHECK(stalled.on_pass(0.01, true) == A::None);
-  stalled.on_plan(1.6);  // the plan's reader catches up at once on return; the samples come a tick later
-  CHECK(stalled.on_pass(1.61, true) == A::None);
-  CHECK(stalled.silent_s(1.61) == Approx(0.0));
-  // Silence after the return does count: samples still missing 1 s later, plans coming: renewed.
-  A after = A::None;
-  for (double u = 1.62; u < 2.7 && after == A::None; u += 0.01) {
+  for (double u = 0.0; u < 5.0; u += 0.01) {
+    stalled.on_sample(u);
     stalled.on_plan(u);
-    after = stalled.on_pass(u, true);
+    REQUIRE(stalled.on_pass(u, true) == A::None);
   }
-  CHECK(after == A::RenewReader);
+  stalled.on_plan(6.6);  // the plan's reader catches up at once on return; the samples do not come back
+  CHECK(stalled.on_pass(6.6, true) == A::None);
+  CHECK(stalled.silent_s(6.6) == Approx(0.0));
+  double renewed_at = -1.0;
+  for (double u = 6.61; u < 8.0 && renewed_at < 0; u += 0.01) {
+    stalled.on_plan(u);
+    if (stalled.on_pass(u, true) == A::RenewReader) renewed_at = u;
+  }
+  CHECK(renewed_at == Approx(6.6 + 1.0).margin(0.015));  // 1 s of silence after the return
   CHECK(stalled.renewals() == 1);
+
+  // Both due in one pass (samples silent for 2 s while plans come, a timeout of 2 s, no renewal for 2 s):
+  // giving up wins, and no renewal came before it.
+  InputWatch::Rules r2;
+  r2.timeout_s = 2.0;
+  InputWatch both(r2, 0.0);
+  A first = A::None;
+  double first_at = -1.0;
+  for (double u = 0.01; u < 3.0 && first == A::None; u += 0.01) {
+    both.on_plan(u);
+    first = both.on_pass(u, true);
+    first_at = u;
+  }
+  CHECK(first == A::GiveUp);
+  CHECK(first_at == Approx(2.0).margin(0.015));
+  CHECK(both.renewals() == 0);
 }

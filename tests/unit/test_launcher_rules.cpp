@@ -112,6 +112,9 @@ TEST_CASE("launcher rules: supervisors: a standby carries on, a lost plan restar
   ExitFacts lost = running(Role::Supervisor, exit_code::kLostPlan);
   lost.live_peers = 1;
   CHECK(on_exit(lost) == ExitVerdict::ModuleLostPlan);
+  lost.peer_leads = true;  // another supervisor leads: this one was only deaf to it, and restarts alone
+  CHECK(on_exit(lost) == ExitVerdict::Restart);
+  lost.peer_leads = false;
   lost.coordinated = false;  // a scenario run has no coordinator to re-plan the task: the standby carries on
   CHECK(on_exit(lost) == ExitVerdict::Restart);
   ExitFacts drained = running(Role::Supervisor, 0);

@@ -297,6 +297,30 @@ TEST_CASE("launcher supervisor: a module whose supervisor lost its plan is stopp
   CHECK(f.sup.modules().at("m1").end.empty());
 }
 
+TEST_CASE("launcher supervisor: a standby with no plan to follow while another supervisor leads restarts alone", "[launcher]") {
+  ModuleSpec m = module_m1(0, "on-failure");
+  m.supervisor_standby = 1;
+  Fixture f(true, m);
+  REQUIRE(f.running("m1/supervisor@50"));
+  // The standby leads (it took over); the primary, restarted, never heard it and exits 5 after 6 s.
+  (void)f.sup.on_status("m1/supervisor@50", f.pid("m1/supervisor@50"), true, true, true);
+  f.exit("m1/supervisor", tandem::launcher::exit_code::kLostPlan, 8.0);
+  CHECK_FALSE(f.rec.said("tandem up: module m1 lost its plan (m1/supervisor had no leader to follow); restarting the module\n"));
+  CHECK(f.rec.said("tandem up: m1/supervisor had no plan to follow, but m1/supervisor@50 leads module m1: it was deaf to "
+                   "its leader (it comes back as a standby, with a fresh participant)\n"));
+  CHECK(f.sup.plan_restarts() == 0);
+  for (const char* l : {"m1/world", "m1/left", "m1/right", "m1/supervisor@50"}) CHECK(f.rec.signals_to(l).empty());
+  f.poll(8.5);
+  const auto s = f.starts_after(8.0);
+  REQUIRE(s.size() == 1);
+  CHECK(s[0].label.rfind("m1/supervisor", 0) == 0);
+  // Without a leader (the standby's status says standby), the same exit restarts the module.
+  Fixture g(true, m);
+  (void)g.sup.on_status("m1/supervisor@50", g.pid("m1/supervisor@50"), true, true, false);
+  g.exit("m1/supervisor", tandem::launcher::exit_code::kLostPlan, 8.0);
+  CHECK(g.rec.said("tandem up: module m1 lost its plan (m1/supervisor had no leader to follow); restarting the module\n"));
+}
+
 TEST_CASE("launcher supervisor: a robot unplugged with SIGTERM that is still there after 5 s gets SIGKILL", "[launcher]") {
   Fixture f(true, module_m1(1, "never"));
   Request r;

@@ -145,3 +145,23 @@ TEST_CASE("security on several hosts: an identity per agent that may only write 
     CHECK(std::count(id.publish.begin(), id.publish.end(), "tandem/agent_request") == 0);
   }
 }
+
+TEST_CASE("deployment: a task name given twice is refused, naming both; 12 000 tasks load in well under a second", "[multihost]") {
+  const std::string mod = "modules:\n  - {name: m1, scenario: " + kScenario + ", case: SOSM}\n";
+  const std::string seg = ", segments: [{to: [0.2, 0.8, 0.0], duration: 1.0}]}\n";
+  const std::string dup = refusal(mod + "coordinator:\n  tasks:\n    - {name: a" + seg + "    - {name: b" + seg +
+                                  "    - {name: a" + seg);
+  INFO(dup);
+  CHECK(dup.find("task names must be unique ('a' twice)") != std::string::npos);
+  CHECK(dup.find("tasks[2]") != std::string::npos);
+  // A soak's hour derives about 12 000 tasks; every coordinator start loads them. The name check is linear now
+  // (it was pairwise: 72 million comparisons). Not a timing assertion: the load must simply finish and keep order.
+  std::string many = mod + "coordinator:\n  tasks:\n";
+  for (int i = 0; i < 12000; ++i) many += "    - {name: t" + std::to_string(i) + seg;
+  const std::string path = write(many);
+  const auto d = tandem::runtime::load_deployment(path);
+  std::remove(path.c_str());
+  REQUIRE(d.tasks.size() == 12000);
+  CHECK(d.tasks.front().name == "t0");
+  CHECK(d.tasks.back().name == "t11999");
+}

@@ -128,9 +128,10 @@ fdds::DataWriterQos writer_qos(TopicKind kind, int32_t /*strength*/, bool data_s
     q.reliable_writer_qos().times.heartbeatPeriod = eprosima::fastrtps::Duration_t(0, 100000000);
   }
   if (kind == TopicKind::Sensors || kind == TopicKind::Torques) {
-    // Lockstep over UDP: a datagram a reader lost (a recorder's socket overflowing while it was descheduled)
-    // is repaired only after the writer's next heartbeat (3 s by default), long after 256 ticks have pushed
-    // it out of the history. 20 ms keeps the repair inside the history (docs/recording.md).
+    // Lockstep over a transport (UDP, or shared memory: lockstep's samples no longer go by data-sharing): a
+    // message a reader lost (a recorder's socket or port overflowing while it was descheduled) is repaired only
+    // after the writer's next heartbeat (3 s by default), long after 256 ticks have pushed it out of the
+    // history. 20 ms keeps the repair inside the history (docs/recording.md).
     q.reliable_writer_qos().times.heartbeatPeriod = eprosima::fastrtps::Duration_t(0, 20000000);
   }
   return q;

@@ -29,7 +29,13 @@ ExitVerdict on_exit(const ExitFacts& f) {
     if (f.status == exit_code::kDone && !f.restart_always) return ExitVerdict::Nothing;  // its task is done
     return ExitVerdict::Restart;
   }
-  if (f.role == Role::Supervisor && f.status == exit_code::kLostPlan && f.coordinated) return ExitVerdict::ModuleLostPlan;
+  // Exit 5 (no plan to follow: it never heard a leader, and the object is not where the initial plan has it) means
+  // the module lost its plan only if no other supervisor leads it. With a leader alive, this standby was merely
+  // deaf to it (a new participant that did not match the leader's writer in 6 s, on a loaded machine): it restarts
+  // alone, with a fresh participant, as exit 6 does (soak run 26 restarted a module whose leader was alive).
+  if (f.role == Role::Supervisor && f.status == exit_code::kLostPlan && f.coordinated && !f.peer_leads) {
+    return ExitVerdict::ModuleLostPlan;
+  }
   // Hot standby: another supervisor of the module carries on with the same plan (tier 1); this one comes back as a
   // standby if its policy says so (a deaf one, exit 6, with a fresh participant).
   if (f.role == Role::Supervisor && !(f.status == exit_code::kDone && !f.coordinated) && f.live_peers > 0) {

@@ -232,6 +232,13 @@ int Supervisor::running() const {
 
 bool Supervisor::busy() const { return running() > 0 || (!pending_restarts_.empty() && !stopping_); }
 
+const Child* Supervisor::leader_of(const std::string& slot, const Child* except) const {
+  for (const auto& c : children_) {
+    if (c.running && !c.expected && c.arm == slot && c.leads && &c != except) return &c;
+  }
+  return nullptr;
+}
+
 int Supervisor::live_coordinators() const {
   int n = 0;
   for (const auto& c : children_) n += (c.running && c.role == "coordinator") ? 1 : 0;
@@ -702,6 +709,7 @@ void Supervisor::handle_exit(Child& c, double now) {
     f.restart_always = mr->spec.restart.policy == "always";
   }
   f.live_peers = *role == Role::Coordinator ? live_coordinators() : live_robots(c.arm);
+  f.peer_leads = *role == Role::Supervisor && leader_of(c.arm, &c) != nullptr;
   const std::string code = std::to_string(c.status);
   switch (launcher::on_exit(f)) {
     case ExitVerdict::Nothing:
@@ -768,6 +776,12 @@ void Supervisor::handle_exit(Child& c, double now) {
            f.live_peers > 0 ? "a standby coordinator carries on" : "a new coordinator will take over");
       return;
     case Role::Supervisor:
+      if (c.status == exit_code::kLostPlan && f.peer_leads) {
+        logf("tandem up: %s had no plan to follow, but %s leads module %s: it was deaf to its leader%s\n",
+             c.label.c_str(), leader_of(c.arm, &c)->label.c_str(), c.module.c_str(),
+             restarting ? " (it comes back as a standby, with a fresh participant)" : "");
+        return;
+      }
       logf("tandem up: %s exited with code %d; a standby supervisor carries on%s\n", c.label.c_str(), c.status,
            restarting ? " (the exited one comes back as a standby)" : "");
       return;

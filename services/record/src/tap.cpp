@@ -1,5 +1,5 @@
 // The tap (tap.hpp): the recorder's and the viewer's reading of a deployment's domain. Per-tick samples are
-// taken on the listener threads Fast DDS delivers them on (the same data-sharing delivery the robots use);
+// taken on the listener threads Fast DDS delivers them on (the same delivery the robots use: dds::shares_data);
 // the keyed topics in poll().
 #include "tandem/record/tap.hpp"
 

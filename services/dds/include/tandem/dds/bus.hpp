@@ -80,11 +80,12 @@ class Writer {
     // robot was plugged (soak run 24; fixed upstream by Fast DDS PR #5859, in 3.5). Clearing the history frees
     // the whole ring; a reader that had not yet read the cleared samples misses them (readers detect that).
     size_t removed = 0;
-    writer_->clear_history(&removed);
+    if (writer_->clear_history(&removed) != ReturnCode_t::RETCODE_OK) return false;
     ++history_clears_;
     return writer_->write(&sample, fdds::HANDLE_NIL) == ReturnCode_t::RETCODE_OK;
   }
-  /// How often write() found the pool dry and cleared the history (0 in a healthy run).
+  /// How often write() found the pool dry and cleared the history (0 in a healthy run; a secured deployment's
+  /// lockstep topics are the ones that can need it: the others do not go by data-sharing).
   long history_clears() const { return history_clears_; }
   /// Waits until every matched reader has acknowledged what was written (reliable topics), up to timeout_s.
   bool wait_for_acks(double timeout_s) {

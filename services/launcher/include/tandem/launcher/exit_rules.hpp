@@ -34,6 +34,8 @@ struct ExitFacts {
   /// Live processes of its slot other than itself: coordinators; the module's other supervisors; its arm's other
   /// robots.
   int live_peers = 0;
+  /// Supervisors: another live supervisor of its module leads it (its latest status says so).
+  bool peer_leads = false;
 };
 
 enum class ExitVerdict {

@@ -277,6 +277,8 @@ class Supervisor {
   bool launch(Child& c, const char* note, double now);
   int standby_strength(const std::string& arm) const;
   const Child* primary_of(const std::string& arm) const;
+  /// A live supervisor of the slot ("<module>/supervisor") other than `except` whose status says it leads.
+  const Child* leader_of(const std::string& slot, const Child* except) const;
   int live_robots(const std::string& arm, const Child* except = nullptr) const;
   int live_coordinators() const;
   Child* find_running(const std::string& label);

@@ -72,6 +72,9 @@ int run(int argc, char** argv) {
   so.strength = opt.strength;
   so.continuous = opt.continuous;
   so.transient_s = ctx.scenario.transient;
+  // Lockstep: the world waits for the leader's plan to have heard its recent ticks (world::WorldCore::
+  // plan_lease_ok): a plan at every world report.
+  so.lease_every = opt.realtime ? 0 : plan::kPlanLeaseTicks;
   supervisor::SupervisorCore core(ctx.module, so, now_ns());
   core.set_log([&](const std::string& line) {
     std::printf("tandem-supervisor %s: %s\n", self_id.c_str(), line.c_str());

@@ -142,7 +142,7 @@ int run(int argc, char** argv) {
   if (runtime::raise_to_realtime_from_env() < 0) std::fprintf(stderr, "tandem: could not raise to SCHED_FIFO once active\n");
   long k = 0;
   std::array<long, 2> write_failures{0, 0}, history_clears{0, 0};
-  for (; k < m.steps && !runtime::g_stop; ++k) {
+  auto take_plans = [&] {
     while (plans.take(plan_in)) {
       std::string why;
       if (plan_in.module_id() == opt.module) {
@@ -152,6 +152,43 @@ int run(int argc, char** argv) {
                        o == plan::PlanFollower::Offer::Rejected ? "a plan was refused: " : "", why.c_str());
         }
       }
+    }
+  };
+  // Lockstep: the world runs no further ahead of the leader it follows than the plan's lease (WorldCore::
+  // plan_lease_ok); a leader that does not renew it within kLeaseWaitS (none alive, or all stalled) is not waited
+  // for again until it does.
+  constexpr double kLeaseWaitS = 2.0;
+  long lapsed_lease = -2;
+  long lease_waits = 0;
+  double lease_wait_s = 0.0;
+  bool reported = false;  // a report went out (the lease wait sends the latest again)
+  for (; k < m.steps && !runtime::g_stop; ++k) {
+    take_plans();
+    if (!opt.realtime && !core.plan_lease_ok(k) && core.plan_lease() != lapsed_lease) {
+      const auto w0 = std::chrono::steady_clock::now();
+      ++lease_waits;
+      double waited = 0.0;
+      int resent = 0;
+      while (!runtime::g_stop && !core.plan_lease_ok(k)) {
+        waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
+        if (waited > kLeaseWaitS) {
+          lapsed_lease = core.plan_lease();
+          std::fprintf(stderr, "tandem-world %s: tick %ld: no plan from the leader that has heard tick %ld or later "
+                       "within %.1f s; going on without waiting for it until it renews its lease\n", opt.module.c_str(),
+                       k, k - plan::kPlanLeaseTicks, kLeaseWaitS);
+          break;
+        }
+        publish_status_if_changed();
+        // The latest report again every 20 ms: the supervisors see the world alive, so a standby takes over from a
+        // leader that fell silent (its takeover rule wants reports flowing) instead of waiting with the world.
+        if (reported && waited > 0.02 * static_cast<double>(resent + 1)) {
+          report.write(rep);
+          ++resent;
+        }
+        (void)plans.wait(0.005);
+        take_plans();
+      }
+      lease_wait_s += waited;
     }
     const long long sent = now_ns();
     core.begin_tick(k, sent, samples);
@@ -227,6 +264,7 @@ int run(int argc, char** argv) {
       rep.plan_strength(r.plan_rank.strength);
       rep.plan_version(r.plan_version);
       report.write(rep);
+      reported = true;
     }
     // Real time: the tick ends at an absolute deadline; lockstep: when every arm that is not braked has its
     // command in (a braked arm's robot may answer too: that releases it).
@@ -296,6 +334,10 @@ int run(int argc, char** argv) {
     if (opt.realtime) clock.advance();
   }
 
+  if (lease_waits > 0) {
+    std::printf("tandem-world %s: waited for the leader's plan %ld time(s), %.2f s in all (lockstep)\n",
+                opt.module.c_str(), lease_waits, lease_wait_s);
+  }
   if (inbox.dropped() > 0) {
     std::fprintf(stderr, "tandem-world %s: %llu torque command(s) dropped unread: the queue was full\n", opt.module.c_str(),
                  inbox.dropped());

@@ -1198,3 +1198,97 @@ TEST_CASE("robot input watch: a deaf sensor reader is renewed while the plan com
   CHECK(first_at == Approx(2.0).margin(0.015));
   CHECK(both.renewals() == 0);
 }
+
+TEST_CASE("lockstep lease: the world runs at most 10 ticks past what its leader heard; the leader publishes at every report; a standby still takes over a silent leader", "[components]") {
+  const ts::ModuleSetup& m = sosm();
+  const int64_t ms = 1000000;
+  using tandem::plan::kPlanLeaseTicks;
+  // The world's side: the lease is the newest heard_tick of the followed leader's plans (heartbeats count), reset by
+  // a new rank; no plan, or a plan that does not say (heard_tick < 0), does not hold the world.
+  WorldCore world(m, world_options(false));
+  CHECK(world.plan_lease_ok(1000));
+  tandem::plan::PlanData p;
+  p.supervisor_id = "m1/supervisor";
+  p.version = 1;
+  p.heard_tick = -1;
+  REQUIRE(world.offer_plan(p) == tandem::plan::PlanFollower::Offer::Adopted);
+  CHECK(world.plan_lease_ok(1000));
+  p.heard_tick = 100;  // the same plan again (a heartbeat), now with the tick its leader heard
+  (void)world.offer_plan(p);
+  CHECK(world.plan_lease_ok(100 + kPlanLeaseTicks));
+  CHECK_FALSE(world.plan_lease_ok(101 + kPlanLeaseTicks));
+  p.heard_tick = 90;  // an older heartbeat arriving late does not take the lease back
+  (void)world.offer_plan(p);
+  CHECK(world.plan_lease() == 100);
+  tandem::plan::PlanData stale = p;  // a lower rank (a former leader) does not move it
+  stale.epoch = 0;
+  stale.strength = 50;
+  stale.heard_tick = 500;
+  (void)world.offer_plan(stale);
+  CHECK(world.plan_lease() == 100);
+  tandem::plan::PlanData taker = p;  // a takeover: the new leader's own view counts from now
+  taker.supervisor_id = "m1/supervisor@50";
+  taker.epoch = 1;
+  taker.strength = 50;
+  taker.heard_tick = 95;
+  REQUIRE(world.offer_plan(taker) == tandem::plan::PlanFollower::Offer::Adopted);
+  CHECK(world.plan_lease() == 95);
+
+  // The supervisor's side: with a lease, the leader's plan goes out at every report (every 10 ticks), without
+  // one only on a change or the 20 ms heartbeat. Reports 1 ms apart here, so the heartbeat is not due.
+  SupervisorOptions leased{"m1/supervisor", 100, true, 0.1, kPlanLeaseTicks}, plain{"m1/supervisor", 100, true, 0.1, 0};
+  SupervisorCore a(m, leased, 0), b(m, plain, 0);
+  int a_plans = 0, b_plans = 0;
+  long last_heard = -1;
+  for (long k = 0; k <= 200; k += 10) {
+    const int64_t now = (k / 10) * ms;
+    a.on_report(report_at(k), now);
+    b.on_report(report_at(k), now);
+    a.update(now);
+    b.update(now);
+    if (auto q = a.take_plan()) {  // (at k = 0: the plan it published when it started, before any report)
+      ++a_plans;
+      if (k > 0) CHECK(q->heard_tick == k);
+      last_heard = q->heard_tick;
+    }
+    b_plans += b.take_plan().has_value();
+  }
+  CHECK(a_plans == 21);
+  CHECK(last_heard == 200);
+  CHECK(b_plans <= 2);  // its first plan, and one heartbeat at most
+
+  // A leader that falls silent while the world waits at its lease: the world resends its last report (same tick),
+  // and the standby, which saw the world 10 ticks past the leader's last plan, takes over after 50 ms.
+  SupervisorOptions lo{"m1/supervisor", 100, true, 0.1, kPlanLeaseTicks}, so{"m1/supervisor@50", 50, true, 0.1, kPlanLeaseTicks};
+  SupervisorCore leader(m, lo, 0), standby(m, so, 0);
+  leader.on_assignment(1, "out", {0.0, 0.8, 0.0, 1.0});
+  standby.on_assignment(1, "out", {0.0, 0.8, 0.0, 1.0});
+  long k = 0;
+  for (; k <= 300; k += 10) {
+    const int64_t now = k * ms / 4;  // lockstep: 4 ticks a millisecond
+    leader.on_report(report_at(k), now);
+    standby.on_report(report_at(k), now);
+    leader.update(now);
+    if (auto q = leader.take_plan()) standby.on_plan(*q, now);
+    standby.update(now);
+  }
+  REQUIRE_FALSE(standby.active());
+  // The leader stops; its last plan heard tick 300: the world runs to 310 and waits there, resending that report.
+  const int64_t stop = k * ms / 4;
+  bool took = false;
+  int64_t took_at = 0;
+  for (int64_t t = stop; t < stop + 200 * ms && !took; t += 20 * ms) {
+    standby.on_report(report_at(300 + kPlanLeaseTicks), t);
+    standby.update(t);
+    if (standby.active()) {
+      took = true;
+      took_at = t - stop;
+    }
+  }
+  CHECK(took);
+  CHECK(took_at <= 80 * ms);
+  const auto q = standby.take_plan();
+  REQUIRE(q.has_value());
+  CHECK(q->epoch == 1);
+  CHECK(q->heard_tick == 300 + kPlanLeaseTicks);  // the world's lease moves on from where it waits
+}

@@ -33,7 +33,8 @@ TaskStateCode SupervisorCore::state() const {
 void SupervisorCore::publish_plan(TaskStateCode st, int64_t now_ns) {
   const bool changed = plan_.version() != plan_sent_version_ || pause_requested_ != plan_sent_pause_ ||
                        draining_ != plan_sent_drain_ || static_cast<uint8_t>(st) != plan_sent_state_;
-  if (!changed && now_ns - plan_sent_at_ < kHeartbeatNs) return;
+  const bool lease_due = o_.lease_every > 0 && heard_tick_ >= plan_sent_heard_ + o_.lease_every;
+  if (!changed && !lease_due && now_ns - plan_sent_at_ < kHeartbeatNs) return;
   plan::PlanData p;
   plan_.export_to(p);
   p.supervisor_id = o_.self_id;
@@ -49,6 +50,7 @@ void SupervisorCore::publish_plan(TaskStateCode st, int64_t now_ns) {
   plan_sent_drain_ = draining_;
   plan_sent_state_ = static_cast<uint8_t>(st);
   plan_sent_at_ = now_ns;
+  plan_sent_heard_ = heard_tick_;
 }
 
 void SupervisorCore::publish_state(bool force, int64_t now_ns) {
@@ -291,8 +293,11 @@ void SupervisorCore::update(int64_t now_ns) {
     give_up(first_world_, "never heard a leader, but the world's plan changed meanwhile",
             "never heard a leader, and the object is not where the initial plan has it: not taking over");
   }
+  // Silent in wall time and in ticks. Lockstep (a lease): the world runs no further than kPlanLeaseTicks past what
+  // the leader had heard, so a silent leader shows as half a lease of ticks, not kTakeOverTicks (never reached).
+  const long silent_ticks = o_.lease_every > 0 ? o_.lease_every / 2 : kTakeOverTicks;
   const bool leader_silent =
-      heard_stronger_ && now_ns - last_stronger_ > kTakeOverAfterNs && heard_tick_ - stronger_tick_ > kTakeOverTicks;
+      heard_stronger_ && now_ns - last_stronger_ > kTakeOverAfterNs && heard_tick_ - stronger_tick_ > silent_ticks;
   // A silent leader is replaced only by a replica that has its plan: the object is where the replica's plan has it.
   const double replica_off =
       object_known_ && heard_tick_ >= 0 ? (plan_.sample(heard_tick_).pose.head<2>() - object_xy_).norm() : 0.0;

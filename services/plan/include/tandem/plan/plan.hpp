@@ -50,6 +50,15 @@ inline const char* task_state_name(uint8_t state) {
 }
 
 /// The plan as it travels (SupervisorPlan on the wire; services/runtime converts).
+/// Lockstep: the world runs at most this many ticks past the newest world tick the leader it follows had heard
+/// when it published its plan (PlanData::heard_tick), and the leader publishes at every world report (every
+/// world::WorldCore::kReportEvery ticks, which must not exceed this, or the world would wait for a report it has
+/// not sent). A change the leader schedules supervisor::SupervisorCore::kLeadTicks (20) after the tick it heard
+/// then never lands in the world's past: without this, a leader hundreds of ticks behind a lockstep world started a
+/// task where the path had already moved on, the references jumped about 20 mm and the object was dropped (soak
+/// run 26, docs/soak.md).
+constexpr long kPlanLeaseTicks = 10;
+
 struct PlanData {
   std::string supervisor_id;
   int32_t strength = kPrimaryStrength;

@@ -23,6 +23,11 @@ struct SupervisorOptions {
   int32_t strength = plan::kPrimaryStrength;
   bool continuous = false;  ///< tasks from the coordinator (else the scenario's task)
   double transient_s = 0.1; ///< start-up interval excluded from the grasp watch
+  /// Lockstep: the leader publishes its plan (with the newest world tick it has heard, PlanData::heard_tick) at
+  /// every report that advances that tick by this many, besides every change and the 20 ms heartbeat. The world
+  /// runs no further than about this past it (world::WorldCore::plan_lease_ok), so that a change the leader
+  /// schedules kLeadTicks after the tick it heard never lands in the world's past. 0: off (real time).
+  long lease_every = 0;
 };
 
 /// The world's report (WorldReport on the wire).
@@ -192,6 +197,7 @@ class SupervisorCore {
   plan::TaskStateCode reported_ = plan::TaskStateCode::Idle;
   int64_t last_state_sent_;
   uint64_t plan_sent_version_ = ~0ULL;
+  long plan_sent_heard_ = -1;  ///< heard_tick_ of the plan last published
   bool plan_sent_pause_ = false, plan_sent_drain_ = false;
   uint8_t plan_sent_state_ = 255;
   int64_t plan_sent_at_ = -(1LL << 62);

@@ -6,6 +6,7 @@
 // (services/world/main.cpp) adds the timing policy (deadlines, waits, re-publishing) and DDS.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <functional>
@@ -144,10 +145,25 @@ class WorldCore {
   /// leader's plans can tell (robot::RobotCore::cut_off).
   plan::SupervisorRank plan_rank() const { return follower_.has_plan() ? follower_.rank() : plan::SupervisorRank{}; }
   plan::PlanFollower::Offer offer_plan(const plan::PlanData& p, std::string* why = nullptr) {
+    const plan::SupervisorRank before = follower_.rank();
     const plan::PlanFollower::Offer o = follower_.offer(p, why, k_);
     if (o == plan::PlanFollower::Offer::Adopted) plan_since_ = k_;
+    // The lease: the newest tick the followed leader had heard (its heartbeats count too; a new rank starts anew).
+    const plan::SupervisorRank r = p.rank();
+    const bool followed = follower_.has_plan() && r.epoch == follower_.rank().epoch && r.strength == follower_.rank().strength;
+    if (followed) {
+      const bool new_rank = before.epoch != r.epoch || before.strength != r.strength;
+      lease_tick_ = new_rank ? p.heard_tick : std::max(lease_tick_, static_cast<long>(p.heard_tick));
+    }
     return o;
   }
+  static_assert(kReportEvery <= plan::kPlanLeaseTicks, "the lease must cover a report period, or lockstep deadlocks");
+  /// Lockstep: whether tick k may run. No further than plan::kPlanLeaseTicks past the newest tick the followed
+  /// leader had heard when it published (PlanData::heard_tick), so that its changes (scheduled kLeadTicks after
+  /// that tick) never land in the world's past. Always true before a plan is followed, or for a plan that does
+  /// not say what it heard (heard_tick < 0).
+  bool plan_lease_ok(long k) const { return !follower_.has_plan() || lease_tick_ < 0 || k <= lease_tick_ + plan::kPlanLeaseTicks; }
+  long plan_lease() const { return lease_tick_; }
   /// The version of the plan followed (0 before any), and the tick at which it was adopted: sent with every sample
   /// too, so that a robot with an older version of the same plan can tell (robot::RobotCore::world_plan).
   uint64_t plan_version() const { return follower_.has_plan() ? follower_.version() : 0; }
@@ -307,6 +323,7 @@ class WorldCore {
   model::ModulePlant plant_;
   plan::PlanFollower follower_;
   long plan_since_ = 0;  ///< the tick at which the plan's current version was adopted
+  long lease_tick_ = -1;  ///< the newest world tick the followed leader had heard (plan_lease_ok)
   std::function<void(const std::string&)> log_;
   std::array<ArmLink, 2> link_{};
   std::array<bool, 2> have_{false, false};

@@ -19,7 +19,7 @@ namespace {
 const std::string kScenario = std::string(TANDEM_SOURCE_DIR) + "/config/scenarios/paper.yaml";
 
 std::string write(const std::string& body) {
-  const std::string path = "/tmp/tandem-unit-multihost-" + std::to_string(::getpid()) + ".yaml";
+  std::string path = "/tmp/tandem-unit-multihost-" + std::to_string(::getpid()) + ".yaml";
   std::ofstream(path) << "name: mh\ndomain_id: 9\n" << body;
   return path;
 }

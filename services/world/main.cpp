@@ -156,12 +156,31 @@ int run(int argc, char** argv) {
   };
   // Lockstep: the world runs no further ahead of the leader it follows than the plan's lease (WorldCore::
   // plan_lease_ok); a leader that does not renew it within kLeaseWaitS (none alive, or all stalled) is not waited
-  // for again until it does.
-  constexpr double kLeaseWaitS = 2.0;
+  // for again until it does. Below the robots' 1 s without samples, after which they would renew their readers.
+  constexpr double kLeaseWaitS = 0.8;
   long lapsed_lease = -2;
   long lease_waits = 0;
   double lease_wait_s = 0.0;
   bool reported = false;  // a report went out (the lease wait sends the latest again)
+  auto send_report = [&] {
+    const world::ReportOut r = core.take_report();
+    rep.tick(static_cast<uint64_t>(r.tick));
+    rep.braked()[0] = r.braked[0];
+    rep.braked()[1] = r.braked[1];
+    rep.hold(r.hold);
+    rep.braked_since(r.braked_since);
+    rep.released_at(r.released_at);
+    rep.normal_min(r.normal_min);
+    for (int i = 0; i < 3; ++i) rep.object()[static_cast<size_t>(i)] = r.object(i);
+    rep.failed(r.failed);
+    if (r.failed && rep.failure() != r.failure) rep.failure(r.failure);
+    world_wire::fill_report_counters(core, opt.realtime, rep);
+    rep.plan_epoch(r.plan_rank.epoch);  // the rank and version as of this report
+    rep.plan_strength(r.plan_rank.strength);
+    rep.plan_version(r.plan_version);
+    report.write(rep);
+    reported = true;
+  };
   for (; k < m.steps && !runtime::g_stop; ++k) {
     take_plans();
     if (!opt.realtime && !core.plan_lease_ok(k) && core.plan_lease() != lapsed_lease) {
@@ -169,6 +188,10 @@ int run(int argc, char** argv) {
       ++lease_waits;
       double waited = 0.0;
       int resent = 0;
+      // A report of the tick it waits after: the leader's lease then covers it whatever ticks it had heard (a
+      // brake's extra report can leave the last plan's tick between the periodic ones), and a standby sees the world
+      // a full lease past a silent leader's last plan.
+      if (reported) send_report();
       while (!runtime::g_stop && !core.plan_lease_ok(k)) {
         waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
         if (waited > kLeaseWaitS) {
@@ -247,25 +270,7 @@ int run(int argc, char** argv) {
       }
     };
     publish_samples(false);
-    if (core.report_due(m.steps)) {
-      const world::ReportOut r = core.take_report();
-      rep.tick(static_cast<uint64_t>(r.tick));
-      rep.braked()[0] = r.braked[0];
-      rep.braked()[1] = r.braked[1];
-      rep.hold(r.hold);
-      rep.braked_since(r.braked_since);
-      rep.released_at(r.released_at);
-      rep.normal_min(r.normal_min);
-      for (int i = 0; i < 3; ++i) rep.object()[static_cast<size_t>(i)] = r.object(i);
-      rep.failed(r.failed);
-      if (r.failed && rep.failure() != r.failure) rep.failure(r.failure);
-      world_wire::fill_report_counters(core, opt.realtime, rep);
-      rep.plan_epoch(r.plan_rank.epoch);  // the rank and version as of this report
-      rep.plan_strength(r.plan_rank.strength);
-      rep.plan_version(r.plan_version);
-      report.write(rep);
-      reported = true;
-    }
+    if (core.report_due(m.steps)) send_report();
     // Real time: the tick ends at an absolute deadline; lockstep: when every arm that is not braked has its
     // command in (a braked arm's robot may answer too: that releases it).
     const timespec deadline = to_ts(clock.deadline());

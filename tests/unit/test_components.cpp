@@ -1256,6 +1256,18 @@ TEST_CASE("lockstep lease: the world runs at most 10 ticks past what its leader 
   CHECK(a_plans == 21);
   CHECK(last_heard == 200);
   CHECK(b_plans <= 2);  // its first plan, and one heartbeat at most
+  // A report between the periodic ones (a brake sends one at once): the lease follows it too, so that the world,
+  // which may run 10 ticks past it, never waits for a report it will not send.
+  a.on_report(report_at(203), 21 * ms);
+  a.update(21 * ms);
+  const auto off = a.take_plan();
+  REQUIRE(off.has_value());
+  CHECK(off->heard_tick == 203);
+  a.on_report(report_at(210), 22 * ms);
+  a.update(22 * ms);
+  const auto next = a.take_plan();
+  REQUIRE(next.has_value());
+  CHECK(next->heard_tick == 210);
 
   // A leader that falls silent while the world waits at its lease: the world resends its last report (same tick),
   // and the standby, which saw the world 10 ticks past the leader's last plan, takes over after 50 ms.

@@ -302,7 +302,9 @@ TEST_CASE("launcher supervisor: a standby with no plan to follow while another s
   m.supervisor_standby = 1;
   Fixture f(true, m);
   REQUIRE(f.running("m1/supervisor@50"));
-  // The standby leads (it took over); the primary, restarted, never heard it and exits 5 after 6 s.
+  // The standby leads (it took over; its status says so, heard just now); the primary, restarted, never heard it
+  // and exits 5 after 6 s.
+  f.poll(7.9);
   (void)f.sup.on_status("m1/supervisor@50", f.pid("m1/supervisor@50"), true, true, true);
   f.exit("m1/supervisor", tandem::launcher::exit_code::kLostPlan, 8.0);
   CHECK_FALSE(f.rec.said("tandem up: module m1 lost its plan (m1/supervisor had no leader to follow); restarting the module\n"));
@@ -316,9 +318,16 @@ TEST_CASE("launcher supervisor: a standby with no plan to follow while another s
   CHECK(s[0].label.rfind("m1/supervisor", 0) == 0);
   // Without a leader (the standby's status says standby), the same exit restarts the module.
   Fixture g(true, m);
+  g.poll(7.9);
   (void)g.sup.on_status("m1/supervisor@50", g.pid("m1/supervisor@50"), true, true, false);
   g.exit("m1/supervisor", tandem::launcher::exit_code::kLostPlan, 8.0);
   CHECK(g.rec.said("tandem up: module m1 lost its plan (m1/supervisor had no leader to follow); restarting the module\n"));
+  // A leader whose word is old (last heard 2 s before: hung, or stopped) does not count: the module restarts.
+  Fixture h(true, m);
+  h.poll(6.0);
+  (void)h.sup.on_status("m1/supervisor@50", h.pid("m1/supervisor@50"), true, true, true);
+  h.exit("m1/supervisor", tandem::launcher::exit_code::kLostPlan, 8.0);
+  CHECK(h.rec.said("tandem up: module m1 lost its plan (m1/supervisor had no leader to follow); restarting the module\n"));
 }
 
 TEST_CASE("launcher supervisor: a robot unplugged with SIGTERM that is still there after 5 s gets SIGKILL", "[launcher]") {

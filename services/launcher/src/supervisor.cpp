@@ -234,7 +234,7 @@ bool Supervisor::busy() const { return running() > 0 || (!pending_restarts_.empt
 
 const Child* Supervisor::leader_of(const std::string& slot, const Child* except) const {
   for (const auto& c : children_) {
-    if (c.running && !c.expected && c.arm == slot && c.leads && &c != except) return &c;
+    if (c.running && !c.expected && c.arm == slot && c.leads && &c != except && polled_at_ - c.status_at < 0.5) return &c;
   }
   return nullptr;
 }
@@ -497,6 +497,7 @@ const Child* Supervisor::on_status(const std::string& label, long long pid, bool
   for (auto& c : children_) {
     if (!(c.running && c.label == label && c.pid == pid)) continue;
     c.heard = true;
+    c.status_at = polled_at_;
     if (serving_known) c.leads = leads;
     if (active && !c.active_seen && c.host.empty()) {
       c.active_seen = true;
@@ -532,6 +533,7 @@ Supervisor::QueueState Supervisor::on_coordinator_state(unsigned long long next_
 // ---- supervision ----------------------------------------------------------------------------------------------
 
 void Supervisor::poll(double now) {
+  polled_at_ = now;
   for (auto& c : children_) {  // never started here
     if (c.host.empty() && c.running && c.pid <= 0) {
       c.running = false;

@@ -33,7 +33,9 @@ TaskStateCode SupervisorCore::state() const {
 void SupervisorCore::publish_plan(TaskStateCode st, int64_t now_ns) {
   const bool changed = plan_.version() != plan_sent_version_ || pause_requested_ != plan_sent_pause_ ||
                        draining_ != plan_sent_drain_ || static_cast<uint8_t>(st) != plan_sent_state_;
-  const bool lease_due = o_.lease_every > 0 && heard_tick_ >= plan_sent_heard_ + o_.lease_every;
+  // Lockstep: at every report heard (the periodic ones and those a brake or a stop sends between them), so that the
+  // lease always covers the newest tick the world has reported.
+  const bool lease_due = o_.lease_every > 0 && heard_tick_ > plan_sent_heard_;
   if (!changed && !lease_due && now_ns - plan_sent_at_ < kHeartbeatNs) return;
   plan::PlanData p;
   plan_.export_to(p);

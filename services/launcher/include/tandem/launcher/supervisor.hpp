@@ -56,6 +56,7 @@ struct Child {
   bool cut_off = false;     ///< killed because it was never heard (kSilentStartS)
   bool active_seen = false; ///< its status said active once
   bool leads = false;       ///< supervisors: its latest status says it leads its module
+  double status_at = -1.0;  ///< when its latest status was heard (the time of the launcher's last poll then)
   // Multi-host: started by the agent of `host` ("" = by the launcher, on this machine).
   std::string host;
   unsigned long long spawn_id = 0;  ///< the launcher's request id (AgentRequest.spawn_id)
@@ -277,7 +278,8 @@ class Supervisor {
   bool launch(Child& c, const char* note, double now);
   int standby_strength(const std::string& arm) const;
   const Child* primary_of(const std::string& arm) const;
-  /// A live supervisor of the slot ("<module>/supervisor") other than `except` whose status says it leads.
+  /// A live supervisor of the slot ("<module>/supervisor") other than `except` whose status, heard within the last
+  /// 0.5 s (supervisors publish theirs every 100 ms), says it leads: a hung or stopped leader's old word does not count.
   const Child* leader_of(const std::string& slot, const Child* except) const;
   int live_robots(const std::string& arm, const Child* except = nullptr) const;
   int live_coordinators() const;
@@ -341,6 +343,7 @@ class Supervisor {
   size_t coord_done_ = 0;  ///< tasks done in the latest queue state heard
   unsigned long long coord_next_ = 0, coord_total_ = 0;  ///< its next task id and tasks finished
   bool stopping_ = false, escalated_ = false, failed_ = false, coordinator_done_ = false;
+  double polled_at_ = 0.0;  ///< the time of the last poll() (statuses are stamped with it)
   bool down_requested_ = false;
   bool all_heard_said_ = false;
   double stop_started_ = 0.0;

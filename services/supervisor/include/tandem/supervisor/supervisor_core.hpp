@@ -24,9 +24,10 @@ struct SupervisorOptions {
   bool continuous = false;  ///< tasks from the coordinator (else the scenario's task)
   double transient_s = 0.1; ///< start-up interval excluded from the grasp watch
   /// Lockstep: the leader publishes its plan (with the newest world tick it has heard, PlanData::heard_tick) at
-  /// every report that advances that tick by this many, besides every change and the 20 ms heartbeat. The world
-  /// runs no further than about this past it (world::WorldCore::plan_lease_ok), so that a change the leader
-  /// schedules kLeadTicks after the tick it heard never lands in the world's past. 0: off (real time).
+  /// every report that advances that tick, besides every change and the 20 ms heartbeat, and a standby counts a
+  /// silent leader by lease_every / 2 ticks. The world runs no further than plan::kPlanLeaseTicks (this value)
+  /// past it (world::WorldCore::plan_lease_ok), so that a change the leader schedules kLeadTicks after the tick it
+  /// heard never lands in the world's past. 0: off (real time).
   long lease_every = 0;
 };
 

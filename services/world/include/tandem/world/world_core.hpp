@@ -150,7 +150,8 @@ class WorldCore {
     if (o == plan::PlanFollower::Offer::Adopted) plan_since_ = k_;
     // The lease: the newest tick the followed leader had heard (its heartbeats count too; a new rank starts anew).
     const plan::SupervisorRank r = p.rank();
-    const bool followed = follower_.has_plan() && r.epoch == follower_.rank().epoch && r.strength == follower_.rank().strength;
+    const bool followed = o != plan::PlanFollower::Offer::Rejected && follower_.has_plan() &&
+                          r.epoch == follower_.rank().epoch && r.strength == follower_.rank().strength;
     if (followed) {
       const bool new_rank = before.epoch != r.epoch || before.strength != r.strength;
       lease_tick_ = new_rank ? p.heard_tick : std::max(lease_tick_, static_cast<long>(p.heard_tick));

@@ -83,7 +83,7 @@ int run(int argc, char** argv) {
   auto take_plans = [&] {  // under mu
     while (plans.take(plan_in)) {
       if (plan_in.module_id() != opt.module) continue;
-      watch.on_plan(seconds(Clock::now()));
+      watch.on_plan(seconds(Clock::now()), static_cast<long>(plan_in.heard_tick()));
       why.clear();
       const plan::PlanFollower::Offer o = core.offer_plan(runtime::from_wire(plan_in), &why);
       if (o == plan::PlanFollower::Offer::Rejected) {
@@ -237,8 +237,9 @@ int run(int argc, char** argv) {
     const double now = seconds(Clock::now());
     const robot::InputWatch::Action act = watch.on_pass(now, activated);
     if (act == robot::InputWatch::Action::GiveUp) {
-      std::fprintf(stderr, "tandem-robot %s: no input for %.1f s after tick %ld; stopping\n", my_arm.c_str(),
-                   opt.timeout, core.done());
+      std::fprintf(stderr, "tandem-robot %s: no input for %.1f s after tick %ld%s; stopping\n", robot_id.c_str(),
+                   watch.silent_s(now), core.done(),
+                   watch.renewals() > 0 && !activated ? " while the module ran, with new sensor readers" : "");
       break;
     }
     if (act == robot::InputWatch::Action::RenewReader) {

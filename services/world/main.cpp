@@ -158,6 +158,7 @@ int run(int argc, char** argv) {
   // plan_lease_ok); a leader that does not renew it within kLeaseWaitS (none alive, or all stalled) is not waited
   // for again until it does. Below the robots' 1 s without samples, after which they would renew their readers.
   constexpr double kLeaseWaitS = 0.8;
+  constexpr double kLongTickS = 0.3;  // a lockstep tick this long is said (below it: scheduling noise on 2 cores)
   long lapsed_lease = -2;
   long lease_waits = 0;
   double lease_wait_s = 0.0;
@@ -183,6 +184,8 @@ int run(int argc, char** argv) {
   };
   for (; k < m.steps && !runtime::g_stop; ++k) {
     take_plans();
+    const auto tick_start = std::chrono::steady_clock::now();
+    double tick_lease_s = 0.0;
     if (!opt.realtime && !core.plan_lease_ok(k) && core.plan_lease() != lapsed_lease) {
       const auto w0 = std::chrono::steady_clock::now();
       ++lease_waits;
@@ -212,6 +215,7 @@ int run(int argc, char** argv) {
         take_plans();
       }
       lease_wait_s += waited;
+      tick_lease_s = waited;
     }
     const long long sent = now_ns();
     core.begin_tick(k, sent, samples);
@@ -320,6 +324,21 @@ int run(int argc, char** argv) {
       if (late_arrival) break;  // the rest are for the next tick's pass (as stale)
     }
     if (runtime::g_stop) break;
+    if (!opt.realtime) {
+      // A lockstep tick that held the module for long (the plant stands still meanwhile): said, with what it waited
+      // for, so that a soak's wall-clock gaps can be told apart (the leader's plan, a robot's command, or this world).
+      const double tick_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - tick_start).count();
+      if (tick_s > kLongTickS) {
+        const double commands_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wait_start).count();
+        std::string missing;
+        for (int j = 0; j < 2; ++j) {
+          if (!core.have(j) && !core.braked(j)) missing += (missing.empty() ? "" : ", ") + ctx.arm_id(j);
+        }
+        std::fprintf(stderr, "tandem-world %s: tick %ld held the module %.2f s: %.2f s for the leader's plan, %.2f s for "
+                     "the commands%s%s\n", opt.module.c_str(), k, tick_s, tick_lease_s, commands_s,
+                     missing.empty() ? "" : " (still missing: ", missing.empty() ? "" : (missing + ")").c_str());
+      }
+    }
     if (!core.end_tick(now_ns()) || gave_up) {
       for (int j = 0; j < 2; ++j) {
         if (!core.have(j)) {

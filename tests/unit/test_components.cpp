@@ -1116,7 +1116,7 @@ TEST_CASE("governor: admission parks what the estimate does not fit, and the las
   CHECK(none.admit(5, 0.0).empty());
 }
 
-TEST_CASE("robot input watch: a deaf sensor reader is renewed while the plan comes, not for the robot's own stall", "[components]") {
+TEST_CASE("robot input watch: a deaf sensor reader is renewed while the plan comes, not for the robot's own stall, and before the first tick once the plans say the module runs", "[components]") {
   using tandem::robot::InputWatch;
   using A = InputWatch::Action;
   InputWatch::Rules r;  // renew after 1 s, plans fresh within 0.5 s, a pass 0.2 s late is a stall, give up after 10 s
@@ -1197,6 +1197,55 @@ TEST_CASE("robot input watch: a deaf sensor reader is renewed while the plan com
   CHECK(first == A::GiveUp);
   CHECK(first_at == Approx(2.0).margin(0.015));
   CHECK(both.renewals() == 0);
+
+  // Not active yet (no sample ever), plans every 20 ms. While they say the world has not ticked (heard_tick -1, a
+  // module starting up) the silence is start-up: no renewal, given up at the timeout. When they say the world ticks
+  // on (a robot restarted into a running module, soak run 27) the reader is deaf: renewed 2 s after it was made,
+  // again 2 s later, and when neither brought a sample, given up (a new process) instead of a third renewal.
+  for (const bool runs : {false, true}) {
+    InputWatch fresh(r, 0.0);
+    fresh.renewed(0.0);
+    double renewed_first = -1.0, gave_up = -1.0;
+    for (double u = 0.01; u < 12.0 && gave_up < 0; u += 0.01) {
+      if (std::fmod(u, 0.02) < 0.01) fresh.on_plan(u, runs ? 477000 + static_cast<long>(u * 1000.0) : -1);
+      const A a = fresh.on_pass(u, false);
+      if (a == A::RenewReader && renewed_first < 0) renewed_first = u;
+      if (a == A::RenewReader) fresh.renewed(u);
+      if (a == A::GiveUp) gave_up = u;
+    }
+    if (runs) {
+      CHECK(renewed_first == Approx(2.0).margin(0.015));
+      CHECK(fresh.renewals() == 2);
+      CHECK(gave_up == Approx(6.0).margin(0.035));
+    } else {
+      CHECK(renewed_first < 0.0);
+      CHECK(fresh.renewals() == 0);
+      CHECK(gave_up == Approx(10.0).margin(0.015));
+    }
+  }
+  // A renewal that brings samples back: the robot goes on (no give-up), even if it is not active yet.
+  InputWatch heals(r, 0.0);
+  heals.renewed(0.0);
+  int heal_renewals = 0;
+  for (double u = 0.01; u < 12.0; u += 0.01) {
+    heals.on_plan(u, 477000 + static_cast<long>(u * 1000.0));
+    if (heal_renewals > 0) heals.on_sample(u);
+    const A a = heals.on_pass(u, false);
+    REQUIRE(a != A::GiveUp);
+    if (a == A::RenewReader) {
+      ++heal_renewals;
+      heals.renewed(u);
+    }
+  }
+  CHECK(heal_renewals == 1);
+  // A world that stands still (a lockstep lease wait: heard_tick does not move) does not count as running.
+  InputWatch still(r, 0.0);
+  still.on_plan(0.0, 5000);
+  still.renewed(0.0);
+  for (double u = 0.01; u < 5.0; u += 0.01) {
+    still.on_plan(u, 5000 + 150);
+    CHECK(still.on_pass(u, false) == A::None);
+  }
 }
 
 TEST_CASE("lockstep lease: the world runs at most 10 ticks past what its leader heard; the leader publishes at every report; a standby still takes over a silent leader", "[components]") {

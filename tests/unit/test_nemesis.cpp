@@ -310,3 +310,43 @@ TEST_CASE("nemesis: a supervisor kill records whether a standby held the leader'
   CHECK(h.faults[1].label == "m1/supervisor@50");
   CHECK(h.faults[1].had_standby);
 }
+
+TEST_CASE("nemesis: a coordinator kill records whether an active standby coordinator was there") {
+  // Run 27: coordinator@r11 was killed 3 s after it took over, both other coordinators restarting; the checker judges
+  // such a kill by the restart bound, one with an active standby by the takeover bound.
+  Schedule s;
+  s.duration_s = 60;
+  s.faults = {fault(5.0, FaultKind::Kill, Target::Coordinator), fault(10.0, FaultKind::Kill, Target::Coordinator)};
+  History h;
+  Recorder act;
+  Nemesis n(s, {"m1"}, h, act);
+  add_module(n, "m1", 100, 0.0);
+  ProcessView c;
+  c.role = "coordinator";
+  c.serving = "primary";
+  c.pid = 300;
+  c.state = 2;
+  n.on_status("coordinator@r11", c);
+  ProcessView starting = c;
+  starting.serving = "standby";
+  starting.pid = 301;
+  starting.state = 1;  // started, not active yet
+  n.on_status("coordinator@r12", starting);
+  run(n, 0.0, 5.5);
+  REQUIRE(h.faults.size() == 1);
+  CHECK(h.faults[0].label == "coordinator@r11");
+  CHECK_FALSE(h.faults[0].had_standby);
+  // r12 takes over; r13 comes as an active standby.
+  ProcessView leader = starting;
+  leader.serving = "primary";
+  leader.state = 2;
+  n.on_status("coordinator@r12", leader);
+  ProcessView standby = leader;
+  standby.serving = "standby";
+  standby.pid = 302;
+  n.on_status("coordinator@r13", standby);
+  run(n, 5.5, 10.5);
+  REQUIRE(h.faults.size() == 2);
+  CHECK(h.faults[1].label == "coordinator@r12");
+  CHECK(h.faults[1].had_standby);
+}

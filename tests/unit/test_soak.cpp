@@ -298,6 +298,44 @@ TEST_CASE("soak checker: failover and restart are measured from the recording, l
   CHECK(find(check(braked, Bounds{}), "recovery") != nullptr);
 }
 
+TEST_CASE("soak checker: in lockstep an arm's failover is judged in module time (ticks), in real time on the wall clock") {
+  // The world heard at tick 20000 when the robot is killed at 20.0 s, then stands still (a lockstep wait): its reports
+  // reach the observer late, and the new owner shows at 20.9 s on the wall clock in the report of tick `owner_tick`.
+  auto run = [](bool realtime, long owner_tick) {
+    History h = quiet_history(60.0);
+    h.realtime = realtime;
+    for (ModuleSample& s : h.modules["m1"]) {
+      if (s.t > 20.05 && s.t < 20.95) s.tick = 20010;
+      if (s.t >= 20.95) s.tick -= 900 - (owner_tick - 20000);  // the world runs on from the owner's report
+    }
+    h.faults.push_back(kill_left(20.0));
+    Event owners{20.9, Event::Type::Owners, "m1", "left=m1/left@50,right=m1/right", {{"left", "m1/left@50"}, {"right", "m1/right"}}};
+    owners.tick = owner_tick;
+    add_event(h, owners);
+    add_event(h, {21.8, Event::Type::State, "m1/left@49", "2 222"});
+    return check(h, Bounds{});
+  };
+  auto failover_s = [](const Verdict& v) {
+    for (const auto& r : v.recoveries) {
+      if (r.kind == "kill robot: arm served again (standby)") return r.seconds;
+    }
+    return -1.0;
+  };
+  // Lockstep, 50 ticks of module time: 0.05 s, held (on the wall clock it would be 0.9 s).
+  const Verdict lock50 = run(false, 20050);
+  CHECK(find(lock50, "recovery") == nullptr);
+  CHECK(failover_s(lock50) == Approx(0.05));
+  // Lockstep, 400 ticks: 0.4 s of module time without the arm served, a violation.
+  const Verdict lock400 = run(false, 20400);
+  const Violation* x = find(lock400, "recovery");
+  REQUIRE(x != nullptr);
+  CHECK_THAT(x->text, Catch::Contains("within 0.2 s") && Catch::Contains("after 0.4 s"));
+  // Real time, the same recording: the wall clock counts, 0.9 s, a violation.
+  const Violation* y = find(run(true, 20050), "recovery");
+  REQUIRE(y != nullptr);
+  CHECK_THAT(y->text, Catch::Contains("after 0.9 s"));
+}
+
 TEST_CASE("soak checker: tasks done twice or lost are violations") {
   History h = quiet_history(120.0);
   h.tasks_done.push_back(h.tasks_done.front());
@@ -406,6 +444,35 @@ TEST_CASE("soak checker: a supervisor kill with no warm standby is judged by the
   v = check(history(false, 16.0), b);
   REQUIRE(find(v, "recovery") != nullptr);
   CHECK_THAT(find(v, "recovery")->text, Catch::Contains("within 15.0 s"));
+}
+
+TEST_CASE("soak checker: a coordinator kill with no standby coordinator is judged by the restart bound") {
+  auto history = [](bool standby, double after) {
+    History h = quiet_history(60.0);
+    FaultRecord f;
+    f.fault.index = 1;
+    f.fault.kind = FaultKind::Kill;
+    f.fault.target = Target::Coordinator;
+    f.t = 20.0;
+    f.label = "coordinator@r11";
+    f.pid = 111;
+    f.had_standby = standby;
+    h.faults.push_back(f);
+    add_event(h, {20.0 + after, Event::Type::Serving, "coordinator@r13", "primary"});
+    return h;
+  };
+  // Run 27: 5.1 s with both standbys just restarted. With a standby that is a violation (5 s), without one not (10 s).
+  const Verdict warm = check(history(true, 5.1), Bounds{});
+  REQUIRE(find(warm, "recovery") != nullptr);
+  CHECK_THAT(find(warm, "recovery")->text, Catch::Contains("within 5.0 s"));
+  const Verdict cold = check(history(false, 5.1), Bounds{});
+  CHECK(find(cold, "recovery") == nullptr);
+  bool judged = false;
+  for (const auto& r : cold.recoveries) judged = judged || (r.kind == "kill coordinator (no standby): another serves" && r.seconds == Approx(5.1));
+  CHECK(judged);
+  const Verdict never = check(history(false, 11.0), Bounds{});
+  REQUIRE(find(never, "recovery") != nullptr);
+  CHECK_THAT(find(never, "recovery")->text, Catch::Contains("within 10.0 s"));
 }
 
 TEST_CASE("soak checker: a deployment that ended by itself before the soak stopped it is not a pass") {

@@ -38,6 +38,7 @@ long long pid_of(const Event& e) {
 
 /// How long the soak keeps trying to plug a module or robot in again after its fault's duration.
 constexpr double kReplugS = 60.0;
+constexpr double kTickS = 1e-3;       ///< a world tick of module time (1 kHz)
 constexpr double kIncidentGapS = 1.0;  ///< a counter rise this long after the last one is a new object incident
 
 class Judge {
@@ -268,10 +269,26 @@ class Judge {
       if (e.t < t || e.type != Event::Type::Owners || e.subject != module) continue;
       const auto it = e.owners.find(robot);
       if (it == e.owners.end() || it->second.empty()) continue;
-      if (it->second != label) return e.t;
-      if (back >= 0.0 && e.t >= back) return e.t;
+      if (it->second != label || (back >= 0.0 && e.t >= back)) return served_again_at(module, e, t);
     }
     return -1.0;
+  }
+  /// When the arm counts as served again, seen in Owners event e after a fault at t. Real time: when the event was
+  /// heard. Lockstep: the module's own time matters (the plant stands still while its world waits, however long the
+  /// wall clock runs meanwhile, and a lockstep world's reports reach the observer late), so t plus the ticks the
+  /// world ran from the newest tick heard before t to the event's report, at 1 ms a tick. That is an upper bound:
+  /// the world had run past the tick heard last when the fault came.
+  double served_again_at(const std::string& module, const Event& e, double t) const {
+    if (h_.realtime || e.tick < 0) return e.t;
+    const auto m = h_.modules.find(module);
+    if (m == h_.modules.end()) return e.t;
+    long before = -1;
+    for (const ModuleSample& s : m->second) {
+      if (s.t > t) break;
+      before = s.tick;
+    }
+    if (before < 0 || e.tick < before) return e.t;
+    return t + static_cast<double>(e.tick - before) * kTickS;
   }
   /// Whether `label` served arm `robot` just before t (from the world's serving events).
   bool served_before(const std::string& module, const std::string& robot, const std::string& label, double t) const {
@@ -371,8 +388,9 @@ class Judge {
                 serving_primary(module + "/supervisor", f.label, f.t), f.t,
                 f.had_standby ? b_.supervisor_s : b_.supervisor_cold_s, "no other supervisor of " + module + " served");
         } else if (f.fault.target == Target::Coordinator) {
-          judge(inv, f, "kill coordinator: another serves", serving_primary("coordinator", f.label, f.t), f.t,
-                b_.coordinator_s, "no other coordinator served");
+          judge(inv, f, f.had_standby ? "kill coordinator: another serves" : "kill coordinator (no standby): another serves",
+                serving_primary("coordinator", f.label, f.t), f.t, f.had_standby ? b_.coordinator_s : b_.coordinator_cold_s,
+                "no other coordinator served");
         } else if (f.fault.target == Target::World) {
           const std::string task = task_on(module, f.t);
           if (!task.empty()) {

@@ -136,6 +136,14 @@ int Nemesis::warm_standbys_of(const std::string& module, const std::string& exce
   return n;
 }
 
+int Nemesis::standby_coordinators(const std::string& except, double t) const {
+  int n = 0;
+  for (const auto& [label, p] : procs_) {
+    n += p.role == "coordinator" && label != except && p.state == 2 && p.serving == "standby" && live(p, t);
+  }
+  return n;
+}
+
 void Nemesis::fire(const Fault& f, double t) {
   FaultRecord r;
   r.fault = f;
@@ -183,6 +191,7 @@ void Nemesis::fire(const Fault& f, double t) {
     }
     if (it->second.role == "robot") r.had_standby = live_robots_of(target.substr(0, target.find('@')), t) > 1;
     if (it->second.role == "supervisor") r.had_standby = warm_standbys_of(r.module, target, t) > 0;
+    if (it->second.role == "coordinator") r.had_standby = standby_coordinators(target, t) > 0;
   } else {
     const auto it = procs_.find(target + "/world");
     r.pid = it != procs_.end() ? it->second.pid : 0;

@@ -300,9 +300,9 @@ std::string summary_text(const RunInfo& info, const History& h, const Bounds& b,
     o << "| " << kind << " | " << st.s.size() << " | " << f2(percentile(st.s, 0.5), "%.3f") << " | "
       << f2(percentile(st.s, 0.99), "%.3f") << " | " << f2(percentile(st.s, 1.0), "%.3f") << " |\n";
   }
-  o << "\nBounds: arm served again " << b.failover_s << " s (with a standby; else " << b.restart_s
+  o << "\nBounds: arm served again " << b.failover_s << " s (with a standby" << (h.realtime ? "" : ", in module time") << "; else " << b.restart_s
     << " s), replacement robot " << b.restart_s << " s, supervisor " << b.supervisor_s << " s, coordinator "
-    << b.coordinator_s << " s, module back " << b.module_back_s << " s after it is plugged in, task re-planned "
+    << b.coordinator_s << " s (" << b.coordinator_cold_s << " s with no standby), module back " << b.module_back_s << " s after it is plugged in, task re-planned "
     << b.replan_s << " s, stalled process heard again " << b.stall_extra_s << " s after its stall, no module paused for load "
     << b.hog_s << " s after a hog; memory slope " << b.rss_slope_mib_per_min << " MiB/min.\n";
   o << "\n## Violations\n\n";

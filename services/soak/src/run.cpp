@@ -256,6 +256,7 @@ class Observer : public NemesisActions {
           for (const auto& o : r.owners()) owners[o.arm()] = o.state() == msg::ARM_SERVED ? o.robot() : "";
           nemesis_.on_owners(module, owners);
           h_.events.push_back({t, Event::Type::Owners, module, text, owners});
+          h_.events.back().tick = tick;
         }
         if (t >= b.end) flush(module, b);
       }

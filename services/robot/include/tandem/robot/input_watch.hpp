@@ -18,27 +18,46 @@ class InputWatch {
     double self_stall_s = 0.2;
     /// No input at all for this long: give up (exit "no input").
     double timeout_s = 10.0;
+    /// Before the robot has served a tick, its silence is start-up (the module may not tick yet), unless the plans
+    /// say the world ticked this far past what it had when the reader was made: then the reader is deaf too (soak
+    /// run 27: a restarted standby heard no sample for 20 s while its module ran, and gave up).
+    long running_ticks = 200;
+    /// ... and when that many renewals brought no sample, give up at the next one: a new process has a new
+    /// participant (its transport ports too), where a new reader in the same participant may stay deaf.
+    int deaf_renewals = 2;
   };
   enum class Action { None, RenewReader, GiveUp };
 
   InputWatch(Rules rules, double now) : r_(rules), last_input_(now), last_plan_(now), last_pass_(now), renewed_at_(now) {}
 
   void on_sample(double now) { last_input_ = now; }
-  void on_plan(double now) { last_plan_ = now; }
+  /// A plan heard; `heard_tick`: the newest world tick its supervisor had heard (-1: it does not say).
+  void on_plan(double now, long heard_tick = -1) {
+    last_plan_ = now;
+    if (heard_tick > plan_tick_) plan_tick_ = heard_tick;
+  }
   /// A new reader was made (renewing takes time: the next renewal counts from when it is done).
-  void renewed(double now) { renewed_at_ = now; }
+  void renewed(double now) {
+    renewed_at_ = now;
+    tick_at_renewal_ = plan_tick_;
+  }
+  /// The module ticks without this robot's reader: the plans' world tick went past running_ticks since the
+  /// reader was made.
+  bool module_runs() const { return plan_tick_ >= 0 && plan_tick_ > tick_at_renewal_ + r_.running_ticks; }
 
-  /// One pass of the main loop. `active`: the robot has served a tick (before that, silence is start-up).
+  /// One pass of the main loop. `active`: the robot has served a tick (before that, silence is start-up unless
+  /// module_runs()).
   Action on_pass(double now, bool active) {
     // (The first pass has no previous one: whatever the robot waited for before its loop is not a stall.)
     if (passes_++ > 0 && now - last_pass_ > r_.self_stall_s && now > last_input_) last_input_ = now;
     last_pass_ = now;
     const double silent = now - last_input_;
     if (silent > r_.timeout_s) return Action::GiveUp;
-    if (active && silent > r_.renew_after_s && now - last_plan_ < r_.plan_fresh_s &&
+    if ((active || module_runs()) && silent > r_.renew_after_s && now - last_plan_ < r_.plan_fresh_s &&
         now - renewed_at_ > 2.0 * r_.renew_after_s) {
+      if (!active && last_input_ <= renewed_at_ && renewals_ >= r_.deaf_renewals) return Action::GiveUp;
       ++renewals_;
-      renewed_at_ = now;
+      renewed(now);
       return Action::RenewReader;
     }
     return Action::None;
@@ -53,6 +72,7 @@ class InputWatch {
   double last_input_, last_plan_, last_pass_, renewed_at_;
   int renewals_ = 0;
   long passes_ = 0;
+  long plan_tick_ = -1, tick_at_renewal_ = -1;
 };
 
 }  // namespace tandem::robot

@@ -15,6 +15,8 @@ struct Bounds {
   /// Kill/unplug of the robot serving an arm, with a standby: the arm is served again. The world fails over after
   /// 10 silent ticks (10 ms); the observer sees it in the world's next report (every 10 ticks). Five soak-small hours
   /// (2026-11-25/26) measured p50 20 ms and max 40-160 ms over 1050 kills and 166 unplugs with a standby.
+  /// Lockstep: judged in the module's time (ticks), as the plant stands still while its world waits (lockstep soak
+  /// run 27: 1.0 s on the wall clock for worlds that failed over within 20-36 ms and 50 ticks).
   double failover_s = 0.2;
   double restart_s = 10.0;       ///< a killed robot's replacement is up (restart policy with backoff)
   double supervisor_s = 2.0;     ///< kill of the serving supervisor with a warm standby: another one serves
@@ -23,6 +25,10 @@ struct Bounds {
   /// restarts from its initial grasp, as after a world kill (soak run 13: 6.2 s).
   double supervisor_cold_s = 15.0;
   double coordinator_s = 5.0;    ///< kill of the serving coordinator: another one serves
+  /// ... with no active standby coordinator (all just restarted): a new one is started after the restart backoff
+  /// (up to 1.6 s), starts, and takes the queue over (lockstep soak run 27: 5.1 s, two standbys started 0.7 and
+  /// 2.2 s after the kill).
+  double coordinator_cold_s = 10.0;
   double module_back_s = 15.0;   ///< kill world / unplug module: the module runs again after it is plugged in
   double replan_s = 10.0;        ///< kill world: its running task is running or done elsewhere (or by it again)
   double stall_extra_s = 2.0;    ///< a stalled process is heard again within its stall plus this

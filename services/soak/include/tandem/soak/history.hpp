@@ -48,6 +48,7 @@ struct Event {
   } type = Type::State;
   std::string subject, text;
   std::map<std::string, std::string> owners;  ///< Owners: arm -> the robot's label it follows ("" while none)
+  long tick = -1;                             ///< Owners: the world's tick in the report that showed them
 
   Event() = default;
   Event(double at, Type what, std::string subj, std::string txt, std::map<std::string, std::string> arm_owners = {})
@@ -65,7 +66,8 @@ struct FaultRecord {
   std::string note;              ///< why skipped, or what else happened (re-plugged at ...)
   double end_t = -1.0;           ///< stall: SIGCONT; hog: its end; unplug / kill world: plugged in again
   /// Robot faults: another live robot served the arm when it fired. Supervisor faults: another live supervisor
-  /// of the module was a standby holding the leader's plan (a warm replica).
+  /// of the module was a standby holding the leader's plan (a warm replica). Coordinator faults: another live
+  /// coordinator was an active standby.
   bool had_standby = true;
 };
 

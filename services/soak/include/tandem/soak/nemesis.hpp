@@ -106,6 +106,8 @@ class Nemesis {
   int live_robots_of(const std::string& arm, double t) const;
   /// Live standby supervisors of `module` other than `except` that hold the leader's plan (ProcessView::replica).
   int warm_standbys_of(const std::string& module, const std::string& except, double t) const;
+  /// Live, active standby coordinators other than `except`.
+  int standby_coordinators(const std::string& except, double t) const;
   void fire(const Fault& f, double t);
   void hog(const Fault& f, FaultRecord& r, size_t index);
   void later(double at, std::function<void(double)> fn) { pending_.push_back({at, std::move(fn)}); }

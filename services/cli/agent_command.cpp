@@ -263,7 +263,8 @@ int agent_command(const std::vector<std::string>& args) {
   const std::time_t started = std::time(nullptr) - 1;
   std::unique_ptr<bus::Participant> part;
   try {
-    part = std::make_unique<bus::Participant>(d.domain_id, "agent/" + host, runtime::transport_of(d));
+    // UDP only, as the launcher (up_run.cpp: a killed sender cannot wedge its receiving).
+    part = std::make_unique<bus::Participant>(d.domain_id, "agent/" + host, bus::Transport::Udp);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "tandem agent: %s\n", e.what());
     return 2;

@@ -238,9 +238,10 @@ bool print_summary(double wall_s, const launcher::Supervisor& L, const Deploymen
   bool grasp_ok = true;
   for (const auto& [name, mr] : L.modules()) {
     if (!mr.started) continue;
-    const bool counted = mr.end.empty() || mr.end == "draining";  // failed or unplugged modules: reported only
-    if (!mr.end.empty()) std::printf("%s: %s\n", name.c_str(), mr.end.c_str());
-    if (out) out << name << ".end=" << (mr.end.empty() ? "ran" : mr.end.substr(0, mr.end.find(':'))) << "\n";
+    // Failed or unplugged modules: reported only.
+    const bool counted = mr.end.running() || mr.end.is(launcher::ModuleEnd::Kind::Draining);
+    if (!mr.end.running()) std::printf("%s: %s\n", name.c_str(), mr.end.text().c_str());
+    if (out) out << name << ".end=" << (mr.end.running() ? "ran" : mr.end.word()) << "\n";
     for (const auto& [id, r] : heard.robots) {
       if (id.rfind(name + "/", 0) != 0) continue;
       char min_force[32] = "-";  // a robot that computed no tick has no force to report

@@ -106,8 +106,13 @@ bool UpRun::join_domain() {
   launcher_started_ = std::time(nullptr) - 1;
   if (!start_discovery(d_, discovery_server_, discovery_profile_)) return false;
   server_stop_.emplace(discovery_server_, 1.0);
+  // Over UDP only, whatever the deployment's transport: nothing another process does can wedge the launcher's
+  // receiving. Over shared memory a killed sender can leave a buffer in the launcher's port that names a segment that
+  // no longer exists, and Fast DDS 2.9's listener then retries it for ever (eProsima/Fast-DDS#2398, #5732): the
+  // lockstep soak hour saw the launcher hear no process started after 1216 s, kill each for it, and the deployment
+  // wear away (docs/soak.md finding 50). Its traffic (status, summaries, requests) is small.
   try {
-    part_ = std::make_unique<bus::Participant>(d_.domain_id, "launcher/" + d_.name, runtime::transport_of(d_));
+    part_ = std::make_unique<bus::Participant>(d_.domain_id, "launcher/" + d_.name, bus::Transport::Udp);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "tandem up: %s\n", e.what());
     return false;

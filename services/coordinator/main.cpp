@@ -206,6 +206,7 @@ int run(int argc, char** argv) {
   });
   auto heartbeat = [&](double t) {
     status.msg().serving(core.primary() ? msg::ROLE_PRIMARY : msg::ROLE_STANDBY);
+    status.msg().tick(core.next_task_id());  // the queue's progress: of two primaries the one further on stays
     status.msg().detail(core.detail());
     status.publish();
     core.heartbeat_sent(t);
@@ -236,7 +237,7 @@ int run(int argc, char** argv) {
       if (ps.role() == "robot") core.on_wear(ps.process_id(), ps.wear());
       if (ps.role() == "coordinator") {
         core.on_peer(ps.process_id(), ps.state() == static_cast<uint8_t>(runtime::Lifecycle::Active),
-                     ps.serving() == msg::ROLE_PRIMARY, t);
+                     ps.serving() == msg::ROLE_PRIMARY, t, ps.tick());
       }
     }
     msg::TaskState ts;

@@ -235,7 +235,7 @@ int run(int argc, char** argv) {
     // Samples stopped while the module's plan still comes (robot::InputWatch): a new reader, outside the lock
     // (its listener takes it).
     const double now = seconds(Clock::now());
-    const robot::InputWatch::Action act = watch.on_pass(now, activated);
+    const robot::InputWatch::Action act = watch.on_pass(now, activated, sensors->matched() >= 1);
     if (act == robot::InputWatch::Action::GiveUp) {
       std::fprintf(stderr, "tandem-robot %s: no input for %.1f s after tick %ld%s; stopping\n", robot_id.c_str(),
                    watch.silent_s(now), core.done(),

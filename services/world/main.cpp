@@ -21,9 +21,11 @@
 #include "tandem/launcher/exit_codes.hpp"
 #include "tandem/runtime/histogram.hpp"
 #include "tandem/runtime/inbox.hpp"
+#include "tandem/runtime/peer_wait.hpp"
 #include "tandem/runtime/plan_wire.hpp"
 #include "tandem/runtime/role.hpp"
 #include "tandem/runtime/status.hpp"
+#include "tandem/world/lockstep_pacer.hpp"
 #include "tandem/world/world_core.hpp"
 #include "world_wire.hpp"
 
@@ -79,31 +81,35 @@ int run(int argc, char** argv) {
   runtime::StatusPublisher status(part, opt.module + "/world", "world", opt.module);
   status.msg().deployment(opt.deployment);
   status.set(runtime::Lifecycle::Inactive, "waiting for the supervisor and two robots");
-  // Peers: a robot per arm reads its sensors and writes torques; the supervisor reads the report.
-  const auto t0 = std::chrono::steady_clock::now();
-  // --observers counts the sensor readers besides the first robot (the arm's standbys, and a recorder), and the
-  // world waits for all of them: with a recorder, so that a recording holds every tick from the first; on several
-  // hosts, so that the arms do not start braked because their primaries' host answered later than a standby's.
-  // A reader that is slow to come must not hold the module for long: after half the timeout, one reader
-  // besides the first is enough (the recorder, started before any module, is normally there by then).
+  // Peers: a robot per arm reads its sensors and writes torques; the supervisor reads the report; the launcher reads
+  // the summary (a world the launcher cannot hear, a pair that never authenticated, docs/security.md "Start-up",
+  // must not run a task whose summary and status would be lost). --observers counts the sensor readers besides the
+  // first robot (the arm's standbys, and a recorder), and the world waits for all of them: with a recorder, so that
+  // a recording holds every tick from the first; on several hosts, so that the arms do not start braked because
+  // their primaries' host answered later than a standby's. A reader that is slow to come must not hold the module
+  // for long: after half the timeout, one reader besides the first is enough (the recorder, started before any
+  // module, is normally there by then).
+  auto seconds = [] { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); };
   const int readers_all = 1 + opt.observers;
-  const int readers_min = std::min(readers_all, 2);
-  int readers = readers_all;
-  // The launcher too (the reader of the world's summary): a world the launcher cannot hear (a pair that never
-  // authenticated, docs/security.md "Start-up") must not run a task whose summary and status would be lost.
-  while (!runtime::g_stop && (sensors0.matched() < readers || sensors1.matched() < readers || torques0.matched() < 1 || torques1.matched() < 1 ||
-                              report.matched() < 1 || summary.matched() < 1)) {
-    if (std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() > opt.timeout) {
-      std::fprintf(stderr, "tandem-world: peers not found within %.1f s (sensor readers %d+%d/2, torque writers %d/2, "
-                   "supervisor %d/1, launcher %d/1)\n", opt.timeout, sensors0.matched(), sensors1.matched(),
-                   torques0.matched() + torques1.matched(), report.matched(), summary.matched());
+  runtime::PeerWait peers({{"sensor readers of " + ctx.arm_id(0), readers_all, std::min(readers_all, 2)},
+                           {"sensor readers of " + ctx.arm_id(1), readers_all, std::min(readers_all, 2)},
+                           {"torque writer of " + ctx.arm_id(0), 1},
+                           {"torque writer of " + ctx.arm_id(1), 1},
+                           {"supervisor (report reader)", 1},
+                           {"launcher (summary reader)", 1}},
+                          opt.timeout, seconds());
+  while (!runtime::g_stop) {
+    const runtime::PeerWait::Verdict v = peers.pass(seconds(), {sensors0.matched(), sensors1.matched(), torques0.matched(),
+                                                                torques1.matched(), report.matched(), summary.matched()});
+    for (const size_t i : peers.take_lowered()) {
+      std::fprintf(stderr, "tandem-world %s: %s: not all there after %.1f s; starting with %d\n", opt.module.c_str(),
+                   peers.peer(i).name.c_str(), 0.5 * opt.timeout, peers.needed(i));
+    }
+    if (v == runtime::PeerWait::Verdict::Ready) break;
+    if (v == runtime::PeerWait::Verdict::TimedOut) {
+      std::fprintf(stderr, "tandem-world: peers not found within %.1f s (%s)\n", opt.timeout, peers.missing().c_str());
       status.set(runtime::Lifecycle::Error, "peers not found");
       return launcher::exit_code::kPeersNotFound;
-    }
-    if (readers > readers_min && std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() > 0.5 * opt.timeout) {
-      std::fprintf(stderr, "tandem-world %s: %d of %d sensor readers after %.1f s; starting with %d\n", opt.module.c_str(),
-                   std::min(sensors0.matched(), sensors1.matched()), readers_all, 0.5 * opt.timeout, readers_min);
-      readers = readers_min;
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
@@ -155,13 +161,8 @@ int run(int argc, char** argv) {
     }
   };
   // Lockstep: the world runs no further ahead of the leader it follows than the plan's lease (WorldCore::
-  // plan_lease_ok); a leader that does not renew it within kLeaseWaitS (none alive, or all stalled) is not waited
-  // for again until it does. Below the robots' 1 s without samples, after which they would renew their readers.
-  constexpr double kLeaseWaitS = 0.8;
-  constexpr double kLongTickS = 0.3;  // a lockstep tick this long is said (below it: scheduling noise on 2 cores)
-  long lapsed_lease = -2;
-  long lease_waits = 0;
-  double lease_wait_s = 0.0;
+  // plan_lease_ok), and waits for its commands; world::LockstepPacer says how long and what to do meanwhile.
+  world::LockstepPacer pacer;
   bool reported = false;  // a report went out (the lease wait sends the latest again)
   auto send_report = [&] {
     const world::ReportOut r = core.take_report();
@@ -184,38 +185,27 @@ int run(int argc, char** argv) {
   };
   for (; k < m.steps && !runtime::g_stop; ++k) {
     take_plans();
-    const auto tick_start = std::chrono::steady_clock::now();
-    double tick_lease_s = 0.0;
-    if (!opt.realtime && !core.plan_lease_ok(k) && core.plan_lease() != lapsed_lease) {
-      const auto w0 = std::chrono::steady_clock::now();
-      ++lease_waits;
-      double waited = 0.0;
-      int resent = 0;
+    pacer.tick_begin(seconds());
+    if (!opt.realtime && pacer.lease_wait_needed(core.plan_lease_ok(k), core.plan_lease())) {
+      pacer.lease_wait_begin(seconds());
       // A report of the tick it waits after: the leader's lease then covers it whatever ticks it had heard (a
       // brake's extra report can leave the last plan's tick between the periodic ones), and a standby sees the world
       // a full lease past a silent leader's last plan.
       if (reported) send_report();
       while (!runtime::g_stop && !core.plan_lease_ok(k)) {
-        waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
-        if (waited > kLeaseWaitS) {
-          lapsed_lease = core.plan_lease();
+        const world::LockstepPacer::LeaseAction a = pacer.lease_wait_pass(seconds(), core.plan_lease(), reported);
+        if (a == world::LockstepPacer::LeaseAction::Lapsed) {
           std::fprintf(stderr, "tandem-world %s: tick %ld: no plan from the leader that has heard tick %ld or later "
                        "within %.1f s; going on without waiting for it until it renews its lease\n", opt.module.c_str(),
-                       k, k - plan::kPlanLeaseTicks, kLeaseWaitS);
+                       k, k - plan::kPlanLeaseTicks, pacer.rules().lease_wait_s);
           break;
         }
         publish_status_if_changed();
-        // The latest report again every 20 ms: the supervisors see the world alive, so a standby takes over from a
-        // leader that fell silent (its takeover rule wants reports flowing) instead of waiting with the world.
-        if (reported && waited > 0.02 * static_cast<double>(resent + 1)) {
-          report.write(rep);
-          ++resent;
-        }
+        if (a == world::LockstepPacer::LeaseAction::ResendReport) report.write(rep);
         (void)plans.wait(0.005);
         take_plans();
       }
-      lease_wait_s += waited;
-      tick_lease_s = waited;
+      pacer.lease_wait_end(seconds());
     }
     const long long sent = now_ns();
     core.begin_tick(k, sent, samples);
@@ -279,8 +269,7 @@ int run(int argc, char** argv) {
     // command in (a braked arm's robot may answer too: that releases it).
     const timespec deadline = to_ts(clock.deadline());
     const long long deadline_ns = clock.deadline();
-    int republished = 0;
-    const auto wait_start = std::chrono::steady_clock::now();
+    pacer.commands_begin(seconds());
     runtime::Inbox<msg::TorqueCommand, 2>::Item item;
     bool gave_up = false;
     while (!runtime::g_stop) {
@@ -295,18 +284,14 @@ int run(int argc, char** argv) {
         } else if (core.lockstep_done()) {
           break;
         } else {
-          const double waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - wait_start).count();
-          if (!core.lockstep_waited(waited, opt.timeout, now_ns())) {
+          if (!core.lockstep_waited(pacer.commands_waited(seconds()), opt.timeout, now_ns())) {
             gave_up = true;
             break;
           }
           publish_status_if_changed();
           // Lockstep: every 50 ms without the tick's commands, publish the tick's samples again, for a robot
           // that joined (or restarted) after they went out.
-          if (waited > 0.05 * static_cast<double>(republished + 1)) {
-            publish_samples(true);
-            ++republished;
-          }
+          if (pacer.republish_due(seconds())) publish_samples(true);
           inbox.wait(0.01);
         }
         continue;
@@ -324,21 +309,7 @@ int run(int argc, char** argv) {
       if (late_arrival) break;  // the rest are for the next tick's pass (as stale)
     }
     if (runtime::g_stop) break;
-    if (!opt.realtime) {
-      // A lockstep tick that held the module for long (the plant stands still meanwhile): said, with what it waited
-      // for, so that a soak's wall-clock gaps can be told apart (the leader's plan, a robot's command, or this world).
-      const double tick_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - tick_start).count();
-      if (tick_s > kLongTickS) {
-        const double commands_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wait_start).count();
-        std::string missing;
-        for (int j = 0; j < 2; ++j) {
-          if (!core.have(j) && !core.braked(j)) missing += (missing.empty() ? "" : ", ") + ctx.arm_id(j);
-        }
-        std::fprintf(stderr, "tandem-world %s: tick %ld held the module %.2f s: %.2f s for the leader's plan, %.2f s for "
-                     "the commands%s%s\n", opt.module.c_str(), k, tick_s, tick_lease_s, commands_s,
-                     missing.empty() ? "" : " (still missing: ", missing.empty() ? "" : (missing + ")").c_str());
-      }
-    }
+    pacer.commands_end(seconds());
     if (!core.end_tick(now_ns()) || gave_up) {
       for (int j = 0; j < 2; ++j) {
         if (!core.have(j)) {
@@ -356,11 +327,20 @@ int run(int argc, char** argv) {
     }
     core.step();
     if (opt.realtime) clock.advance();
+    // A lockstep tick that held the module for long (the plant stands still meanwhile) is said, split by what it
+    // waited for, so that a soak's wall-clock gaps can be told apart. What is the world's own is stepping (end_tick, step) and writing
+    // (a write blocks up to 1 s on a shared-memory port whose reader was killed holding its lock: Fast DDS builds its
+    // interprocess locks with a 1000 ms timeout).
+    if (const auto held = opt.realtime ? std::nullopt : pacer.tick_end(seconds())) {
+      std::fprintf(stderr, "tandem-world %s: tick %ld held the module %.2f s: %.2f s for the leader's plan, %.2f s "
+                   "stepping and publishing, %.2f s for the commands\n", opt.module.c_str(), k, held->total_s,
+                   held->lease_s, held->own_s, held->commands_s);
+    }
   }
 
-  if (lease_waits > 0) {
+  if (pacer.lease_waits() > 0) {
     std::printf("tandem-world %s: waited for the leader's plan %ld time(s), %.2f s in all (lockstep)\n",
-                opt.module.c_str(), lease_waits, lease_wait_s);
+                opt.module.c_str(), pacer.lease_waits(), pacer.lease_wait_s());
   }
   if (inbox.dropped() > 0) {
     std::fprintf(stderr, "tandem-world %s: %llu torque command(s) dropped unread: the queue was full\n", opt.module.c_str(),

@@ -21,11 +21,13 @@
 #include "tandem/launcher/restart_policy.hpp"
 #include "tandem/plan/plan.hpp"
 #include "tandem/robot/input_watch.hpp"
+#include "tandem/runtime/peer_wait.hpp"
 #include "tandem/robot/robot_core.hpp"
 #include "tandem/sim/embedded.hpp"
 #include "tandem/sim/module_setup.hpp"
 #include "tandem/sim/scenario_yaml.hpp"
 #include "tandem/supervisor/supervisor_core.hpp"
+#include "tandem/world/lockstep_pacer.hpp"
 #include "tandem/world/world_core.hpp"
 
 namespace ts = tandem::sim;
@@ -1238,6 +1240,18 @@ TEST_CASE("robot input watch: a deaf sensor reader is renewed while the plan com
     }
   }
   CHECK(heal_renewals == 1);
+  // A reader that has not matched the world's writer yet is still being discovered (slow on a busy machine): not
+  // renewed before the robot is active, and given up only at the timeout.
+  InputWatch unmatched(r, 0.0);
+  unmatched.renewed(0.0);
+  double unmatched_gave_up = -1.0;
+  for (double u = 0.01; u < 12.0 && unmatched_gave_up < 0; u += 0.01) {
+    unmatched.on_plan(u, 477000 + static_cast<long>(u * 1000.0));
+    const A a = unmatched.on_pass(u, false, false);
+    CHECK(a != A::RenewReader);
+    if (a == A::GiveUp) unmatched_gave_up = u;
+  }
+  CHECK(unmatched_gave_up == Approx(10.0).margin(0.015));
   // A world that stands still (a lockstep lease wait: heard_tick does not move) does not count as running.
   InputWatch still(r, 0.0);
   still.on_plan(0.0, 5000);
@@ -1246,6 +1260,95 @@ TEST_CASE("robot input watch: a deaf sensor reader is renewed while the plan com
     still.on_plan(u, 5000 + 150);
     CHECK(still.on_pass(u, false) == A::None);
   }
+}
+
+TEST_CASE("peer wait: every peer's need, less that is enough after half the timeout, and what is missing at the timeout", "[components]") {
+  using tandem::runtime::PeerWait;
+  using V = PeerWait::Verdict;
+  // The world's shape: sensor readers (3 wanted: robot, standby, recorder; 2 enough after half the timeout), a
+  // supervisor; a timeout of 10 s from t = 100.
+  PeerWait w({{"sensor readers of m1/left", 3, 2}, {"supervisor", 1}}, 10.0, 100.0);
+  CHECK(w.pass(101.0, {2, 1}) == V::Wait);
+  CHECK(w.missing() == "sensor readers of m1/left 2/3");
+  CHECK(w.take_lowered().empty());
+  CHECK(w.pass(104.9, {2, 1}) == V::Wait);
+  CHECK(w.pass(105.1, {2, 1}) == V::Ready);  // half the timeout: 2 readers are enough
+  const auto lowered = w.take_lowered();
+  REQUIRE(lowered.size() == 1);
+  CHECK(lowered[0] == 0);
+  CHECK(w.needed(0) == 2);
+  CHECK(w.take_lowered().empty());  // said once
+  // A peer that never comes: past the timeout, it is what is missing (fewer counts than peers count as 0).
+  PeerWait never({{"sensor readers of m1/left", 3, 2}, {"supervisor", 1}}, 10.0, 0.0);
+  CHECK(never.pass(5.5, {3}) == V::Wait);
+  CHECK(never.take_lowered().empty());  // the readers were all there: nothing lowered
+  CHECK(never.pass(9.9, {3, 0}) == V::Wait);
+  CHECK(never.pass(10.1, {3, 0}) == V::TimedOut);
+  CHECK(never.missing() == "supervisor 0/1");
+  // Everything at once: ready on the first pass, nothing missing.
+  PeerWait all({{"a", 1}, {"b", 2}}, 1.0, 0.0);
+  CHECK(all.pass(0.0, {1, 2}) == V::Ready);
+  CHECK(all.missing().empty());
+}
+
+TEST_CASE("lockstep pacer: the lease wait resends the report every 20 ms and lapses after 0.8 s, samples go again every 50 ms, a long tick is split by cause", "[components]") {
+  using tandem::world::LockstepPacer;
+  using LA = LockstepPacer::LeaseAction;
+  LockstepPacer p;  // lease 0.8 s, report every 20 ms, samples every 50 ms, a long tick over 0.3 s
+  CHECK(p.lease_wait_needed(false, 100));
+  CHECK_FALSE(p.lease_wait_needed(true, 100));
+  // A tick that waits for lease 100: passes every 5 ms; the report goes again at 20, 40, ... ms; lapsed after 0.8 s.
+  p.tick_begin(10.0);
+  p.lease_wait_begin(10.0);
+  std::vector<double> resends;
+  double lapsed_at = -1.0;
+  for (double t = 10.005; t < 11.0 && lapsed_at < 0; t += 0.005) {
+    const LA a = p.lease_wait_pass(t, 100, true);
+    if (a == LA::ResendReport) resends.push_back(t - 10.0);
+    if (a == LA::Lapsed) lapsed_at = t - 10.0;
+  }
+  CHECK(lapsed_at == Approx(0.805).margin(0.006));
+  REQUIRE(resends.size() >= 39);
+  CHECK(resends.size() <= 40);
+  CHECK(resends[0] == Approx(0.025).margin(0.006));
+  CHECK(resends[1] == Approx(0.045).margin(0.006));
+  p.lease_wait_end(10.0 + lapsed_at);
+  CHECK(p.lease_waits() == 1);
+  CHECK(p.lease_wait_s() == Approx(lapsed_at));
+  // That lease is not waited for again; a renewed (another) one is.
+  CHECK_FALSE(p.lease_wait_needed(false, 100));
+  CHECK(p.lease_wait_needed(false, 110));
+  // With no report sent yet there is none to send again.
+  LockstepPacer q;
+  q.tick_begin(0.0);
+  q.lease_wait_begin(0.0);
+  for (double t = 0.005; t < 0.5; t += 0.005) CHECK(q.lease_wait_pass(t, 5, false) == LA::Wait);
+
+  // The commands: the samples again at 50, 100, 150 ms of waiting, once each.
+  p.tick_begin(20.0);
+  p.commands_begin(20.001);
+  std::vector<double> republished;
+  for (double t = 20.001; t < 20.17; t += 0.001) {
+    if (p.republish_due(t)) republished.push_back(t - 20.001);
+  }
+  REQUIRE(republished.size() == 3);
+  CHECK(republished[0] == Approx(0.05).margin(0.0015));
+  CHECK(republished[2] == Approx(0.15).margin(0.0015));
+  CHECK(p.commands_waited(20.101) == Approx(0.1));
+  // A short tick is not said; a long one is split: 0.4 s for the lease, 1.0 s publishing, 0.05 s for the commands,
+  // 0.1 s stepping after them (the world's own as well).
+  CHECK_FALSE(p.tick_end(20.2).has_value());
+  p.tick_begin(30.0);
+  p.lease_wait_begin(30.0);
+  p.lease_wait_end(30.4);
+  p.commands_begin(31.4);
+  p.commands_end(31.45);
+  const auto held = p.tick_end(31.55);
+  REQUIRE(held.has_value());
+  CHECK(held->total_s == Approx(1.55));
+  CHECK(held->lease_s == Approx(0.4));
+  CHECK(held->own_s == Approx(1.1));
+  CHECK(held->commands_s == Approx(0.05));
 }
 
 TEST_CASE("lockstep lease: the world runs at most 10 ticks past what its leader heard; the leader publishes at every report; a standby still takes over a silent leader", "[components]") {

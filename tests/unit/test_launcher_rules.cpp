@@ -366,7 +366,7 @@ TEST_CASE("plug rules: a robot joins a running module's arm as a standby below t
   CHECK(d.text == "'plug robot m1/middle': module m1 has no arm 'middle' (arms: left, right)");
   CHECK(plug_robot("m1", "", false, m, 0, 49).action == A::Refuse);
   ModuleFacts ended = m;
-  ended.end = "unplugged";
+  ended.end = tandem::launcher::ModuleEnd::of(tandem::launcher::ModuleEnd::Kind::Unplugged);
   d = plug_robot("m1/left", "left", false, ended, 0, 49);
   CHECK(d.action == A::Refuse);
   CHECK(d.text == "'plug robot m1/left': no running module 'm1'");
@@ -382,12 +382,14 @@ TEST_CASE("plug rules: a module is cleared after a drop, started again once it h
   CHECK(d.action == A::Refuse);
   CHECK(d.text == "'plug module m1': it is running already");
   ModuleFacts m = module_running();
-  m.end = "draining";
+  m.end = tandem::launcher::ModuleEnd::of(tandem::launcher::ModuleEnd::Kind::Draining);
   d = plug_module("m1", m, false, false, "d.yaml");
   CHECK(d.action == A::Refuse);
   CHECK(d.text.find("it is draining") != std::string::npos);
   // Gone (unplugged, failed, parked): started again as the deployment has it.
-  for (const char* end : {"unplugged", "failed: m1/world exited with code 4", "parked: admission"}) {
+  for (const auto& end : {tandem::launcher::ModuleEnd::of(tandem::launcher::ModuleEnd::Kind::Unplugged),
+                          tandem::launcher::ModuleEnd::of(tandem::launcher::ModuleEnd::Kind::Failed, "m1/world exited with code 4"),
+                          tandem::launcher::ModuleEnd::of(tandem::launcher::ModuleEnd::Kind::Parked, "admission")}) {
     m.end = end;
     CHECK(plug_module("m1", m, false, false, "d.yaml").action == A::StartModule);
   }
@@ -400,7 +402,7 @@ TEST_CASE("plug rules: a module is cleared after a drop, started again once it h
   CHECK(plug_module("", ModuleFacts{}, true, true, "d.yaml").action == A::Refuse);
   CHECK(plug_module("m7", ModuleFacts{}, true, true, "d.yaml").action == A::AddModule);
   // A known module that has left, plugged with a scenario: added anew from it.
-  m.end = "unplugged";
+  m.end = tandem::launcher::ModuleEnd::of(tandem::launcher::ModuleEnd::Kind::Unplugged);
   CHECK(plug_module("m1", m, true, true, "d.yaml").action == A::AddModule);
 }
 
@@ -410,7 +412,7 @@ TEST_CASE("plug rules: unplug drains a module, hands an arm over to a live stand
   CHECK(d.action == A::DrainModule);
   CHECK(d.text == "unplugging module m1: draining (it finishes its task first)");
   ModuleFacts m = module_running();
-  m.end = "draining";
+  m.end = tandem::launcher::ModuleEnd::of(tandem::launcher::ModuleEnd::Kind::Draining);
   CHECK(unplug_module("m1", m).action == A::Refuse);  // once
   CHECK(unplug_module("m9", ModuleFacts{}).action == A::Refuse);
   d = unplug_robot("m1/left", true, "m1/left", "m1", 1);

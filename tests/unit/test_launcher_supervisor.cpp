@@ -235,7 +235,7 @@ TEST_CASE("launcher supervisor: a pending restart of a module that is stopped is
   f.exit("m1/world", 1, 5.1);  // coordinated: the module fails, the others go on
   CHECK(f.rec.said("tandem up: module m1 failed (m1/world exited with code 1); stopping its processes, the others go on\n"));
   CHECK(f.rec.said("tandem up: 1 pending restart(s) of module m1 dropped: it was stopped\n"));
-  CHECK(f.sup.modules().at("m1").end == "failed: m1/world exited with code 1");
+  CHECK(f.sup.modules().at("m1").end.text() == "failed: m1/world exited with code 1");
   CHECK(f.rec.signals_to("m1/right").at(0).sig == SIGTERM);
   f.poll(6.0);
   CHECK(f.starts_after(5.0).empty());
@@ -294,7 +294,7 @@ TEST_CASE("launcher supervisor: a module whose supervisor lost its plan is stopp
   CHECK(s[1].label == "m1/supervisor");
   CHECK(s[2].label == "m1/left");
   CHECK(s[3].label == "m1/right");
-  CHECK(f.sup.modules().at("m1").end.empty());
+  CHECK(f.sup.modules().at("m1").end.running());
 }
 
 TEST_CASE("launcher supervisor: a standby with no plan to follow while another supervisor leads restarts alone", "[launcher]") {
@@ -484,7 +484,7 @@ TEST_CASE("launcher supervisor: a module unplugged is drained, and the drain re-
   r.target_kind = Request::Target::Module;
   r.target = "m1";
   f.sup.on_request(r, 10.0);
-  CHECK(f.sup.modules().at("m1").end == "draining");
+  CHECK(f.sup.modules().at("m1").end.text() == "draining");
   REQUIRE(f.rec.controls.size() == 1);
   CHECK(f.rec.controls[0].second == ModuleCommand::Drain);
   f.poll(10.5);
@@ -497,7 +497,7 @@ TEST_CASE("launcher supervisor: a module unplugged is drained, and the drain re-
   // The leader leaves with its task done: the module is unplugged and its processes stop.
   f.exit("m1/supervisor", 0, 14.0);
   CHECK(f.rec.said("tandem up: module m1 drained; stopping its processes\n"));
-  CHECK(f.sup.modules().at("m1").end == "unplugged");
+  CHECK(f.sup.modules().at("m1").end.text() == "unplugged");
   CHECK(f.rec.signals_to("m1/world").at(0).sig == SIGTERM);
 }
 

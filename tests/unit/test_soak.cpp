@@ -2,8 +2,13 @@
 // the SVG plot writer.
 #include <catch2/catch.hpp>
 
+#include <unistd.h>
+
 #include <algorithm>
+#include <cstdlib>
+#include <fstream>
 #include <set>
+#include <sstream>
 #include <string>
 
 #include "tandem/soak/checker.hpp"
@@ -373,6 +378,85 @@ TEST_CASE("soak checker: resident memory that keeps growing is a violation, flat
   CHECK(v.rss_slope.at("coordinator") == Approx(3.0).epsilon(1e-9));
 }
 
+TEST_CASE("soak checker: memory is judged over the later half of a life, at most the last half hour, and not for a process a fault hit") {
+  // A world that grows 3 MiB/min for its first 20 minutes (start-up, a warm-up of caches) and is flat for the last
+  // 40: judged over its last 30 min, it holds.
+  History early = quiet_history(3600.0);
+  for (int i = 0; i <= 1800; ++i) {
+    const double t = 2.0 * i;
+    early.rss.push_back({t, "m1/world", 10, t < 1200.0 ? 20.0 + 3.0 * t / 60.0 : 80.0});
+  }
+  Verdict v = check(early, Bounds{});
+  CHECK(find(v, "memory flat") == nullptr);
+  CHECK(v.rss_slope.at("m1/world") == Approx(0.0).margin(1e-9));
+  // Growth in the last half hour is found whatever came before.
+  History late = quiet_history(3600.0);
+  for (int i = 0; i <= 1800; ++i) {
+    const double t = 2.0 * i;
+    late.rss.push_back({t, "m1/world", 10, t < 2400.0 ? 40.0 : 40.0 + 2.0 * (t - 2400.0) / 60.0});
+  }
+  v = check(late, Bounds{});
+  REQUIRE(find(v, "memory flat") != nullptr);
+  CHECK_THAT(find(v, "memory flat")->text, Catch::Contains("m1/world"));
+  // The same growth in a process that a fault stalled (its peers' samples piled up for it) is not judged.
+  History hit = late;
+  FaultRecord stall = kill_left(2500.0);
+  stall.fault.kind = FaultKind::Stall;
+  stall.label = "m1/world";
+  stall.pid = 10;
+  stall.end_t = 2500.5;
+  hit.faults.push_back(stall);
+  v = check(hit, Bounds{});
+  CHECK(find(v, "memory flat") == nullptr);
+  CHECK(v.rss_slope.count("m1/world") == 0);
+  // A process that lived under rss_min_life_s (120 s) is not judged either, however it grew.
+  History brief = quiet_history(600.0);
+  for (int i = 0; i <= 50; ++i) brief.rss.push_back({300.0 + 2.0 * i, "m1/left@49", 12, 10.0 + 0.5 * i});
+  v = check(brief, Bounds{});
+  CHECK(find(v, "memory flat") == nullptr);
+}
+
+TEST_CASE("soak checker: progress is judged per module in service, and a module's pause or a fault on it excuses its gap") {
+  // Two modules; m2 does no task from 10 s to 70 s (over the 45 s bound) while m1 goes on: a violation naming m2.
+  auto two = [](bool m2_paused, bool m2_faulted) {
+    History h = quiet_history(120.0);
+    h.h_sg["m2"] = 20.0;
+    for (ModuleSample s : h.modules["m1"]) {
+      if (m2_paused && s.t > 30.0 && s.t < 40.0) s.load_paused = true;
+      h.modules["m2"].push_back(s);
+    }
+    for (int k = 1; 4.0 * k < 120.0; ++k) {
+      const double t = 4.0 * k + 1.0;
+      if (t > 10.0 && t < 70.0) continue;
+      const std::string name = "u" + std::to_string(k);
+      h.task_names.push_back(name);
+      add_event(h, {t - 3.0, Event::Type::TaskAssigned, name, "m2"});
+      add_event(h, {t, Event::Type::TaskDone, name, "m2"});
+      h.tasks_done.push_back(name);
+      h.tasks_done_by.push_back("m2");
+    }
+    if (m2_faulted) {
+      FaultRecord f = kill_left(35.0);
+      f.label = "m2/left";
+      f.module = "m2";
+      f.had_standby = false;
+      h.faults.push_back(f);
+      add_event(h, {36.0, Event::Type::State, "m2/left@49", "2 222"});
+      add_event(h, {35.5, Event::Type::Owners, "m2", "left=m2/left@49,right=m2/right", {{"left", "m2/left@49"}, {"right", "m2/right"}}});
+    }
+    return check(h, Bounds{});
+  };
+  const Verdict gap = two(false, false);
+  const Violation* x = find(gap, "progress");
+  REQUIRE(x != nullptr);
+  CHECK_THAT(x->text, Catch::Contains("m2 did no task"));
+  for (const auto& y : gap.violations) {
+    if (y.invariant == "progress") CHECK_THAT(y.text, !Catch::Contains("m1 did no task"));
+  }
+  CHECK(find(two(true, false), "progress") == nullptr);   // paused for load meanwhile: a safe stop, excused
+  CHECK(find(two(false, true), "progress") == nullptr);   // a fault on m2 meanwhile: excused
+}
+
 TEST_CASE("soak checker: anything left behind is a violation") {
   History h = quiet_history(30.0);
   h.leftover_shm.push_back("fast_datasharing_x");
@@ -407,6 +491,57 @@ TEST_CASE("svg: a plot has its series, reference lines and escaped text") {
   CHECK(ticks.front() >= 0.0);
   CHECK(ticks.back() <= 97.0);
   CHECK(ticks[1] - ticks[0] == Approx(20.0));
+}
+
+TEST_CASE("svg: category labels on the y axis fit left of the plot (none cut off at the edge)") {
+  Plot p;
+  p.title = "faults";
+  p.ycategories = {"hog", "kill robot: arm served again (standby)", "unplug robot"};
+  Series s;
+  s.name = "faults";
+  for (int i = 0; i < 3; ++i) s.xy.emplace_back(10.0 * i, i);
+  p.series.push_back(s);
+  const std::string svg = render_svg(p);
+  // Each label is right-aligned at x; at font-size 10 a character is at most about 6 px wide (DejaVu Sans: 6.4 px for
+  // the widest lower-case letters, 5.5 px on average): its left end x - 6 * length must be on the canvas.
+  int seen = 0;
+  for (const std::string& label : p.ycategories) {
+    const size_t at = svg.find(">" + label + "</text>");
+    REQUIRE(at != std::string::npos);
+    const size_t tag = svg.rfind("<text x=\"", at);
+    REQUIRE(tag != std::string::npos);
+    const double x = std::stod(svg.substr(tag + 9));
+    CHECK(x - 6.0 * static_cast<double>(label.size()) >= 0.0);
+    ++seen;
+  }
+  CHECK(seen == 3);
+}
+
+TEST_CASE("soak report: index.html renders the summary as HTML tables and lists, not raw Markdown") {
+  History h = quiet_history(60.0);
+  h.faults.push_back(kill_left(20.0));
+  add_event(h, {20.021, Event::Type::Owners, "m1", "left=m1/left@50,right=m1/right", {{"left", "m1/left@50"}, {"right", "m1/right"}}});
+  add_event(h, {21.8, Event::Type::State, "m1/left@49", "2 222"});
+  const Bounds b{};
+  RunInfo info;
+  info.deployment = "unit <test>";
+  const std::string dir = "/tmp/tandem-unit-soak-report-" + std::to_string(::getpid());
+  (void)write_report(dir, info, h, b, check(h, b));
+  std::ifstream in(dir + "/index.html");
+  REQUIRE(in.good());
+  std::stringstream ss;
+  ss << in.rdbuf();
+  const std::string html = ss.str();
+  (void)std::system(("rm -rf " + dir).c_str());
+  CHECK(html.find("<table>") != std::string::npos);
+  CHECK(html.find("<th>invariant</th>") != std::string::npos);
+  CHECK(html.find("<td>object held</td>") != std::string::npos);
+  CHECK(html.find("<li>") != std::string::npos);
+  CHECK(html.find("unit &lt;test&gt;") != std::string::npos);
+  CHECK(html.find("<pre>") == std::string::npos);
+  CHECK(html.find("|---") == std::string::npos);
+  CHECK(html.find("\n| ") == std::string::npos);  // no Markdown table row left as text
+  CHECK(html.find("<img src=\"faults.svg\"") != std::string::npos);
 }
 
 TEST_CASE("soak checker: a supervisor kill with no warm standby is judged by the lost-plan bound") {

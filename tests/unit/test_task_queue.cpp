@@ -672,6 +672,35 @@ TEST_CASE("leadership: a primary that hears its successor only after the doubt s
   CHECK_FALSE(a.on_peer("coordinator@0", true, false, 30.0));
 }
 
+TEST_CASE("leadership: of two primaries the one whose queue is further on stays, whatever the ids", "[coordinator]") {
+  using Step = Leadership::Step;
+  // The lockstep soak hour: r11 stalled 1.7 s; r12 took over and assigned id 667; r11 came back (queue at 667) and
+  // published `primary`. r12 heard it first and must stay (its queue is at 668); r11 hears r12 and leaves.
+  Leadership r11({"coordinator@r11", false, false}, 0.0), r12({"coordinator@r12", true, false}, 0.0);
+  r12.on_loop(0.01);
+  Snapshot s;
+  s.next_task_id = 667;
+  REQUIRE(r12.on_state(s, 0.01));
+  for (double t = 0.02; t < 0.6; t += 0.02) {
+    r12.on_loop(t);
+    (void)r12.step(t, 100, nullptr);
+  }
+  REQUIRE(r12.primary());
+  CHECK_FALSE(r12.on_peer("coordinator@r11", true, true, 1.0, 667, 668));  // behind: r12 stays despite its larger id
+  r11.on_loop(0.01);
+  CHECK(r11.on_loop(1.7).find("stalled") != std::string::npos);
+  CHECK(r11.step(2.1, 100, nullptr) == Step::Lead);  // nobody heard within its doubt
+  CHECK(r11.on_peer("coordinator@r12", true, true, 2.2, 668, 667));  // ... then r12 (further on): leave
+  // Neither stalled: the one further on stays even with the larger id; as far on, the smaller id stays.
+  Leadership a({"coordinator@1", false, false}, 0.0), b({"coordinator@2", false, false}, 0.0);
+  a.on_loop(0.05);
+  b.on_loop(0.05);
+  CHECK(a.on_peer("coordinator@2", true, true, 20.0, 90, 80));
+  CHECK_FALSE(b.on_peer("coordinator@1", true, true, 20.0, 80, 90));
+  CHECK_FALSE(a.on_peer("coordinator@2", true, true, 21.0, 80, 80));
+  CHECK(b.on_peer("coordinator@1", true, true, 21.0, 80, 80));
+}
+
 TEST_CASE("leadership: a primary back from a stall keeps the most advanced queue state it hears for 10 s", "[coordinator]") {
   Leadership p({"coordinator", false, false}, 0.0);
   CHECK_FALSE(p.recently_stalled(0.1));

@@ -26,11 +26,14 @@ void CoordinatorCore::on_loop(double now) {
   }
 }
 
-void CoordinatorCore::on_peer(const std::string& id, bool active, bool claims_primary, double now) {
-  if (end_ || !lead_.on_peer(id, active, claims_primary, now)) return;
-  end_ = CoordinatorEnd{launcher::exit_code::kReplaced, true, "stalled and replaced: left so that one coordinator leads",
-                        id + " took over while this one was stalled; leaving so that only one coordinator leads "
-                             "(restarted as a standby by the policy)"};
+void CoordinatorCore::on_peer(const std::string& id, bool active, bool claims_primary, double now, uint64_t peer_next) {
+  if (end_ || !lead_.on_peer(id, active, claims_primary, now, peer_next, own_next_)) return;
+  const std::string why = lead_.doubting() || lead_.recently_stalled(now)
+                              ? id + " took over while this one was stalled"
+                              : id + " leads too, with its queue at task id " + std::to_string(peer_next) + " (this one's at " +
+                                    std::to_string(own_next_) + ")";
+  end_ = CoordinatorEnd{launcher::exit_code::kReplaced, true, "replaced: left so that one coordinator leads",
+                        why + "; leaving so that only one coordinator leads (restarted as a standby by the policy)"};
 }
 
 void CoordinatorCore::on_task_state(const ModuleReport& r, double now) {

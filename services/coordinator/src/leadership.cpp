@@ -31,11 +31,13 @@ std::string Leadership::on_loop(double now) {
   return line;
 }
 
-bool Leadership::on_peer(const std::string& id, bool active, bool claims_primary, double now) {
+bool Leadership::on_peer(const std::string& id, bool active, bool claims_primary, double now, uint64_t peer_next,
+                         uint64_t own_next) {
   if (id == o_.id) return false;
-  if (primary_ && claims_primary && active &&
-      (doubting() || now - last_stall_ <= kStallMemoryS || id < o_.id)) {
-    return true;
+  if (primary_ && claims_primary && active) {
+    if (doubting() || now - last_stall_ <= kStallMemoryS) return true;  // it may have been replaced meanwhile
+    if (peer_next > own_next) return true;                               // the other's queue is further on
+    if (peer_next == own_next && id < o_.id) return true;                // as far on: the smaller id stays
   }
   if (active) {
     peers_[id] = now;

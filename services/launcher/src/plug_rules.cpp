@@ -37,13 +37,13 @@ PlugDecision plug_robot(const std::string& label, const std::string& robot, bool
 
 PlugDecision plug_module(const std::string& name, const ModuleFacts& m, bool scenario_given, bool case_given,
                          const std::string& deployment_file) {
-  if (m.known && m.started && m.end.empty() && m.failed) {
+  if (m.known && m.started && m.end.running() && m.failed) {
     // Failed by a drop (its world brakes both arms for good): a person clears it (docs/failure-model.md).
     return {PlugDecision::Action::ClearModule, 0,
             "clearing module " + name + " (failed: object dropped): its processes stop, then it starts again"};
   }
   if (m.running()) return refuse("'plug module " + name + "': it is running already");
-  if (m.known && m.started && m.end == "draining") {
+  if (m.known && m.started && m.end.is(ModuleEnd::Kind::Draining)) {
     // Its processes still run (finishing the task): a second set would simulate the module twice.
     return refuse("'plug module " + name + "': it is draining (finishing its task before it leaves); plug it in again "
                   "once it has left");

@@ -96,7 +96,7 @@ void Supervisor::start_module(const std::string& name, double now) {
   ModuleRun& mr = modules_.at(name);
   const ModuleSpec& m = mr.spec;
   mr.started = true;
-  mr.end.clear();
+  mr.end = {};
   mr.task_over = false;
   mr.ticked = false;
   mr.started_at = now;
@@ -165,7 +165,7 @@ bool Supervisor::start_ranked(const char* role, const std::string& module, const
 std::vector<std::string> Supervisor::admit(const std::vector<std::string>& order, size_t fit, double now) {
   governor_ = std::make_unique<Governor>(order);
   std::vector<std::string> parked = governor_->admit(fit, now);
-  for (const std::string& m : parked) modules_.at(m).end = "parked: admission";
+  for (const std::string& m : parked) modules_.at(m).end = ModuleEnd::of(ModuleEnd::Kind::Parked, "admission");
   return parked;
 }
 
@@ -389,7 +389,7 @@ void Supervisor::plug_module(const std::string& name, const std::string& scenari
     case Action::ClearModule:
       say(true, "%s\n", dec.text.c_str());
       task_states_.erase(name);
-      modules_.at(name).end = "cleared";
+      modules_.at(name).end = ModuleEnd::of(ModuleEnd::Kind::Cleared);
       if (governor_) governor_->set_available(name, true);
       stop_module(name, now);
       pending_clears_.push_back(name);  // started again once its processes are gone
@@ -445,7 +445,7 @@ void Supervisor::unplug(const Request& req, double now) {
     say(dec.action != Action::Refuse, "%s\n", dec.text.c_str());
     if (dec.action == Action::Refuse) return;
     ModuleRun& mr = modules_.at(name);
-    mr.end = "draining";
+    mr.end = ModuleEnd::of(ModuleEnd::Kind::Draining);
     mr.drain.start(now);
     if (governor_) governor_->set_available(name, false);
     send(name, ModuleCommand::Drain);
@@ -512,7 +512,7 @@ void Supervisor::on_world_load(const std::string& module, const std::string& det
   const auto it = modules_.find(module);
   if (it != modules_.end() && tick > 0) it->second.ticked = true;
   if (!governor_ || stopping_) return;
-  if (it == modules_.end() || !it->second.started || !it->second.end.empty()) return;
+  if (it == modules_.end() || !it->second.started || !it->second.end.running()) return;
   governor_->on_load(module, detail.rfind("paused for load", 0) == 0, now);
 }
 
@@ -554,7 +554,7 @@ void Supervisor::poll(double now) {
       continue;
     }
     logf("tandem up: module %s %s; starting it again from its initial grasp\n", it->c_str(),
-         modules_.at(*it).end == "repairing" ? "stopped for the repair" : "cleared");
+         modules_.at(*it).end.is(ModuleEnd::Kind::Repairing) ? "stopped for the repair" : "cleared");
     start_module(*it, now);
     it = pending_clears_.erase(it);
   }
@@ -623,7 +623,7 @@ void Supervisor::poll(double now) {
   // A module that has not come up in time (start_timeout): some pair of its participants never matched.
   if (!stopping_) {
     for (auto& [name, mr] : modules_) {
-      if (!mr.started || mr.ticked || !mr.end.empty() || mr.repairs >= kStartRepairs) continue;
+      if (!mr.started || mr.ticked || !mr.end.running() || mr.repairs >= kStartRepairs) continue;
       // (A world waits up to half its timeout for late sensor readers besides the first: not cut short.)
       const double limit = std::max(cfg_.start_timeout, 0.5 * cfg_.timeout + 2.0);
       if (now - mr.started_at < limit) continue;
@@ -707,7 +707,7 @@ void Supervisor::handle_exit(Child& c, double now) {
   if (mr != nullptr) {
     f.module_ticked = mr->ticked;
     f.module_repairs = mr->repairs;
-    f.module_draining = mr->end == "draining";
+    f.module_draining = mr->end.is(ModuleEnd::Kind::Draining);
     f.restart_always = mr->spec.restart.policy == "always";
   }
   f.live_peers = *role == Role::Coordinator ? live_coordinators() : live_robots(c.arm);
@@ -731,7 +731,7 @@ void Supervisor::handle_exit(Child& c, double now) {
       return;
     case ExitVerdict::Drained:
       logf("tandem up: module %s drained; stopping its processes\n", c.module.c_str());
-      mr->end = "unplugged";
+      mr->end = ModuleEnd::of(ModuleEnd::Kind::Unplugged);
       if (governor_) governor_->set_available(c.module, false);
       stop_module(c.module, now);
       return;
@@ -741,7 +741,7 @@ void Supervisor::handle_exit(Child& c, double now) {
       logf("tandem up: module %s lost its plan (%s had no leader to follow); restarting the module\n",
            c.module.c_str(), c.label.c_str());
       ++plan_restarts_;
-      mr->end = "repairing";
+      mr->end = ModuleEnd::of(ModuleEnd::Kind::Repairing);
       stop_module(c.module, now);
       pending_clears_.push_back(c.module);
       return;
@@ -756,7 +756,7 @@ void Supervisor::handle_exit(Child& c, double now) {
     case ExitVerdict::ModuleFailed:
       logf("tandem up: module %s failed (%s exited with code %d); stopping its processes, the others go on\n",
            c.module.c_str(), c.label.c_str(), c.status);
-      mr->end = "failed: " + c.label + " exited with code " + code;
+      mr->end = ModuleEnd::of(ModuleEnd::Kind::Failed, c.label + " exited with code " + code);
       if (governor_) governor_->set_available(c.module, false);
       stop_module(c.module, now);
       return;
@@ -839,7 +839,7 @@ void Supervisor::repair_start(const std::string& module, const std::string& why,
   ++start_repairs_;
   logf("tandem up: module %s did not come up (%s); restarting the module with new participants (repair %d "
        "of at most %d)\n", module.c_str(), why.c_str(), mr.repairs, kStartRepairs);
-  mr.end = "repairing";
+  mr.end = ModuleEnd::of(ModuleEnd::Kind::Repairing);
   stop_module(module, now);
   pending_clears_.push_back(module);
 }
@@ -921,7 +921,7 @@ void Supervisor::govern(double now) {
   if (dec.kind == Governor::Decision::Kind::Park) {
     logf("tandem up: parking module %s (%s): its processes stop once it is paused; its task goes back to "
          "the queue\n", dec.module.c_str(), dec.why.c_str());
-    modules_.at(dec.module).end = "parked: " + dec.why;
+    modules_.at(dec.module).end = ModuleEnd::of(ModuleEnd::Kind::Parked, dec.why);
     ++parks_;
     send(dec.module, ModuleCommand::Pause);
     pending_parks_.push_back({dec.module, now});
@@ -986,7 +986,7 @@ void Supervisor::stop_deaf_leader(const std::string& module, ModuleRun& mr, doub
 /// kDeafLeader the leader is taken for deaf (stop_deaf_leader); past kTimeout the module is stopped.
 void Supervisor::resend_drains(double now) {
   for (auto& [name, mr] : modules_) {
-    if (mr.end != "draining") continue;
+    if (!mr.end.is(ModuleEnd::Kind::Draining)) continue;
     const int ts = task_state(name);
     const bool acked = ts == code(plan::TaskStateCode::Draining) || ts == code(plan::TaskStateCode::Left);
     const DrainStep step = mr.drain.step(now, acked);
@@ -997,7 +997,7 @@ void Supervisor::resend_drains(double now) {
       logf("tandem up: module %s did not drain within %.0f s (%s); stopping it with its task unfinished, "
            "which goes back to the queue\n", name.c_str(), DrainWatch::kTimeout, last.c_str());
       ++forced_drains_;
-      mr.end = "unplugged";
+      mr.end = ModuleEnd::of(ModuleEnd::Kind::Unplugged);
       stop_module(name, now);
       continue;
     }

@@ -154,6 +154,9 @@ pb::WorldSummary convert(const msg::WorldSummary& s) {
   o.set_overruns(s.overruns());
   o.set_load_pauses(s.load_pauses());
   o.set_load_paused_ticks(s.load_paused_ticks());
+  o.set_failover_last_ms(s.failover_last_ms());
+  copy_to(s.switch_ep_max(), o.mutable_switch_ep_max());
+  copy_to(s.switch_hn_min(), o.mutable_switch_hn_min());
   return o;
 }
 pb::TaskAssignment convert(const msg::TaskAssignment& a) {
@@ -171,6 +174,7 @@ pb::TaskState convert(const msg::TaskState& s) {
   o.set_state(s.state());
   o.set_tasks_done(s.tasks_done());
   o.set_tick(s.tick());
+  o.set_deployment(s.deployment());
   return o;
 }
 pb::SupervisorPlan convert(const msg::SupervisorPlan& p) {
@@ -188,6 +192,12 @@ pb::SupervisorPlan convert(const msg::SupervisorPlan& p) {
   o.set_pause_requested(p.pause_requested());
   o.set_draining(p.draining());
   o.set_state(p.state());
+  o.set_deployment(p.deployment());
+  o.set_tau_start(p.tau_start());
+  copy_to(p.rest(), o.mutable_rest());
+  copy_to(p.path_start(), o.mutable_path_start());
+  copy_to(p.breaks(), o.mutable_breaks());
+  o.set_heard_tick(p.heard_tick());
   return o;
 }
 pb::ControlRequest convert(const msg::ControlRequest& r) {

@@ -3,6 +3,7 @@
 #include <arpa/inet.h>
 
 #include <algorithm>
+#include <filesystem>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -312,6 +313,104 @@ const ModuleDeployment* find_module(const Deployment& d, const std::string& name
     if (m.name == name) return &m;
   }
   return nullptr;
+}
+
+namespace {
+std::string absolute_path(const std::string& p) {
+  if (p.empty()) return p;
+  std::error_code ec;
+  const std::filesystem::path abs = std::filesystem::absolute(p, ec);
+  return ec ? p : abs.lexically_normal().string();
+}
+}  // namespace
+
+std::string deployment_yaml(const Deployment& d) {
+  YAML::Emitter out;
+  out.SetDoublePrecision(17);
+  out << YAML::BeginMap;
+  out << YAML::Key << "name" << YAML::Value << d.name;
+  out << YAML::Key << "domain_id" << YAML::Value << d.domain_id;
+  out << YAML::Key << "transport" << YAML::Value << d.transport;
+  out << YAML::Key << "timing" << YAML::Value << d.timing;
+  out << YAML::Key << "timeout" << YAML::Value << d.timeout;
+  out << YAML::Key << "start_timeout" << YAML::Value << d.start_timeout;
+  out << YAML::Key << "realtime_priority" << YAML::Value << d.realtime_priority;
+  out << YAML::Key << "overload_brake" << YAML::Value << d.overload_brake;
+  out << YAML::Key << "shed_modules" << YAML::Value << d.shed_modules;
+  if (d.test_no_brakes) out << YAML::Key << "test_no_brakes" << YAML::Value << true;
+  out << YAML::Key << "discovery" << YAML::Value << d.discovery;
+  if (d.discovery_port > 0) out << YAML::Key << "discovery_port" << YAML::Value << d.discovery_port;
+  out << YAML::Key << "discovery_address" << YAML::Value << d.discovery_address;
+  out << YAML::Key << "discovery_start" << YAML::Value << d.discovery_start;
+  out << YAML::Key << "host_timeout" << YAML::Value << d.host_timeout;
+  if (!d.hosts.empty()) {
+    out << YAML::Key << "hosts" << YAML::Value << YAML::BeginMap;
+    for (const HostSpec& h : d.hosts) {
+      out << YAML::Key << h.name << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key << "address" << YAML::Value
+          << h.address << YAML::EndMap;
+    }
+    out << YAML::EndMap;
+  }
+  if (!d.record.empty()) out << YAML::Key << "record" << YAML::Value << d.record;
+  if (!d.record_topics.empty()) out << YAML::Key << "record_topics" << YAML::Value << d.record_topics;
+  auto hosts_map = [&out](const char* key, const std::map<std::string, std::string>& m) {
+    if (m.empty()) return;
+    out << YAML::Key << key << YAML::Value << YAML::Flow << YAML::BeginMap;
+    for (const auto& [robot, host] : m) out << YAML::Key << robot << YAML::Value << host;
+    out << YAML::EndMap;
+  };
+  out << YAML::Key << "modules" << YAML::Value << YAML::BeginSeq;
+  for (const ModuleDeployment& m : d.modules) {
+    out << YAML::BeginMap;
+    out << YAML::Key << "name" << YAML::Value << m.name;
+    out << YAML::Key << "scenario" << YAML::Value << absolute_path(m.scenario);
+    out << YAML::Key << "case" << YAML::Value << m.case_name;
+    out << YAML::Key << "standby" << YAML::Value << m.standby;
+    out << YAML::Key << "supervisor_standby" << YAML::Value << m.supervisor_standby;
+    out << YAML::Key << "restart" << YAML::Value << m.restart;
+    out << YAML::Key << "restart_limit" << YAML::Value << m.restart_limit;
+    out << YAML::Key << "restart_window" << YAML::Value << m.restart_window;
+    out << YAML::Key << "restart_backoff" << YAML::Value << m.restart_backoff;
+    out << YAML::Key << "restart_as" << YAML::Value << m.restart_as;
+    out << YAML::Key << "autostart" << YAML::Value << m.autostart;
+    if (!m.host.empty()) out << YAML::Key << "host" << YAML::Value << m.host;
+    if (!m.supervisor_host.empty()) out << YAML::Key << "supervisor_host" << YAML::Value << m.supervisor_host;
+    if (!m.supervisor_standby_host.empty()) {
+      out << YAML::Key << "supervisor_standby_host" << YAML::Value << m.supervisor_standby_host;
+    }
+    hosts_map("robot_hosts", m.robot_hosts);
+    hosts_map("standby_hosts", m.standby_hosts);
+    out << YAML::EndMap;
+  }
+  out << YAML::EndSeq;
+  if (!d.security_keys.empty()) {
+    out << YAML::Key << "security" << YAML::Value << YAML::BeginMap << YAML::Key << "keys" << YAML::Value
+        << absolute_path(d.security_keys) << YAML::EndMap;
+  }
+  if (d.coordinator) {
+    out << YAML::Key << "coordinator" << YAML::Value << YAML::BeginMap;
+    out << YAML::Key << "balance" << YAML::Value << d.balance;
+    out << YAML::Key << "standby" << YAML::Value << d.coordinator_standby;
+    out << YAML::Key << "restart" << YAML::Value << d.coordinator_restart;
+    out << YAML::Key << "restart_limit" << YAML::Value << d.coordinator_restart_limit;
+    out << YAML::Key << "restart_window" << YAML::Value << d.coordinator_restart_window;
+    if (!d.coordinator_host.empty()) out << YAML::Key << "host" << YAML::Value << d.coordinator_host;
+    if (!d.coordinator_standby_host.empty()) out << YAML::Key << "standby_host" << YAML::Value << d.coordinator_standby_host;
+    out << YAML::Key << "tasks" << YAML::Value << YAML::BeginSeq;
+    for (const TaskSpec& t : d.tasks) {
+      out << YAML::BeginMap << YAML::Key << "name" << YAML::Value << t.name << YAML::Key << "segments" << YAML::Value
+          << YAML::BeginSeq;
+      for (size_t w = 0; w + 3 < t.waypoints.size(); w += 4) {
+        out << YAML::Flow << YAML::BeginMap << YAML::Key << "to" << YAML::Value << YAML::Flow
+            << std::vector<double>{t.waypoints[w], t.waypoints[w + 1], t.waypoints[w + 2]} << YAML::Key << "duration"
+            << YAML::Value << t.waypoints[w + 3] << YAML::EndMap;
+      }
+      out << YAML::EndSeq << YAML::EndMap;
+    }
+    out << YAML::EndSeq << YAML::EndMap;
+  }
+  out << YAML::EndMap;
+  return std::string(out.c_str()) + "\n";
 }
 
 }  // namespace tandem::runtime

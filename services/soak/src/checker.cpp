@@ -255,8 +255,10 @@ class Judge {
   /// First time after t at which arm `robot` is served by another process than `label`'s pid `old_pid`: another
   /// label, or the same label once a new process of it is active (a restart keeps its label: run 13 counted m1/right
   /// unserved for 136 s while its restarted m1/right@49 served it).
+  /// `module_time`: a failover to a standby, judged in the module's time in lockstep (served_again_at); a restart
+  /// is judged on the wall clock (the world runs on meanwhile, at lockstep's pace, with the arm braked).
   double arm_served_without(const std::string& module, const std::string& robot, const std::string& label,
-                            long long old_pid, double t) const {
+                            long long old_pid, double t, bool module_time, long tick_at_fault) const {
     double back = -1.0;
     for (const Event& e : h_.events) {
       if (e.t < t || e.type != Event::Type::State || e.subject != label) continue;
@@ -269,7 +271,7 @@ class Judge {
       if (e.t < t || e.type != Event::Type::Owners || e.subject != module) continue;
       const auto it = e.owners.find(robot);
       if (it == e.owners.end() || it->second.empty()) continue;
-      if (it->second != label || (back >= 0.0 && e.t >= back)) return served_again_at(module, e, t);
+      if (it->second != label || (back >= 0.0 && e.t >= back)) return module_time ? served_again_at(module, e, t, tick_at_fault) : e.t;
     }
     return -1.0;
   }
@@ -277,15 +279,18 @@ class Judge {
   /// heard. Lockstep: the module's own time matters (the plant stands still while its world waits, however long the
   /// wall clock runs meanwhile, and a lockstep world's reports reach the observer late), so t plus the ticks the
   /// world ran from the newest tick heard before t to the event's report, at 1 ms a tick. That is an upper bound:
-  /// the world had run past the tick heard last when the fault came.
-  double served_again_at(const std::string& module, const Event& e, double t) const {
+  /// the world had run past the tick heard last when the fault came. The tick heard last is the nemesis's note at
+  /// the fault (FaultRecord::module_tick), else the newest 100 ms bucket before t (up to a bucket older).
+  double served_again_at(const std::string& module, const Event& e, double t, long tick_at_fault) const {
     if (h_.realtime || e.tick < 0) return e.t;
-    const auto m = h_.modules.find(module);
-    if (m == h_.modules.end()) return e.t;
-    long before = -1;
-    for (const ModuleSample& s : m->second) {
-      if (s.t > t) break;
-      before = s.tick;
+    long before = tick_at_fault;
+    if (before < 0) {
+      const auto m = h_.modules.find(module);
+      if (m == h_.modules.end()) return e.t;
+      for (const ModuleSample& s : m->second) {
+        if (s.t > t) break;
+        before = s.tick;
+      }
     }
     if (before < 0 || e.tick < before) return e.t;
     return t + static_cast<double>(e.tick - before) * kTickS;
@@ -378,7 +383,7 @@ class Judge {
           if (served_before(module, robot, f.label, f.t)) {
             const double bound = f.had_standby ? b_.failover_s : b_.restart_s;
             judge(inv, f, f.had_standby ? "kill robot: arm served again (standby)" : "kill robot: arm served again (restart)",
-                  arm_served_without(module, robot, f.label, f.pid, f.t), f.t, bound,
+                  arm_served_without(module, robot, f.label, f.pid, f.t, f.had_standby, f.module_tick), f.t, bound,
                   "no other robot served " + arm);
           }
           judge(inv, f, "kill robot: replacement up", slot_active(arm, f.pid, f.t), f.t, b_.restart_s,
@@ -425,7 +430,7 @@ class Judge {
           }
         } else {
           if (f.had_standby && served_before(module, robot, f.label, f.t)) {
-            judge(inv, f, "unplug robot: hand-over", arm_served_without(module, robot, f.label, f.pid, f.t), f.t, b_.failover_s,
+            judge(inv, f, "unplug robot: hand-over", arm_served_without(module, robot, f.label, f.pid, f.t, true, f.module_tick), f.t, b_.failover_s,
                   "no other robot served " + arm);
           }
           if (f.end_t < 0.0) {

@@ -192,6 +192,7 @@ void Nemesis::fire(const Fault& f, double t) {
     if (it->second.role == "robot") r.had_standby = live_robots_of(target.substr(0, target.find('@')), t) > 1;
     if (it->second.role == "supervisor") r.had_standby = warm_standbys_of(r.module, target, t) > 0;
     if (it->second.role == "coordinator") r.had_standby = standby_coordinators(target, t) > 0;
+    if (const auto tk = ticks_.find(r.module); tk != ticks_.end()) r.module_tick = tk->second;
   } else {
     const auto it = procs_.find(target + "/world");
     r.pid = it != procs_.end() ? it->second.pid : 0;

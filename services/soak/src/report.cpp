@@ -399,13 +399,15 @@ std::string write_report(const std::string& dir, const RunInfo& info, const Hist
     }
   }
   static const char* kTypes[] = {"owners", "state", "serving", "task_assigned", "task_done", "queue_back", "parked", "unparked"};
-  ev << "t,type,subject,text\n";
-  for (const Event& e : h.events) ev << e.t << "," << kTypes[static_cast<int>(e.type)] << "," << e.subject << ",\"" << e.text << "\"\n";
-  fl << "index,t,kind,target,label,pid,duration_s,end_t,skipped,had_standby,note\n";
+  ev << "t,type,subject,text,tick\n";  // tick: the world's, for owners (-1 otherwise)
+  for (const Event& e : h.events) {
+    ev << e.t << "," << kTypes[static_cast<int>(e.type)] << "," << e.subject << ",\"" << e.text << "\"," << e.tick << "\n";
+  }
+  fl << "index,t,kind,target,label,pid,duration_s,end_t,skipped,had_standby,note,module_tick\n";
   for (const FaultRecord& f : h.faults) {
     fl << f.fault.index << "," << f.t << "," << name(f.fault.kind) << "," << name(f.fault.target) << "," << f.label << ","
        << f.pid << "," << f.fault.duration_s << "," << f.end_t << "," << f.skipped << "," << f.had_standby << ",\""
-       << f.note << "\"\n";
+       << f.note << "\"," << f.module_tick << "\n";
   }
   write_file(dir + "/rss.csv", rss.str());
   write_file(dir + "/modules.csv", mod.str());

@@ -9,7 +9,6 @@
 #include <sys/wait.h>
 #include <tandemPubSubTypes.h>
 #include <unistd.h>
-#include <yaml-cpp/yaml.h>
 
 #include <algorithm>
 #include <chrono>
@@ -233,6 +232,7 @@ class Observer : public NemesisActions {
           ++b.world;
         }
         b.last_tick = tick;
+        nemesis_.on_tick(module, tick);
         if (!b.open) {
           b.open = true;
           b.s = ModuleSample{};
@@ -510,42 +510,29 @@ class Observer : public NemesisActions {
 /// coordinator whose queue lasts the whole run (the file's own tasks first, then "soak-N" moves back and forth).
 std::string derived_deployment(const std::string& file, const runtime::Deployment& d, const std::string& timing,
                                const std::string& transport, double duration_s, size_t& generated) {
-  YAML::Node root = YAML::LoadFile(file);
-  root["timing"] = timing;
-  if (!transport.empty()) root["transport"] = transport;
-  for (size_t i = 0; i < d.modules.size() && i < root["modules"].size(); ++i) {
-    // Absolute: the derived file lives in the report directory, which may be anywhere.
-    std::error_code ec;
-    const std::filesystem::path abs = std::filesystem::absolute(d.modules[i].scenario, ec);
-    root["modules"][i]["scenario"] = ec ? d.modules[i].scenario : abs.lexically_normal().string();
-  }
-  if (!root["coordinator"]) {
-    root["coordinator"]["balance"] = "wear";
-    root["coordinator"]["tasks"] = YAML::Node(YAML::NodeType::Sequence);
+  runtime::Deployment out = d;
+  out.timing = timing;
+  if (!transport.empty()) out.transport = transport;
+  if (!out.coordinator) {
+    out.coordinator = true;
+    out.balance = "wear";
   }
   // A task takes about 4 s in real time (two 1.5 s moves and the hand-over), less in lockstep (it runs as fast
   // as the machine allows): enough for every module to stay busy.
   const size_t modules = std::max<size_t>(1, d.modules.size());
   generated = static_cast<size_t>(std::ceil(duration_s / 3.0 * static_cast<double>(modules) * (timing == "lockstep" ? 2.5 : 1.3))) + 8;
-  YAML::Node tasks = root["coordinator"]["tasks"];
+  out.tasks.reserve(out.tasks.size() + generated);
   for (size_t i = 1; i <= generated; ++i) {
-    YAML::Node t;
-    t["name"] = "soak-" + std::to_string(i);
+    runtime::TaskSpec t;
+    t.name = "soak-" + std::to_string(i);
     const double x = (i % 2 == 1) ? 0.15 : -0.15;
-    YAML::Node a, b;
-    a["to"] = std::vector<double>{x, 0.8, 0.0};
-    a["duration"] = 1.5;
-    b["to"] = std::vector<double>{0.0, 0.85, 0.0};
-    b["duration"] = 1.5;
-    t["segments"].push_back(a);
-    t["segments"].push_back(b);
-    tasks.push_back(t);
+    t.waypoints = {x, 0.8, 0.0, 1.5, 0.0, 0.85, 0.0, 1.5};  // (x, y, phi, duration) per segment
+    out.tasks.push_back(std::move(t));
   }
-  YAML::Emitter out;
-  out.SetSeqFormat(YAML::Flow);
-  out << root;
-  return std::string("# Written by tandem soak from ") + file + " (timing, transport, absolute scenario paths, soak tasks)\n" +
-         out.c_str() + "\n";
+  // Written from the struct (runtime::deployment_yaml): scenario and key paths absolute, as the derived file lives
+  // in the report directory, which may be anywhere.
+  return "# Written by tandem soak from " + file + " (timing, transport, absolute paths, soak tasks)\n" +
+         runtime::deployment_yaml(out);
 }
 
 int run(const runtime::Deployment& d, const Schedule& sched, const RunOptions& o, const std::atomic<bool>& stop) {

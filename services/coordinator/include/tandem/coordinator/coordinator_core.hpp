@@ -53,8 +53,11 @@ class CoordinatorCore {
   // --- Inputs --------------------------------------------------------------------------------------------
   /// The start of a pass of the process's loop (a stall of its own is found here).
   void on_loop(double now);
-  /// Another coordinator's status. A primary that must leave (Leadership::on_peer) ends with kReplaced.
-  void on_peer(const std::string& id, bool active, bool claims_primary, double now);
+  /// Another coordinator's status (`peer_next`: the next task id of its queue, its status's tick; 0 if not said).
+  /// A primary that must leave (Leadership::on_peer) ends with kReplaced.
+  void on_peer(const std::string& id, bool active, bool claims_primary, double now, uint64_t peer_next = 0);
+  /// The next task id of this one's queue (what its status says, for the other coordinators' on_peer).
+  uint64_t next_task_id() const { return own_next_; }
   /// A robot's status: its joint travel [rad], summed per module for the wear balance.
   void on_wear(const std::string& robot_id, double wear_rad) { wear_[robot_id] = wear_rad; }
   void on_task_state(const ModuleReport& r, double now);

@@ -15,8 +15,11 @@
 //   launcher restarts it as a standby), else it goes on (found by tandem soak: a stalled primary came back and
 //   led beside its successor). Its successor's status may reach it only after the doubt (seen in the hour-long
 //   soak: a primary back from a 2 s SIGSTOP heard nobody within 0.3 s and led on beside its successor): so a
-//   primary that hears another primary later leaves too if it stalled within kStallMemoryS, and two primaries
-//   that never stalled keep the smaller id;
+//   primary that hears another primary later leaves too if it stalled within kStallMemoryS; of two primaries that
+//   never stalled (or whose stall the other did not see) the one whose queue is further on stays, then the smaller
+//   id (found by the lockstep soak hour: a primary back from a 1.7 s stall came back while its successor, with the
+//   larger id, led; the successor left on the id rule before the stalled one had heard it, and the stalled one led
+//   on with its older queue: a task was done twice);
 // - a standby that hears a state with every task done exits with the primary;
 // - a standby whose own loop stood still (kStandbyDeafS) counts the primary's silence from its return: it heard
 //   nothing meanwhile (found by tandem soak: both coordinators stalled together, the standby took over on a silence
@@ -32,6 +35,7 @@
 
 #include <algorithm>
 #include <cstddef>
+#include <cstdint>
 #include <map>
 #include <optional>
 #include <string>
@@ -64,10 +68,13 @@ class Leadership {
   /// The start of a pass of the coordinator's loop. A primary whose loop stood still past kStallS starts to
   /// doubt (returns the line to log, else "").
   std::string on_loop(double now);
-  /// Another coordinator's status: `active` (its lifecycle), `claims_primary` (its status says `primary`).
-  /// True if this one must leave: another one leads while this one doubts after a stall, stalled within
-  /// kStallMemoryS, or has a larger id (two primaries that never stalled: the smaller id stays).
-  bool on_peer(const std::string& id, bool active, bool claims_primary, double now);
+  /// Another coordinator's status: `active` (its lifecycle), `claims_primary` (its status says `primary`),
+  /// `peer_next` the next task id of its queue (0: not said) and `own_next` this one's. True if this one must
+  /// leave: another one leads while this one doubts after a stall or stalled within kStallMemoryS; else, of two
+  /// primaries, the one whose queue is further on stays (it assigned tasks the other never saw), and with queues
+  /// as far on (or not said) the smaller id stays.
+  bool on_peer(const std::string& id, bool active, bool claims_primary, double now, uint64_t peer_next = 0,
+               uint64_t own_next = 0);
   /// A primary's queue state (read while a standby). False if it was malformed or older than the one kept.
   bool on_state(const Snapshot& s, double now);
 

@@ -7,18 +7,55 @@
 
 #include <array>
 #include <string>
+#include <utility>
 
 namespace tandem::launcher {
+
+/// Whether a module's run goes on, or why it ended.
+struct ModuleEnd {
+  enum class Kind {
+    Running,    ///< it runs
+    Draining,   ///< unplugged: finishing its task before it leaves (its processes still run)
+    Unplugged,  ///< left after its drain
+    Repairing,  ///< stopped to be started again with new processes (it did not come up)
+    Parked,     ///< stopped for load (admission at start-up or shedding); `why` says which
+    Cleared,    ///< stopped to be started again after a failure was cleared
+    Failed,     ///< a process it cannot do without exited for good; `why` says which
+  };
+  Kind kind = Kind::Running;
+  std::string why;  ///< Parked, Failed: the reason
+
+  static ModuleEnd of(Kind k, std::string reason = "") { return {k, std::move(reason)}; }
+  bool running() const { return kind == Kind::Running; }
+  bool is(Kind k) const { return kind == k; }
+  /// The word for it: "running", "draining", "unplugged", "repairing", "parked", "cleared", "failed".
+  const char* word() const {
+    switch (kind) {
+      case Kind::Running: return "running";
+      case Kind::Draining: return "draining";
+      case Kind::Unplugged: return "unplugged";
+      case Kind::Repairing: return "repairing";
+      case Kind::Parked: return "parked";
+      case Kind::Cleared: return "cleared";
+      case Kind::Failed: return "failed";
+    }
+    return "?";
+  }
+  /// As said to people: "" while it runs, else the word and the reason ("failed: m1/world exited with code 1").
+  std::string text() const {
+    if (running()) return "";
+    return why.empty() ? std::string(word()) : std::string(word()) + ": " + why;
+  }
+};
 
 /// A module as the launcher knows it when a live command names it.
 struct ModuleFacts {
   bool known = false;    ///< in the deployment, or plugged in earlier
   bool started = false;  ///< its processes were started
-  /// Why it ended ("" while it runs): "draining", "unplugged", "failed: ...", "repairing", "parked: ...", "cleared".
-  std::string end;
+  ModuleEnd end;  ///< whether it runs, or why it ended
   bool failed = false;  ///< its task state says failed (the world reports its object dropped)
   std::array<std::string, 2> arms{};  ///< the arms' names ("left", "right")
-  bool running() const { return known && started && end.empty(); }
+  bool running() const { return known && started && end.running(); }
 };
 
 struct PlugDecision {

@@ -83,7 +83,7 @@ struct ModuleRun {
   ModuleSpec spec;
   bool started = false;
   bool task_over = false;          ///< its world finished the scenario's task: nothing is restarted
-  std::string end;                 ///< "", "failed: ...", "unplugged", "draining", "repairing", "parked: ...", "cleared"
+  ModuleEnd end;                   ///< whether it runs, or why it ended
   bool paused_for_unplug = false;  ///< a pause was asked for an unplug without standby: resume on plug
   bool ticked = false;             ///< its world has reported a tick past 0 (the module came up)
   int repairs = 0;                 ///< restarts because it did not come up (docs/security.md, "Start-up")

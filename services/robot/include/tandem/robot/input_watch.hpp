@@ -46,14 +46,15 @@ class InputWatch {
   bool module_runs() const { return plan_tick_ >= 0 && plan_tick_ > tick_at_renewal_ + r_.running_ticks; }
 
   /// One pass of the main loop. `active`: the robot has served a tick (before that, silence is start-up unless
-  /// module_runs()).
-  Action on_pass(double now, bool active) {
+  /// module_runs() and the reader has `matched` the world's writer: a reader that has not matched yet is still
+  /// being discovered, which a busy machine makes slow, and renewing it would only start that again).
+  Action on_pass(double now, bool active, bool matched = true) {
     // (The first pass has no previous one: whatever the robot waited for before its loop is not a stall.)
     if (passes_++ > 0 && now - last_pass_ > r_.self_stall_s && now > last_input_) last_input_ = now;
     last_pass_ = now;
     const double silent = now - last_input_;
     if (silent > r_.timeout_s) return Action::GiveUp;
-    if ((active || module_runs()) && silent > r_.renew_after_s && now - last_plan_ < r_.plan_fresh_s &&
+    if ((active || (module_runs() && matched)) && silent > r_.renew_after_s && now - last_plan_ < r_.plan_fresh_s &&
         now - renewed_at_ > 2.0 * r_.renew_after_s) {
       if (!active && last_input_ <= renewed_at_ && renewals_ >= r_.deaf_renewals) return Action::GiveUp;
       ++renewals_;

@@ -147,4 +147,8 @@ const HostSpec* find_host(const Deployment& d, const std::string& name);
 /// Reads and validates a deployment, including every scenario and case it names. Throws sim::ConfigError.
 Deployment load_deployment(const std::string& path);
 
+/// The deployment as YAML that load_deployment reads back to the same Deployment (every field, paths made absolute
+/// so that the file may live anywhere; `source` is not written). `tandem soak` derives its deployment this way.
+std::string deployment_yaml(const Deployment& d);
+
 }  // namespace tandem::runtime

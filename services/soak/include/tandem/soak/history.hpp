@@ -69,6 +69,9 @@ struct FaultRecord {
   /// of the module was a standby holding the leader's plan (a warm replica). Coordinator faults: another live
   /// coordinator was an active standby.
   bool had_standby = true;
+  /// The newest tick heard from its module's world when it fired (-1: none, or no module): lockstep failovers are
+  /// judged in ticks from it.
+  long module_tick = -1;
 };
 
 struct RssSample {

@@ -82,6 +82,8 @@ class Nemesis {
   void on_status(const std::string& label, const ProcessView& p);
   /// The robot each arm of `module` follows now (arm -> process label, from its world).
   void on_owners(const std::string& module, std::map<std::string, std::string> owners);
+  /// The newest tick heard from `module`'s world (each fault on the module records it: FaultRecord::module_tick).
+  void on_tick(const std::string& module, long tick) { ticks_[module] = tick; }
   /// Carries out what is due at `t`: scheduled faults, faults that waited, and timed follow-ups (continue a
   /// stalled process, plug a module or robot in again).
   void step(double t);
@@ -125,6 +127,7 @@ class Nemesis {
   NemesisActions& act_;
   std::map<std::string, ProcessView> procs_;
   std::map<std::string, std::map<std::string, std::string>> owners_;  ///< module -> arm -> label
+  std::map<std::string, long> ticks_;  ///< module -> the newest tick heard from its world
   std::map<std::string, double> module_started_;  ///< module -> when its (latest) world turned active
   std::set<std::string> out_;                     ///< modules taken out, to be plugged in again
   std::map<long long, std::string> stalled_;      ///< pid -> label

@@ -1,0 +1,160 @@
+// A deployment written from its struct (runtime::deployment_yaml) reads back as the same deployment, from any
+// directory; the soak's derived deployment is such a file.
+#include <unistd.h>
+
+#include <catch2/catch.hpp>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "tandem/runtime/deployment.hpp"
+#include "tandem/soak/run.hpp"
+
+using tandem::runtime::Deployment;
+
+namespace {
+
+/// Every field of two deployments, one CHECK each (a field the writer forgot shows here by name).
+void check_same(const Deployment& a, const Deployment& b) {
+  CHECK(a.name == b.name);
+  CHECK(a.domain_id == b.domain_id);
+  CHECK(a.transport == b.transport);
+  CHECK(a.timing == b.timing);
+  CHECK(a.timeout == b.timeout);
+  CHECK(a.start_timeout == b.start_timeout);
+  CHECK(a.realtime_priority == b.realtime_priority);
+  CHECK(a.overload_brake == b.overload_brake);
+  CHECK(a.shed_modules == b.shed_modules);
+  CHECK(a.test_no_brakes == b.test_no_brakes);
+  CHECK(a.discovery == b.discovery);
+  CHECK(a.discovery_port == b.discovery_port);
+  CHECK(a.discovery_address == b.discovery_address);
+  CHECK(a.discovery_start == b.discovery_start);
+  CHECK(a.host_timeout == b.host_timeout);
+  REQUIRE(a.hosts.size() == b.hosts.size());
+  for (size_t i = 0; i < a.hosts.size(); ++i) {
+    CHECK(a.hosts[i].name == b.hosts[i].name);
+    CHECK(a.hosts[i].address == b.hosts[i].address);
+  }
+  CHECK(a.coordinator_host == b.coordinator_host);
+  CHECK(a.coordinator_standby_host == b.coordinator_standby_host);
+  REQUIRE(a.modules.size() == b.modules.size());
+  for (size_t i = 0; i < a.modules.size(); ++i) {
+    const auto& x = a.modules[i];
+    const auto& y = b.modules[i];
+    CHECK(x.name == y.name);
+    CHECK(std::filesystem::weakly_canonical(x.scenario) == std::filesystem::weakly_canonical(y.scenario));
+    CHECK(x.case_name == y.case_name);
+    CHECK(x.standby == y.standby);
+    CHECK(x.supervisor_standby == y.supervisor_standby);
+    CHECK(x.restart == y.restart);
+    CHECK(x.restart_limit == y.restart_limit);
+    CHECK(x.restart_window == y.restart_window);
+    CHECK(x.restart_backoff == y.restart_backoff);
+    CHECK(x.restart_as == y.restart_as);
+    CHECK(x.autostart == y.autostart);
+    CHECK(x.host == y.host);
+    CHECK(x.supervisor_host == y.supervisor_host);
+    CHECK(x.supervisor_standby_host == y.supervisor_standby_host);
+    CHECK(x.robot_hosts == y.robot_hosts);
+    CHECK(x.standby_hosts == y.standby_hosts);
+  }
+  CHECK(a.coordinator == b.coordinator);
+  REQUIRE(a.tasks.size() == b.tasks.size());
+  for (size_t i = 0; i < a.tasks.size(); ++i) {
+    CHECK(a.tasks[i].name == b.tasks[i].name);
+    CHECK(a.tasks[i].waypoints == b.tasks[i].waypoints);
+  }
+  CHECK(a.balance == b.balance);
+  CHECK(a.coordinator_standby == b.coordinator_standby);
+  CHECK(a.coordinator_restart == b.coordinator_restart);
+  CHECK(a.coordinator_restart_limit == b.coordinator_restart_limit);
+  CHECK(a.coordinator_restart_window == b.coordinator_restart_window);
+  CHECK(a.record == b.record);
+  CHECK(a.record_topics == b.record_topics);
+  CHECK((a.security_keys.empty() ? std::string() : std::filesystem::weakly_canonical(a.security_keys).string()) ==
+        (b.security_keys.empty() ? std::string() : std::filesystem::weakly_canonical(b.security_keys).string()));
+}
+
+/// A directory outside the repository, removed at the end.
+struct TempDir {
+  std::string path = "/tmp/tandem-unit-deployment-" + std::to_string(::getpid());
+  TempDir() { std::filesystem::create_directories(path); }
+  ~TempDir() {
+    std::error_code ec;
+    std::filesystem::remove_all(path, ec);
+  }
+};
+
+}  // namespace
+
+TEST_CASE("deployment: every shipped deployment written from its struct reads back the same, from another directory") {
+  const TempDir tmp;
+  int files = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(std::string(TANDEM_SOURCE_DIR) + "/deploy")) {
+    if (entry.path().extension() != ".yaml") continue;
+    INFO(entry.path().string());
+    const Deployment d = tandem::runtime::load_deployment(entry.path().string());
+    const std::string yaml = tandem::runtime::deployment_yaml(d);
+    const std::string copy = tmp.path + "/" + entry.path().filename().string();
+    std::ofstream(copy) << yaml;
+    const Deployment back = tandem::runtime::load_deployment(copy);
+    check_same(d, back);
+    CHECK(tandem::runtime::deployment_yaml(back) == yaml);  // written again: the same text
+    ++files;
+  }
+  CHECK(files >= 8);
+}
+
+TEST_CASE("deployment: a multi-host deployment with placements, a coordinator and unusual values round-trips") {
+  const TempDir tmp;
+  const std::string src = tmp.path + "/src.yaml";
+  std::ofstream(src) << "name: rich\ndomain_id: 17\ntransport: udp\ntiming: realtime\ntimeout: 7.5\nstart_timeout: 33\n"
+                        "realtime_priority: 40\noverload_brake: false\nshed_modules: false\ndiscovery: server\n"
+                        "discovery_port: 12000\ndiscovery_address: 10.1.0.1\ndiscovery_start: external\nhost_timeout: 2.5\n"
+                        "hosts:\n  a: {address: 10.1.0.1}\n  b: {address: 10.1.0.2}\n"
+                        "record: run.mcap\nrecord_topics: ticks,events\n"
+                        "modules:\n  - {name: m1, scenario: "
+                     << TANDEM_SOURCE_DIR << "/config/scenarios/paper.yaml, case: PD, standby: 2, supervisor_standby: 1,"
+                        " restart: always, restart_limit: 9, restart_window: 12.5, restart_backoff: 0.3, restart_as: primary,"
+                        " autostart: false, host: a, supervisor_host: b, supervisor_standby_host: a,"
+                        " robot_hosts: {left: b}, standby_hosts: {right: b}}\n"
+                        "coordinator:\n  balance: round_robin\n  standby: 2\n  restart: on-failure\n  restart_limit: 5\n"
+                        "  restart_window: 45\n  host: b\n  standby_host: a\n"
+                        "  tasks:\n    - {name: t1, segments: [{to: [0.15, 0.8, 0.0], duration: 1.25}, {to: [-0.1, 0.85, 0.0], duration: 2}]}\n";
+  const Deployment d = tandem::runtime::load_deployment(src);
+  REQUIRE(d.modules.size() == 1);
+  REQUIRE(d.modules[0].robot_hosts.size() == 1);
+  const std::string copy = tmp.path + "/copy.yaml";
+  std::ofstream(copy) << tandem::runtime::deployment_yaml(d);
+  check_same(d, tandem::runtime::load_deployment(copy));
+}
+
+TEST_CASE("deployment: the soak's derived deployment loads from a report directory outside the repository") {
+  // `tandem soak deploy/soak-four.yaml --report DIR` with DIR anywhere: the derived file names its scenarios by
+  // absolute paths, keeps everything else of the user's file, and adds the soak's tasks.
+  const TempDir tmp;
+  const std::string file = std::string(TANDEM_SOURCE_DIR) + "/deploy/soak-small.yaml";
+  const Deployment d = tandem::runtime::load_deployment(file);
+  size_t generated = 0;
+  const std::string derived = tmp.path + "/report/deploy.yaml";
+  std::filesystem::create_directories(tmp.path + "/report");
+  std::ofstream(derived) << tandem::soak::derived_deployment(file, d, "lockstep", "udp", 120.0, generated);
+  const Deployment s = tandem::runtime::load_deployment(derived);
+  CHECK(s.timing == "lockstep");
+  CHECK(s.transport == "udp");
+  CHECK(s.coordinator);
+  CHECK(generated > 100);
+  CHECK(s.tasks.size() == d.tasks.size() + generated);
+  CHECK(s.tasks.back().name == "soak-" + std::to_string(generated));
+  REQUIRE(s.modules.size() == d.modules.size());
+  for (size_t i = 0; i < s.modules.size(); ++i) {
+    CHECK(s.modules[i].scenario[0] == '/');
+    CHECK(s.modules[i].standby == d.modules[i].standby);
+    CHECK(s.modules[i].restart == d.modules[i].restart);
+  }
+  CHECK(s.domain_id == d.domain_id);
+  CHECK(s.coordinator_standby == d.coordinator_standby);
+}

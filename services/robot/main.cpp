@@ -181,9 +181,10 @@ int run(int argc, char** argv) {
   for (const auto r0 = Clock::now(); check_ready;) {
     if (runtime::g_stop) return launcher::exit_code::kDone;
     {
+      const bool matched = sensors->matched() >= 1;  // not under mu (the listener takes mu under the reader's lock)
       std::lock_guard<std::mutex> lock(mu);
       take_plans();
-      const bool matched = sensors->matched() >= 1, planned = core.has_plan();
+      const bool planned = core.has_plan();
       if (matched && planned) break;
       const char* waiting = !matched ? (planned ? "waiting for the world's samples" : "waiting for the world's samples and a plan")
                                      : "waiting for a plan";
@@ -207,6 +208,9 @@ int run(int argc, char** argv) {
   }
   while (!runtime::g_stop) {
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    // Asked before taking mu: Fast DDS holds the reader's lock while it calls the listener, which takes mu, so asking
+    // the reader under mu could deadlock the two (the robot then computes nothing more).
+    const bool reader_matched = sensors->matched() >= 1;
     std::unique_lock<std::mutex> lock(mu);
     take_plans();
     const long done = core.done();
@@ -235,7 +239,7 @@ int run(int argc, char** argv) {
     // Samples stopped while the module's plan still comes (robot::InputWatch): a new reader, outside the lock
     // (its listener takes it).
     const double now = seconds(Clock::now());
-    const robot::InputWatch::Action act = watch.on_pass(now, activated, sensors->matched() >= 1);
+    const robot::InputWatch::Action act = watch.on_pass(now, activated, reader_matched);
     if (act == robot::InputWatch::Action::GiveUp) {
       std::fprintf(stderr, "tandem-robot %s: no input for %.1f s after tick %ld%s; stopping\n", robot_id.c_str(),
                    watch.silent_s(now), core.done(),

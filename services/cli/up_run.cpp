@@ -415,7 +415,8 @@ int UpRun::finish() {
   if (killed || discovery_server_ > 0) {
     server_stop_->stop();
     std::this_thread::sleep_for(std::chrono::milliseconds(2100));  // the last files are 2 s old (clean_stale_shm)
-    // Every child is gone: what the launcher itself still holds (the ports it sent to) is left behind too.
+    // Every child is gone. (ignore_self: files this process holds do not count; the launcher joins over UDP and
+    // holds none of the deployment's now.)
     int removed = runtime::clean_stale_shm(launcher_started_, static_cast<int>(d_.domain_id), true);
     // The Discovery Server is a participant of domain 0 (its shared-memory port stays when it stops).
     if (discovery_server_ > 0) removed += runtime::clean_stale_shm(launcher_started_, 0, true);

@@ -206,7 +206,7 @@ int run(int argc, char** argv) {
   });
   auto heartbeat = [&](double t) {
     status.msg().serving(core.primary() ? msg::ROLE_PRIMARY : msg::ROLE_STANDBY);
-    status.msg().tick(core.next_task_id());  // the queue's progress: of two primaries the one further on stays
+    status.msg().tick(core.said_next_task_id(t));  // the queue's progress: of two primaries the one further on stays
     status.msg().detail(core.detail());
     status.publish();
     core.heartbeat_sent(t);

@@ -1455,4 +1455,34 @@ TEST_CASE("lockstep lease: the world runs at most 10 ticks past what its leader 
   REQUIRE(q.has_value());
   CHECK(q->epoch == 1);
   CHECK(q->heard_tick == 300 + kPlanLeaseTicks);  // the world's lease moves on from where it waits
+
+  // A starved standby: it last heard a report at tick 270 (the report topic keeps the newest only), the leader's plans
+  // up to its heard tick 300 reached it, then the leader stops. Its next report is the world waiting at 310: a jump it
+  // takes for its own deafness ("heard the world again"), so the leader's silence counts from now on the wall clock,
+  // but in ticks still from the leader's last plan (the world cannot run past it by more than the lease): it takes
+  // over 50 ms later, not once the lease lapses (the lockstep soak hour: 4.1 s for a supervisor kill).
+  SupervisorCore leader2(m, lo, 0), starved(m, so, 0);
+  leader2.on_assignment(1, "out", {0.0, 0.8, 0.0, 1.0});
+  starved.on_assignment(1, "out", {0.0, 0.8, 0.0, 1.0});
+  for (k = 0; k <= 300; k += 10) {
+    const int64_t now = k * ms / 4;
+    leader2.on_report(report_at(k), now);
+    if (k <= 270) starved.on_report(report_at(k), now);
+    leader2.update(now);
+    if (auto p2 = leader2.take_plan()) starved.on_plan(*p2, now);
+    starved.update(now);
+  }
+  REQUIRE_FALSE(starved.active());
+  bool took2 = false;
+  int64_t took2_at = 0;
+  for (int64_t t = stop; t < stop + 300 * ms && !took2; t += 20 * ms) {
+    starved.on_report(report_at(300 + kPlanLeaseTicks), t);
+    starved.update(t);
+    if (starved.active()) {
+      took2 = true;
+      took2_at = t - stop;
+    }
+  }
+  CHECK(took2);
+  CHECK(took2_at <= 100 * ms);
 }

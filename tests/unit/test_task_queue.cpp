@@ -699,6 +699,15 @@ TEST_CASE("leadership: of two primaries the one whose queue is further on stays,
   CHECK_FALSE(b.on_peer("coordinator@1", true, true, 20.0, 80, 90));
   CHECK_FALSE(a.on_peer("coordinator@2", true, true, 21.0, 80, 80));
   CHECK(b.on_peer("coordinator@1", true, true, 21.0, 80, 80));
+  // A successor that assigned nothing since it took over (its queue as far on as the stalled one's): the stalled one
+  // says 0 while it doubts or remembers its stall, so the successor (larger id) stays, and the stalled one leaves.
+  Leadership old_primary({"coordinator", false, false}, 0.0), successor({"coordinator@standby1", false, false}, 0.0);
+  old_primary.on_loop(0.01);
+  CHECK(old_primary.on_loop(1.8).find("stalled") != std::string::npos);
+  for (double t = 0.02; t <= 1.8; t += 0.02) successor.on_loop(t);  // it never stalled
+  CHECK_FALSE(successor.on_peer("coordinator", true, true, 1.9, 0, 500));   // what the stalled one says: 0
+  CHECK(old_primary.on_peer("coordinator@standby1", true, true, 1.9, 500, 500));
+  CHECK(successor.on_peer("coordinator", true, true, 1.9, 500, 500));       // (with its queue's id it would tie and leave)
 }
 
 TEST_CASE("leadership: a primary back from a stall keeps the most advanced queue state it hears for 10 s", "[coordinator]") {

@@ -416,7 +416,9 @@ void Tap::poll() {
     if (!ps.deployment().empty() && ps.deployment() != name) continue;
     if (ps.process_id() == "launcher") I.launcher_state = ps.state();
     if (I.has("status")) I.put(bus::kStatusTopic, convert(ps), now);
-    I.write_events(I.deriver.on_status(ps.process_id(), ps.module_id(), ps.state(), ps.detail(), ps.tick()),
+    // A coordinator's tick is its queue's next task id, not a world tick: its events carry none.
+    I.write_events(I.deriver.on_status(ps.process_id(), ps.module_id(), ps.state(), ps.detail(),
+                                       ps.role() == "coordinator" ? 0 : ps.tick()),
                    now);
   }
   for (auto& [module, r] : I.reports) {

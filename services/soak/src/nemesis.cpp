@@ -10,7 +10,10 @@ Nemesis::Nemesis(const Schedule& schedule, std::vector<std::string> modules, His
 
 void Nemesis::on_status(const std::string& label, const ProcessView& p) {
   ProcessView& old = procs_[label];
-  if (p.role == "world" && p.state == 2 && (old.pid != p.pid || old.state != p.state)) module_started_[p.module] = p.last_t;
+  if (p.role == "world" && p.state == 2 && (old.pid != p.pid || old.state != p.state)) {
+    module_started_[p.module] = p.last_t;
+    ticks_.erase(p.module);  // a new world counts from 0: the old one's tick is no mark for a fault on it
+  }
   old = p;
 }
 

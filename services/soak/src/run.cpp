@@ -631,7 +631,7 @@ int run(const runtime::Deployment& d, const Schedule& sched, const RunOptions& o
       }
     }
     soak.sample_logs(soak.now());
-    own_shm = runtime::shm_used_by_self();  // this observer's own files (it sent to the deployment's ports too)
+    own_shm = runtime::shm_used_by_self();  // this observer's own files (none over UDP; kept for a shared-memory one)
     soak.close();
   }
   History& h = soak.history();

@@ -56,8 +56,15 @@ class CoordinatorCore {
   /// Another coordinator's status (`peer_next`: the next task id of its queue, its status's tick; 0 if not said).
   /// A primary that must leave (Leadership::on_peer) ends with kReplaced.
   void on_peer(const std::string& id, bool active, bool claims_primary, double now, uint64_t peer_next = 0);
-  /// The next task id of this one's queue (what its status says, for the other coordinators' on_peer).
+  /// The next task id of this one's queue.
   uint64_t next_task_id() const { return own_next_; }
+  /// What its status says of it (the other coordinators' on_peer): 0 while it doubts or stalled within the last
+  /// 10 s. Such a primary leaves when it hears another one whatever the ids say, so the other must stay: with the
+  /// queue's id it could read a tie (a successor that assigned nothing since) and leave by the smaller id, and then
+  /// neither would lead.
+  uint64_t said_next_task_id(double now) const {
+    return lead_.doubting() || lead_.recently_stalled(now) ? 0 : own_next_;
+  }
   /// A robot's status: its joint travel [rad], summed per module for the wear balance.
   void on_wear(const std::string& robot_id, double wear_rad) { wear_[robot_id] = wear_rad; }
   void on_task_state(const ModuleReport& r, double now);

@@ -19,7 +19,9 @@
 //   never stalled (or whose stall the other did not see) the one whose queue is further on stays, then the smaller
 //   id (found by the lockstep soak hour: a primary back from a 1.7 s stall came back while its successor, with the
 //   larger id, led; the successor left on the id rule before the stalled one had heard it, and the stalled one led
-//   on with its older queue: a task was done twice);
+//   on with its older queue: a task was done twice). A primary that doubts or stalled lately says 0 for its queue
+//   (CoordinatorCore::said_next_task_id), so the other never leaves for it; two that both stalled within 10 s both
+//   leave, and a standby takes over;
 // - a standby that hears a state with every task done exits with the primary;
 // - a standby whose own loop stood still (kStandbyDeafS) counts the primary's silence from its return: it heard
 //   nothing meanwhile (found by tandem soak: both coordinators stalled together, the standby took over on a silence

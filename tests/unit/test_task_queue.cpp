@@ -673,7 +673,6 @@ TEST_CASE("leadership: a primary that hears its successor only after the doubt s
 }
 
 TEST_CASE("leadership: of two primaries the one whose queue is further on stays, whatever the ids", "[coordinator]") {
-  using Step = Leadership::Step;
   // The lockstep soak hour: r11 stalled 1.7 s; r12 took over and assigned id 667; r11 came back (queue at 667) and
   // published `primary`. r12 heard it first and must stay (its queue is at 668); r11 hears r12 and leaves.
   Leadership r11({"coordinator@r11", false, false}, 0.0), r12({"coordinator@r12", true, false}, 0.0);

@@ -185,7 +185,7 @@ int run(int argc, char** argv) {
   };
   for (; k < m.steps && !runtime::g_stop; ++k) {
     take_plans();
-    pacer.tick_begin(seconds());
+    if (!opt.realtime) pacer.tick_begin(seconds());  // lockstep's accounting only: no clock reads per real-time tick
     if (!opt.realtime && pacer.lease_wait_needed(core.plan_lease_ok(k), core.plan_lease())) {
       pacer.lease_wait_begin(seconds());
       // A report of the tick it waits after: the leader's lease then covers it whatever ticks it had heard (a
@@ -269,7 +269,7 @@ int run(int argc, char** argv) {
     // command in (a braked arm's robot may answer too: that releases it).
     const timespec deadline = to_ts(clock.deadline());
     const long long deadline_ns = clock.deadline();
-    pacer.commands_begin(seconds());
+    if (!opt.realtime) pacer.commands_begin(seconds());
     runtime::Inbox<msg::TorqueCommand, 2>::Item item;
     bool gave_up = false;
     while (!runtime::g_stop) {
@@ -309,7 +309,7 @@ int run(int argc, char** argv) {
       if (late_arrival) break;  // the rest are for the next tick's pass (as stale)
     }
     if (runtime::g_stop) break;
-    pacer.commands_end(seconds());
+    if (!opt.realtime) pacer.commands_end(seconds());
     if (!core.end_tick(now_ns()) || gave_up) {
       for (int j = 0; j < 2; ++j) {
         if (!core.have(j)) {

@@ -26,6 +26,7 @@
 #include "tandem/runtime/role.hpp"
 #include "tandem/runtime/status.hpp"
 #include "tandem/world/lockstep_pacer.hpp"
+#include "tandem/world/start_wait.hpp"
 #include "tandem/world/world_core.hpp"
 #include "world_wire.hpp"
 
@@ -265,6 +266,33 @@ int run(int argc, char** argv) {
     };
     publish_samples(false);
     if (core.report_due(m.steps)) send_report();
+    if (opt.realtime && k == 0) {
+      // The first tick waits for both arms' first commands (world::StartWait says how long and what meanwhile).
+      world::StartWait start(seconds());
+      runtime::Inbox<msg::TorqueCommand, 2>::Item first;
+      world::StartWait::Action a = world::StartWait::Action::Wait;
+      while (!runtime::g_stop) {
+        take_plans();
+        while (inbox.pop(first)) {
+          const msg::TorqueCommand& cmd = first.sample;
+          (void)core.on_command(first.source, static_cast<long>(cmd.tick()),
+                                model::Vec3(cmd.tau()[0], cmd.tau()[1], cmd.tau()[2]), cmd.strength(), first.at_ns,
+                                false, cmd.leaving());
+        }
+        a = start.pass(seconds(), core.have(0) && core.have(1));
+        if (a == world::StartWait::Action::Go || a == world::StartWait::Action::GiveUp) break;
+        publish_status_if_changed();
+        if (a == world::StartWait::Action::Republish) publish_samples(true);
+        if (a == world::StartWait::Action::ResendReport) report.write(rep);
+        inbox.wait(0.002);
+      }
+      if (start.waited(seconds()) > 0.1 || a == world::StartWait::Action::GiveUp) {
+        std::fprintf(stderr, "tandem-world %s: tick 0 waited %.2f s for the robots' first commands%s\n",
+                     opt.module.c_str(), start.waited(seconds()),
+                     a == world::StartWait::Action::GiveUp ? "; starting with the start brakes on the arms not answered" : "");
+      }
+      clock = world::TickClock(std::llround(m.period * 1e9), now_ns());  // the clock starts now
+    }
     // Real time: the tick ends at an absolute deadline; lockstep: when every arm that is not braked has its
     // command in (a braked arm's robot may answer too: that releases it).
     const timespec deadline = to_ts(clock.deadline());

@@ -28,6 +28,7 @@
 #include "tandem/sim/scenario_yaml.hpp"
 #include "tandem/supervisor/supervisor_core.hpp"
 #include "tandem/world/lockstep_pacer.hpp"
+#include "tandem/world/start_wait.hpp"
 #include "tandem/world/world_core.hpp"
 
 namespace ts = tandem::sim;
@@ -1485,4 +1486,31 @@ TEST_CASE("lockstep lease: the world runs at most 10 ticks past what its leader 
   }
   CHECK(took2);
   CHECK(took2_at <= 100 * ms);
+}
+
+TEST_CASE("start wait: real time's first tick waits for both arms' commands, sends samples and the report again meanwhile, and is bounded", "[components]") {
+  using tandem::world::StartWait;
+  StartWait w(100.0);
+  CHECK(w.pass(100.0, false) == StartWait::Action::Wait);
+  CHECK(w.pass(100.021, false) == StartWait::Action::ResendReport);
+  CHECK(w.pass(100.030, false) == StartWait::Action::Wait);
+  CHECK(w.pass(100.051, false) == StartWait::Action::Republish);  // samples before the report when both are due
+  CHECK(w.pass(100.052, false) == StartWait::Action::ResendReport);
+  CHECK(w.pass(100.060, false) == StartWait::Action::Wait);
+  CHECK(w.pass(100.4, true) == StartWait::Action::Go);
+  CHECK(w.waited(100.4) == Approx(0.4));
+  // Nobody answers: the clock starts after the bound all the same (the start brakes then hold the arms).
+  StartWait b(0.0, StartWait::Rules{1.0, 0.05, 0.02});
+  int republished = 0;
+  StartWait::Action a = StartWait::Action::Wait;
+  double t = 0.0;
+  for (; t < 2.0; t += 0.001) {
+    a = b.pass(t, false);
+    if (a == StartWait::Action::Republish) ++republished;
+    if (a == StartWait::Action::GiveUp) break;
+  }
+  CHECK(a == StartWait::Action::GiveUp);
+  CHECK(t == Approx(1.0).margin(0.002));
+  CHECK(republished >= 18);
+  CHECK(republished <= 20);
 }

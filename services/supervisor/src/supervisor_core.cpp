@@ -184,6 +184,13 @@ void SupervisorCore::on_report(const ReportIn& r, int64_t now_ns) {
     log("heard the world again " + std::to_string(r.tick - heard_tick_) +
         " ticks on (this one heard nothing meanwhile); the leader's silence counts from now");
   }
+  if (!active_ && heard_stronger_ && heard_tick_ < 0) {
+    // The world's first report: a leader plans and publishes only once it hears the world (update), so its silence
+    // before the world ran was no failure. It counts from now (the lockstep soak hour, finding 53: a standby in a
+    // fresh module counted the leader's silence from its first plan, heard 0.8 s before the world's first tick).
+    last_stronger_ = std::max(last_stronger_, now_ns);
+    stronger_tick_ = std::max(stronger_tick_, r.tick);
+  }
   // The world follows a plan of a higher rank than this leader's, and this one never heard it (else on_plan would
   // have stepped it down within a few ticks): its plan reader missed a takeover's writer. Found by a soak-small hour:
   // a leader in epoch 2 never heard its standby take over in epoch 3; the module's arms followed epoch 3 while
@@ -216,6 +223,11 @@ void SupervisorCore::on_report(const ReportIn& r, int64_t now_ns) {
     outranked_since_ = -1;
   }
   if (r.object_known && (!object_known_ || (r.object_xy - object_xy_).norm() > kStillStepM)) still_since_ = r.tick;
+  if (r.object_known && (trail_n_ == 0 || r.tick > trail_[(trail_next_ + kTrail - 1) % kTrail].first)) {
+    trail_[trail_next_] = {r.tick, r.object_xy};
+    trail_next_ = (trail_next_ + 1) % kTrail;
+    trail_n_ = std::min(trail_n_ + 1, kTrail);
+  }
   heard_tick_ = std::max(heard_tick_, r.tick);
   braked_ = r.braked;
   hold_ = r.hold;
@@ -293,7 +305,12 @@ void SupervisorCore::update(int64_t now_ns) {
   // plan: any supervisor may lead it, to report it failed until it is cleared. (A soak saw a failed module's standby
   // refuse the lead because the fallen object was "67 km off" its replica; the module was restarted as if its plan
   // were lost, which is not the "out until cleared" rule.)
-  const bool alone_ok = failed_ || (heard_tick_ > kTakeOverTicks && !behind &&
+  // The object moves as the replica's plan has it (a replica at rest with the object moving on a leader's plan it
+  // missed is within kReplicaMatch for a while; finding 53). Unknown (no report 10-200 ticks back): the position
+  // and version rules alone.
+  const std::optional<double> speed_off = replica_speed_off();
+  const bool moves_as_replica = !speed_off || *speed_off < kReplicaSpeedMatch;
+  const bool alone_ok = failed_ || (heard_tick_ > kTakeOverTicks && !behind && moves_as_replica &&
                                     (plan_.sample(heard_tick_).pose.head<2>() - object_xy_).norm() < kAloneMatch);
   if (!heard_stronger_ && !active_ && now_ns - t_start_ > kTakeOverAloneNs && !alone_ok && !alone_refused_ && !deaf_) {
     give_up(first_world_, "never heard a leader, but the world's plan changed meanwhile",
@@ -313,7 +330,8 @@ void SupervisorCore::update(int64_t now_ns) {
   // pose: the references jumped 5 mm.
   const bool unheard = world_rank_.strength != 0 && world_rank_.outranks(followed_);
   const bool at_rest_there = !object_known_ || (heard_tick_ - still_since_ >= kStillTicks && replica_off < kAloneMatch);
-  const bool replica_ok = failed_ || (replica_off < kReplicaMatch && !behind && (!unheard || at_rest_there));
+  const bool replica_ok =
+      failed_ || (replica_off < kReplicaMatch && moves_as_replica && !behind && (!unheard || at_rest_there));
   if (!active_ && flowing && leader_silent && !replica_ok) {
     if (stale_since_ < 0) {
       stale_since_ = now_ns;
@@ -330,6 +348,9 @@ void SupervisorCore::update(int64_t now_ns) {
                       "plan): not taking over", static_cast<unsigned long long>(world_version_),
                       static_cast<unsigned long long>(world_rank_.epoch), world_rank_.strength,
                       static_cast<unsigned long long>(plan_.version()), static_cast<unsigned long long>(followed_.epoch));
+      } else if (replica_off < kReplicaMatch && !moves_as_replica) {
+        std::snprintf(line, sizeof line, "the leader is silent, but the object moves %.0f mm/s off this replica's plan "
+                      "at tick %ld (it missed the leader's newest plan): not taking over", *speed_off * 1e3, heard_tick_);
       } else {
         std::snprintf(line, sizeof line, "the leader is silent, but this replica is %.1f mm off the object at tick %ld "
                       "(it missed the leader's newest plan): not taking over", replica_off * 1e3, heard_tick_);
@@ -459,6 +480,23 @@ bool SupervisorCore::note_stale_taker(const plan::PlanData& p) {
   stale_taker_version_ = p.version;
   stale_taker_tick_ = std::max(heard_tick_, 0L);
   return true;
+}
+
+std::optional<double> SupervisorCore::replica_speed_off() const {
+  if (trail_n_ < 2 || !object_known_) return std::nullopt;
+  const std::pair<long, model::Vec2>& now = trail_[(trail_next_ + kTrail - 1) % kTrail];
+  const std::pair<long, model::Vec2>* from = nullptr;
+  for (size_t i = 1; i < trail_n_; ++i) {
+    const std::pair<long, model::Vec2>& e = trail_[(trail_next_ + kTrail - 1 - i) % kTrail];
+    const long back = now.first - e.first;
+    if (back < 10 || back > 200) continue;
+    if (from == nullptr || std::abs(back - kSpeedWindowTicks) < std::abs(now.first - from->first - kSpeedWindowTicks)) from = &e;
+  }
+  if (from == nullptr) return std::nullopt;
+  const double dt = static_cast<double>(now.first - from->first) * m_.period;
+  const model::Vec2 object_v = (now.second - from->second) / dt;
+  const model::Vec2 plan_v = plan_.sample((now.first + from->first) / 2).vel.head<2>();
+  return (object_v - plan_v).norm();
 }
 
 bool SupervisorCore::behind_world() const {

@@ -11,6 +11,7 @@
 #include <functional>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "tandem/plan/plan.hpp"
@@ -85,6 +86,14 @@ class SupervisorCore {
   /// the references jumped 10-122 mm and the object was dropped). It does not lead then; if that lasts
   /// kTakeOverAloneNs the module has lost its plan (no_plan(): the launcher restarts the module).
   static constexpr double kReplicaMatch = 5e-3;
+  /// [m/s] The object's speed over the last reports vs this replica's plan speed then, for any takeover (from a
+  /// silent leader, or with none heard). A replica within kReplicaMatch of a moving object can still be a plan
+  /// behind: the lockstep soak hour (finding 53) saw a standby at rest on the initial plan take over while the
+  /// leader's first task had the object moving 3 mm on; the references jumped back and the object was dropped. 20
+  /// mm/s is a speed step the grasp absorbs (about 2 m/s^2 over 10 ms, under the stop bound of about 4.9 m/s^2).
+  static constexpr double kReplicaSpeedMatch = 0.02;
+  /// The object's speed is measured over about this many ticks of reports (at least 10, at most 200 back).
+  static constexpr long kSpeedWindowTicks = 50;
   static constexpr long kOthersRecentTicks = 100;
   /// The object counts as at rest when no report has moved it more than kStillStepM for kStillTicks.
   static constexpr double kStillStepM = 5e-5;
@@ -147,6 +156,9 @@ class SupervisorCore {
   /// The plan the world follows is not `since` any more: a leader publishes, whether or not this one hears it.
   bool world_moved_on(const WorldPlan& since) const;
   std::string world_plan_text() const;
+  /// |object speed - this replica's plan speed| [m/s] over the reports of about the last kSpeedWindowTicks (the
+  /// object's mean velocity vs the plan's velocity at the window's middle); nullopt when no report 10-200 ticks back.
+  std::optional<double> replica_speed_off() const;
   /// No lead after kTakeOverAloneNs: deaf (the world's plan changed since `since`: exit 6) or the plan is lost (exit 5).
   void give_up(const WorldPlan& since, const std::string& changed, const std::string& lost);
 
@@ -176,6 +188,10 @@ class SupervisorCore {
   bool heard_stronger_ = false, stronger_now_ = false, alone_refused_ = false;
   bool object_known_ = false;
   long still_since_ = 0;  ///< the tick of the last report that found the object moved
+  /// The object's positions at the last reports (a ring; trail_n_ of them are valid), for replica_speed_off().
+  static constexpr size_t kTrail = 32;
+  std::array<std::pair<long, model::Vec2>, kTrail> trail_{};
+  size_t trail_n_ = 0, trail_next_ = 0;
   int64_t stale_since_ = -1;  ///< the leader is silent and this replica is off the object since then (ns), or -1
   uint64_t max_epoch_ = 0;
   plan::SupervisorRank followed_{0, plan::kPrimaryStrength};

@@ -5,7 +5,7 @@
 # page checks, Cyclone DDS for the interop tests, python3 for the security test's packet capture, and Node.js
 # with npm for the independent MCAP reader when no node is on the PATH, iproute2 for the multi-host test's network
 # namespaces). openssl: `tandem keys`. civetweb and nlohmann-json: `tandem view` (HTTP and WebSocket, the
-# Foxglove protocol's JSON).
+# Foxglove protocol's JSON). libcli11-dev: the role processes' command lines.
 set -euo pipefail
 
 PACKAGES=(
@@ -14,6 +14,7 @@ PACKAGES=(
   libfastrtps-dev fastddsgen fastdds-tools
   libprotobuf-dev protobuf-compiler zlib1g-dev
   libyaml-cpp-dev
+  libcli11-dev
   libcivetweb-dev nlohmann-json3-dev
   catch2
   openssl

@@ -177,61 +177,65 @@ class Agent {
   launcher::AgentCore core_;
 };
 
-}  // namespace
-
-int agent_command(const std::vector<std::string>& args) {
+struct AgentArgs {
   std::string file, host;
   bool once = false;
+};
+
+/// Reads the command line; -1 to go on, else the exit code (0 after --help).
+int parse_agent_args(const std::vector<std::string>& args, AgentArgs& o) {
   for (size_t i = 0; i < args.size(); ++i) {
     if (args[i] == "--help" || args[i] == "-h") {
       agent_usage(stdout);
       return 0;
     } else if (args[i] == "--host" && i + 1 < args.size()) {
-      host = args[++i];
+      o.host = args[++i];
     } else if (args[i] == "--once") {
-      once = true;
+      o.once = true;
     } else if (!args[i].empty() && args[i][0] == '-') {
       std::fprintf(stderr, "tandem agent: unknown option '%s' (see 'tandem help agent')\n", args[i].c_str());
       return 2;
-    } else if (file.empty()) {
-      file = args[i];
+    } else if (o.file.empty()) {
+      o.file = args[i];
     } else {
       std::fprintf(stderr, "tandem agent: one deployment file expected, got '%s' too\n", args[i].c_str());
       return 2;
     }
   }
-  if (file.empty() || host.empty()) {
-    std::fprintf(stderr, "tandem agent: %s\n\n", file.empty() ? "missing the deployment file" : "missing --host NAME");
+  if (o.file.empty() || o.host.empty()) {
+    std::fprintf(stderr, "tandem agent: %s\n\n", o.file.empty() ? "missing the deployment file" : "missing --host NAME");
     agent_usage(stderr);
     return 2;
   }
-  runtime::Deployment d;
-  try {
-    d = runtime::load_deployment(file);
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "tandem agent: %s\n", e.what());
-    return 2;
-  }
-  const runtime::HostSpec* spec = runtime::find_host(d, host);
+  return -1;
+}
+
+/// The host's entry of the deployment, if it is this machine's; else nullptr, said.
+const runtime::HostSpec* this_host(const runtime::Deployment& d, const AgentArgs& o) {
+  const runtime::HostSpec* spec = runtime::find_host(d, o.host);
   if (spec == nullptr) {
     std::string list;
     for (const auto& h : d.hosts) list += (list.empty() ? "" : ", ") + h.name;
-    std::fprintf(stderr, "tandem agent: %s has no host '%s' (hosts: %s)\n", file.c_str(), host.c_str(),
+    std::fprintf(stderr, "tandem agent: %s has no host '%s' (hosts: %s)\n", o.file.c_str(), o.host.c_str(),
                  list.empty() ? "none: it is a single-host deployment, run 'tandem up' alone" : list.c_str());
-    return 2;
+    return nullptr;
   }
-  const auto addrs = local_addresses();
   bool here = false;
   std::string mine;
-  for (const auto& a : addrs) {
+  for (const auto& a : local_addresses()) {
     here = here || a == spec->address;
     mine += (mine.empty() ? "" : ", ") + a;
   }
   if (!here) {
     std::fprintf(stderr, "tandem agent: host %s's address %s is not on this machine (its addresses: %s)\n",
-                 host.c_str(), spec->address.c_str(), mine.c_str());
-    return 2;
+                 o.host.c_str(), spec->address.c_str(), mine.c_str());
+    return nullptr;
   }
+  return spec;
+}
+
+/// Signals, discovery, security and scheduling for the agent of `host`; -1 to go on, else the exit code.
+int prepare_agent(const runtime::Deployment& d, const std::string& host) {
   struct sigaction sa {};
   sa.sa_handler = on_agent_signal;
   ::sigaction(SIGINT, &sa, nullptr);
@@ -247,92 +251,141 @@ int agent_command(const std::vector<std::string>& args) {
       return 2;
     }
   }
-  Agent agent(d, host, spec->address);
-  {
-    std::string why;
-    agent.core().rt_permitted = launcher::fifo_permitted(std::max(1, d.realtime_priority), why);
-    // As the launcher: a real-time deployment's processes start at kServiceNice (inherited from the agent).
-    if ((agent.core().rt_permitted && d.timing == "realtime" && d.realtime_priority > 0) || d.timing == "lockstep") {
-      (void)launcher::raise_service_priority(why, d.timing != "lockstep");  // lockstep: its group holds per-tick work
-    }
-    if (!agent.core().rt_permitted && d.timing == "realtime" && d.realtime_priority > 0) {
-      std::printf("tandem agent %s: note: SCHED_FIFO is not permitted here (%s); processes run with normal "
-                  "scheduling\n", host.c_str(), why.c_str());
-    }
+  return -1;
+}
+
+/// Whether SCHED_FIFO is permitted; as the launcher, a real-time deployment's processes start at kServiceNice
+/// (inherited from the agent).
+bool set_scheduling(const runtime::Deployment& d, const std::string& host) {
+  std::string why;
+  const bool rt_permitted = launcher::fifo_permitted(std::max(1, d.realtime_priority), why);
+  if ((rt_permitted && d.timing == "realtime" && d.realtime_priority > 0) || d.timing == "lockstep") {
+    (void)launcher::raise_service_priority(why, d.timing != "lockstep");  // lockstep: its group holds per-tick work
   }
-  const std::time_t started = std::time(nullptr) - 1;
-  std::unique_ptr<bus::Participant> part;
-  try {
-    // UDP only, as the launcher (up_run.cpp: a killed sender cannot wedge its receiving).
-    part = std::make_unique<bus::Participant>(d.domain_id, "agent/" + host, bus::Transport::Udp);
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "tandem agent: %s\n", e.what());
-    return 2;
+  if (!rt_permitted && d.timing == "realtime" && d.realtime_priority > 0) {
+    std::printf("tandem agent %s: note: SCHED_FIFO is not permitted here (%s); processes run with normal "
+                "scheduling\n", host.c_str(), why.c_str());
   }
-  bus::Reader<msg::AgentRequest, msg::AgentRequestPubSubType> requests(*part, bus::kAgentRequestTopic, bus::TopicKind::Control);
-  bus::Writer<msg::AgentState, msg::AgentStatePubSubType> state(*part, bus::kAgentStateTopic, bus::TopicKind::Status);
+  return rt_permitted;
+}
+
+/// The agent's DDS side and loop: requests in, its state and status out, until stopped (or, --once, the run over).
+class AgentRun {
+ public:
+  AgentRun(const runtime::Deployment& d, const AgentArgs& o, const runtime::HostSpec& spec, Agent& agent,
+           bus::Participant& part)
+      : d_(d), o_(o), spec_(spec), agent_(agent), requests_(part, bus::kAgentRequestTopic, bus::TopicKind::Control),
+        state_(part, bus::kAgentStateTopic, bus::TopicKind::Status),
+        others_(part, bus::kAgentStateTopic, bus::TopicKind::Status), own_(part, "agent/" + o.host, "agent", "") {
+    // Its own status, as every process's: `tandem status` lists the agents beside what they run.
+    own_.msg().deployment(d.name);
+    own_.set(runtime::Lifecycle::Active, "");
+  }
+
+  int run() {
+    std::printf("tandem agent %s: %s, address %s, domain %d, discovery %s; waiting for the launcher\n", o_.host.c_str(),
+                d_.name.c_str(), spec_.address.c_str(), d_.domain_id, runtime::discovery_text(d_).c_str());
+    std::fflush(stdout);
+    auto published = Clock::now() - std::chrono::seconds(1);
+    while (!g_agent_stop) {
+      msg::AgentRequest r;
+      while (requests_.take(r)) agent_.on_request(r);
+      if (another_agent()) {
+        agent_.stop_all(SIGKILL);
+        agent_.poll();
+        return 2;
+      }
+      agent_.poll();
+      if (agent_.core().take_killed()) runtime::clean_stale_shm(started_, static_cast<int>(d_.domain_id));
+      if (Clock::now() - published >= std::chrono::milliseconds(100)) {
+        agent_.publish(state_);
+        own_.msg().detail("runs " + std::to_string(agent_.core().running()) + " process(es)");
+        own_.publish();
+        published = Clock::now();
+      }
+      // --once: the run is over, or its launcher is gone (silent: this host was cut off, or it died).
+      const launcher::AgentCore& core = agent_.core();
+      if (o_.once && core.served() && core.running() == 0 &&
+          (core.run_over() || core.silent(agent_.now()) > d_.host_timeout)) {
+        std::printf("tandem agent %s: the run is over; exiting (--once)\n", o_.host.c_str());
+        agent_.publish(state_);
+        own_.set(runtime::Lifecycle::Finalized, "run over");
+        return 0;
+      }
+      requests_.wait(0.02);
+    }
+    return stop();
+  }
+
+ private:
   // One agent per host: another one for this host would start every process a second time. Of two, the one that
   // started later leaves (exit 2), at start-up or whenever they find each other.
-  bus::Reader<msg::AgentState, msg::AgentStatePubSubType> others(*part, bus::kAgentStateTopic, bus::TopicKind::Status);
-  auto another_agent = [&]() -> bool {
+  bool another_agent() {
     msg::AgentState st;
-    while (others.take(st)) {
-      if (agent.yields_to(st)) {
+    while (others_.take(st)) {
+      if (agent_.yields_to(st)) {
         std::fprintf(stderr, "tandem agent: another agent (pid %lld, address %s) serves host %s of %s already; one "
                              "agent per host: this one leaves\n", static_cast<long long>(st.pid()), st.address().c_str(),
-                     host.c_str(), d.name.c_str());
+                     o_.host.c_str(), d_.name.c_str());
         return true;
       }
     }
     return false;
-  };
-  // Its own status, as every process's: `tandem status` lists the agents beside what they run.
-  runtime::StatusPublisher own(*part, "agent/" + host, "agent", "");
-  own.msg().deployment(d.name);
-  own.set(runtime::Lifecycle::Active, "");
-  std::printf("tandem agent %s: %s, address %s, domain %d, discovery %s; waiting for the launcher\n", host.c_str(),
-              d.name.c_str(), spec->address.c_str(), d.domain_id,
-              runtime::discovery_text(d).c_str());
-  std::fflush(stdout);
-  auto published = Clock::now() - std::chrono::seconds(1);
-  while (!g_agent_stop) {
-    msg::AgentRequest r;
-    while (requests.take(r)) agent.on_request(r);
-    if (another_agent()) {
-      agent.stop_all(SIGKILL);
-      agent.poll();
-      return 2;
-    }
-    agent.poll();
-    if (agent.core().take_killed()) runtime::clean_stale_shm(started, static_cast<int>(d.domain_id));
-    if (Clock::now() - published >= std::chrono::milliseconds(100)) {
-      agent.publish(state);
-      own.msg().detail("runs " + std::to_string(agent.core().running()) + " process(es)");
-      own.publish();
-      published = Clock::now();
-    }
-    // --once: the run is over, or its launcher is gone (silent: this host was cut off, or it died).
-    const launcher::AgentCore& core = agent.core();
-    if (once && core.served() && core.running() == 0 && (core.run_over() || core.silent(agent.now()) > d.host_timeout)) {
-      std::printf("tandem agent %s: the run is over; exiting (--once)\n", host.c_str());
-      agent.publish(state);
-      own.set(runtime::Lifecycle::Finalized, "run over");
-      return 0;
-    }
-    requests.wait(0.02);
   }
-  std::printf("tandem agent %s: stopping; %d process(es) left\n", host.c_str(), agent.core().running());
-  agent.stop_all(SIGTERM);
-  const auto asked = Clock::now();
-  while (agent.core().running() > 0) {
-    agent.poll();  // SIGKILL 5 s after SIGTERM
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    if (Clock::now() - asked > std::chrono::seconds(7)) agent.stop_all(SIGKILL);
+
+  int stop() {
+    std::printf("tandem agent %s: stopping; %d process(es) left\n", o_.host.c_str(), agent_.core().running());
+    agent_.stop_all(SIGTERM);
+    const auto asked = Clock::now();
+    while (agent_.core().running() > 0) {
+      agent_.poll();  // SIGKILL 5 s after SIGTERM
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      if (Clock::now() - asked > std::chrono::seconds(7)) agent_.stop_all(SIGKILL);
+    }
+    agent_.publish(state_);
+    own_.set(runtime::Lifecycle::Finalized, "stopped");
+    std::printf("tandem agent %s: stopped\n", o_.host.c_str());
+    return 0;
   }
-  agent.publish(state);
-  own.set(runtime::Lifecycle::Finalized, "stopped");
-  std::printf("tandem agent %s: stopped\n", host.c_str());
-  return 0;
+
+  const runtime::Deployment& d_;
+  const AgentArgs& o_;
+  const runtime::HostSpec& spec_;
+  Agent& agent_;
+  const std::time_t started_ = std::time(nullptr) - 1;
+  bus::Reader<msg::AgentRequest, msg::AgentRequestPubSubType> requests_;
+  bus::Writer<msg::AgentState, msg::AgentStatePubSubType> state_;
+  bus::Reader<msg::AgentState, msg::AgentStatePubSubType> others_;
+  runtime::StatusPublisher own_;
+};
+
+}  // namespace
+
+int agent_command(const std::vector<std::string>& args) {
+  AgentArgs o;
+  if (const int code = parse_agent_args(args, o); code >= 0) return code;
+  runtime::Deployment d;
+  try {
+    d = runtime::load_deployment(o.file);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "tandem agent: %s\n", e.what());
+    return 2;
+  }
+  const runtime::HostSpec* spec = this_host(d, o);
+  if (spec == nullptr) return 2;
+  if (const int code = prepare_agent(d, o.host); code >= 0) return code;
+  Agent agent(d, o.host, spec->address);
+  agent.core().rt_permitted = set_scheduling(d, o.host);
+  std::unique_ptr<bus::Participant> part;
+  try {
+    // UDP only, as the launcher (up_run.cpp: a killed sender cannot wedge its receiving).
+    part = std::make_unique<bus::Participant>(d.domain_id, "agent/" + o.host, bus::Transport::Udp);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "tandem agent: %s\n", e.what());
+    return 2;
+  }
+  AgentRun run(d, o, *spec, agent, *part);
+  return run.run();
 }
 
 }  // namespace tandem::cli

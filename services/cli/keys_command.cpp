@@ -73,74 +73,60 @@ void keys_usage(std::FILE* f) {
       f);
 }
 
-int keys_command(const std::vector<std::string>& args) {
+namespace {
+
+struct KeysArgs {
   std::string file, dir;
   int days = 365;
   bool new_ca = false;
+};
+
+/// Reads the command line; -1 to go on, else the exit code (0 after --help).
+int parse_keys_args(const std::vector<std::string>& args, KeysArgs& o) {
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
     if (a == "--help" || a == "-h") {
       keys_usage(stdout);
       return 0;
-    } else if ((a == "--dir" || a == "--days") && i + 1 < args.size()) {
-      if (a == "--dir") {
-        dir = args[++i];
-      } else {
-        char* end = nullptr;
-        const long v = std::strtol(args[++i].c_str(), &end, 10);
-        if (*end != '\0' || v < 1 || v > 3650) {
-          std::fprintf(stderr, "tandem keys: --days '%s': expected a whole number of days in [1, 3650]\n", args[i].c_str());
-          return 2;
-        }
-        days = static_cast<int>(v);
+    } else if (a == "--dir" && i + 1 < args.size()) {
+      o.dir = args[++i];
+    } else if (a == "--days" && i + 1 < args.size()) {
+      char* end = nullptr;
+      const long v = std::strtol(args[++i].c_str(), &end, 10);
+      if (*end != '\0' || v < 1 || v > 3650) {
+        std::fprintf(stderr, "tandem keys: --days '%s': expected a whole number of days in [1, 3650]\n", args[i].c_str());
+        return 2;
       }
+      o.days = static_cast<int>(v);
     } else if (a == "--new-ca") {
-      new_ca = true;
+      o.new_ca = true;
     } else if (!a.empty() && a[0] == '-') {
       std::fprintf(stderr, "tandem keys: unknown option '%s' (or missing value; see 'tandem help keys')\n", a.c_str());
       return 2;
-    } else if (file.empty()) {
-      file = a;
+    } else if (o.file.empty()) {
+      o.file = a;
     } else {
       std::fprintf(stderr, "tandem keys: one deployment file expected, got '%s' too\n", a.c_str());
       return 2;
     }
   }
-  if (file.empty()) {
+  if (o.file.empty()) {
     std::fprintf(stderr, "tandem keys: missing the deployment file\n\n");
     keys_usage(stderr);
     return 2;
   }
-  runtime::Deployment d;
-  std::vector<runtime::Identity> ids;
-  try {
-    d = runtime::load_deployment(file);
-    ids = runtime::identities(d);
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "tandem keys: %s\n", e.what());
-    return 2;
-  }
-  if (dir.empty()) dir = d.security_keys;
-  if (dir.empty()) {
-    std::fprintf(stderr, "tandem keys: %s has no 'security: {keys: DIR}' and no --dir was given\n", file.c_str());
-    return 2;
-  }
-  if (std::system("openssl version >/dev/null 2>&1") != 0) {
-    std::fprintf(stderr, "tandem keys: needs the openssl command (Debian package openssl)\n");
-    return 1;
-  }
-  if (!page::make_dirs(dir, 0700)) {
-    std::fprintf(stderr, "tandem keys: cannot create %s: %s\n", dir.c_str(), std::strerror(errno));
-    return 1;
-  }
-  ::chmod(dir.c_str(), 0700);
+  return -1;
+}
+
+/// Makes the CA (unless one is there and no new one is asked for), then a key and certificate per identity, in
+/// `dir` (quoted as q: "'<dir>/"); false with the reason in `err`.
+bool make_certificates(const KeysArgs& o, const runtime::Deployment& d, const std::vector<runtime::Identity>& ids,
+                       const std::string& dir, std::string& err) {
   const std::string q = "'" + dir + "/";
-  const std::string ds = std::to_string(days);
-  std::string err;
+  const std::string ds = std::to_string(o.days);
   const bool have_ca = ::access((dir + "/ca.key").c_str(), R_OK) == 0 && ::access((dir + "/ca.pem").c_str(), R_OK) == 0;
-  const mode_t old_mask = ::umask(077);
   bool ok = true;
-  if (!have_ca || new_ca) {
+  if (!have_ca || o.new_ca) {
     ok = run("openssl genpkey -algorithm EC -pkeyopt ec_paramgen_curve:P-256 -out " + q + "ca.key'", err) &&
          run("openssl req -new -x509 -sha256 -days " + ds + " -key " + q + "ca.key' -out " + q +
                  "ca.pem' -subj '/O=tandem/CN=tandem CA " + d.name + "'", err);
@@ -157,29 +143,69 @@ int keys_command(const std::vector<std::string>& args) {
              err);
     ::unlink((dir + "/" + n + ".csr").c_str());
   }
+  return ok;
+}
+
+/// Writes the governance and permissions documents and signs them with the CA; false with the reason in `err`.
+bool make_documents(const KeysArgs& o, const runtime::Deployment& d, const std::vector<runtime::Identity>& ids,
+                    const std::string& dir, std::string& err) {
+  const std::string q = "'" + dir + "/";
   const std::time_t now = std::time(nullptr);
-  if (ok) {
-    try {
-      page::write_file(dir + "/governance.xml", runtime::governance_xml(d));
-      page::write_file(dir + "/permissions.xml",
-                       runtime::permissions_xml(ids, d.domain_id, iso(now - 3600), iso(now + 86400L * days)));
-    } catch (const std::exception& e) {
-      ok = false;
-      err = std::string(e.what()) + " (the governance or permissions document)";
-    }
+  try {
+    page::write_file(dir + "/governance.xml", runtime::governance_xml(d));
+    page::write_file(dir + "/permissions.xml",
+                     runtime::permissions_xml(ids, d.domain_id, iso(now - 3600), iso(now + 86400L * o.days)));
+  } catch (const std::exception& e) {
+    err = std::string(e.what()) + " (the governance or permissions document)";
+    return false;
   }
+  bool ok = true;
   for (const char* doc : {"governance", "permissions"}) {
     ok = ok && run(std::string("openssl smime -sign -text -in ") + q + doc + ".xml' -out " + q + doc + ".p7s' -signer " +
                        q + "ca.pem' -inkey " + q + "ca.key'",
                    err);
   }
+  return ok;
+}
+
+}  // namespace
+
+int keys_command(const std::vector<std::string>& args) {
+  KeysArgs o;
+  if (const int code = parse_keys_args(args, o); code >= 0) return code;
+  runtime::Deployment d;
+  std::vector<runtime::Identity> ids;
+  try {
+    d = runtime::load_deployment(o.file);
+    ids = runtime::identities(d);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "tandem keys: %s\n", e.what());
+    return 2;
+  }
+  const std::string dir = o.dir.empty() ? d.security_keys : o.dir;
+  if (dir.empty()) {
+    std::fprintf(stderr, "tandem keys: %s has no 'security: {keys: DIR}' and no --dir was given\n", o.file.c_str());
+    return 2;
+  }
+  if (std::system("openssl version >/dev/null 2>&1") != 0) {
+    std::fprintf(stderr, "tandem keys: needs the openssl command (Debian package openssl)\n");
+    return 1;
+  }
+  if (!page::make_dirs(dir, 0700)) {
+    std::fprintf(stderr, "tandem keys: cannot create %s: %s\n", dir.c_str(), std::strerror(errno));
+    return 1;
+  }
+  ::chmod(dir.c_str(), 0700);
+  std::string err;
+  const mode_t old_mask = ::umask(077);
+  const bool ok = make_certificates(o, d, ids, dir, err) && make_documents(o, d, ids, dir, err);
   ::umask(old_mask);
   if (!ok) {
     std::fprintf(stderr, "tandem keys: %s\n", err.c_str());
     return 1;
   }
   std::printf("tandem keys: %zu identities for %s (domain %d) in %s, valid %d days:", ids.size(), d.name.c_str(),
-              d.domain_id, dir.c_str(), days);
+              d.domain_id, dir.c_str(), o.days);
   for (const auto& id : ids) std::printf(" %s", id.name.c_str());
   std::printf("\n");
   return 0;

@@ -195,11 +195,42 @@ void record_usage(std::FILE* f) {
       f);
 }
 
-int record_command(const std::vector<std::string>& args) {
+namespace {
+
+struct RecordArgs {
   std::string file, out;
   std::set<std::string> groups = kGroups;
   double duration = 0.0;
   bool attached = false;
+};
+
+/// --topics: a comma-separated list of groups ("all" for every one); false (said) if one is unknown or none given.
+bool parse_groups(const std::string& list, std::set<std::string>& groups) {
+  groups.clear();
+  std::stringstream ss(list);
+  std::string g;
+  while (std::getline(ss, g, ',')) {
+    if (g == "all") {
+      groups = kGroups;
+    } else if (kGroups.count(g) == 0) {
+      std::fprintf(stderr,
+                   "tandem record: unknown topic group '%s'; accepted: all, ticks, world, status, tasks, summaries, "
+                   "control, events\n",
+                   g.c_str());
+      return false;
+    } else {
+      groups.insert(g);
+    }
+  }
+  if (groups.empty()) {
+    std::fprintf(stderr, "tandem record: --topics names no group\n");
+    return false;
+  }
+  return true;
+}
+
+/// Reads the command line; -1 to go on, else the exit code (0 after --help).
+int parse_record_args(const std::vector<std::string>& args, RecordArgs& o) {
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
     auto value = [&](const char* what) -> const std::string* {
@@ -215,64 +246,41 @@ int record_command(const std::vector<std::string>& args) {
     } else if (a == "-o" || a == "--out") {
       const std::string* v = value("a file name");
       if (v == nullptr) return 2;
-      out = *v;
+      o.out = *v;
     } else if (a == "--topics") {
       const std::string* v = value("a list of groups");
-      if (v == nullptr) return 2;
-      groups.clear();
-      std::stringstream ss(*v);
-      std::string g;
-      while (std::getline(ss, g, ',')) {
-        if (g == "all") {
-          groups = kGroups;
-        } else if (kGroups.count(g) == 0) {
-          std::fprintf(stderr,
-                       "tandem record: unknown topic group '%s'; accepted: all, ticks, world, status, tasks, "
-                       "summaries, control, events\n",
-                       g.c_str());
-          return 2;
-        } else {
-          groups.insert(g);
-        }
-      }
-      if (groups.empty()) {
-        std::fprintf(stderr, "tandem record: --topics names no group\n");
-        return 2;
-      }
+      if (v == nullptr || !parse_groups(*v, o.groups)) return 2;
     } else if (a == "--duration") {
       const std::string* v = value("seconds");
       if (v == nullptr) return 2;
       char* end = nullptr;
-      duration = std::strtod(v->c_str(), &end);
-      if (end == v->c_str() || *end != '\0' || !(duration > 0.0) || duration > 1e7) {
+      o.duration = std::strtod(v->c_str(), &end);
+      if (end == v->c_str() || *end != '\0' || !(o.duration > 0.0) || o.duration > 1e7) {
         std::fprintf(stderr, "tandem record: --duration '%s' is not a number of seconds > 0\n", v->c_str());
         return 2;
       }
     } else if (a == "--attached") {
-      attached = true;
+      o.attached = true;
     } else if (!a.empty() && a[0] == '-') {
       std::fprintf(stderr, "tandem record: unknown option '%s' (see 'tandem help record')\n", a.c_str());
       return 2;
-    } else if (file.empty()) {
-      file = a;
+    } else if (o.file.empty()) {
+      o.file = a;
     } else {
       std::fprintf(stderr, "tandem record: one deployment file expected, got '%s' too\n", a.c_str());
       return 2;
     }
   }
-  if (file.empty() || out.empty()) {
-    std::fprintf(stderr, "tandem record: %s\n\n",
-                 file.empty() ? "missing the deployment file" : "missing -o FILE.mcap");
+  if (o.file.empty() || o.out.empty()) {
+    std::fprintf(stderr, "tandem record: %s\n\n", o.file.empty() ? "missing the deployment file" : "missing -o FILE.mcap");
     record_usage(stderr);
     return 2;
   }
-  runtime::Deployment d;
-  try {
-    d = runtime::load_deployment(file);
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "tandem record: %s\n", e.what());
-    return 2;
-  }
+  return -1;
+}
+
+/// Signals, discovery, security and priority for a recorder of `d`; -1 to go on, else the exit code.
+int prepare_recorder(const runtime::Deployment& d, bool attached) {
   struct sigaction sa {};
   sa.sa_handler = on_record_signal;
   ::sigaction(SIGTERM, &sa, nullptr);
@@ -298,37 +306,22 @@ int record_command(const std::vector<std::string>& args) {
         "ticks, which it reports as gaps\n",
         std::strerror(errno));
   }
-  // The participant outlives the recorder's readers (declared first, destroyed last); it is made before the
-  // recorder truncates the file, so that a domain it cannot join leaves an earlier recording alone.
-  std::unique_ptr<bus::Participant> part;
-  std::unique_ptr<Recorder> rec;
-  std::unique_ptr<runtime::StatusPublisher> status_pub;
-  try {
-    part = std::make_unique<bus::Participant>(d.domain_id, "recorder/" + d.name, runtime::transport_of(d));
-    rec = std::make_unique<Recorder>(d, file, out, groups);
-    rec->start(*part);
-    status_pub = std::make_unique<runtime::StatusPublisher>(*part, "recorder", "recorder", "");
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "tandem record: %s\n", e.what());
-    return 2;
-  }
-  runtime::StatusPublisher& status = *status_pub;
-  status.msg().deployment(d.name);
-  status.set(runtime::Lifecycle::Active, "recording to " + out);
-  if (!attached)
-    std::printf("tandem record: recording %s (domain %d) to %s; Ctrl-C to stop\n", d.name.c_str(),
-                d.domain_id, out.c_str());
+  return -1;
+}
+
+/// Records until stopped, the duration is over, or (by hand) the deployment's launcher has finished.
+void record_until_done(Recorder& rec, runtime::StatusPublisher& status, const RecordArgs& o) {
   const auto t0 = Clock::now();
   auto last_status = t0;
   auto launcher_done = Clock::time_point{};
   bool launcher_seen = false;
   while (!g_record_stop) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    rec->poll();
+    rec.poll();
     const auto now = Clock::now();
-    if (duration > 0.0 && std::chrono::duration<double>(now - t0).count() >= duration) break;
-    if (!attached) {
-      const int ls = rec->launcher_state();
+    if (o.duration > 0.0 && std::chrono::duration<double>(now - t0).count() >= o.duration) break;
+    if (!o.attached) {
+      const int ls = rec.launcher_state();
       if (ls >= 0) launcher_seen = true;
       if (launcher_seen && ls >= 3 && launcher_done == Clock::time_point{}) launcher_done = now;
       // The launcher finished: the summaries came before its final state; take the stragglers, then stop.
@@ -339,11 +332,47 @@ int record_command(const std::vector<std::string>& args) {
       last_status = now;
     }
   }
-  rec->poll();
-  status.set(runtime::Lifecycle::Finalized, "recording closed");
+  rec.poll();
+}
+
+}  // namespace
+
+int record_command(const std::vector<std::string>& args) {
+  RecordArgs o;
+  if (const int code = parse_record_args(args, o); code >= 0) return code;
+  runtime::Deployment d;
+  try {
+    d = runtime::load_deployment(o.file);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "tandem record: %s\n", e.what());
+    return 2;
+  }
+  if (const int code = prepare_recorder(d, o.attached); code >= 0) return code;
+  // The participant outlives the recorder's readers (declared first, destroyed last); it is made before the
+  // recorder truncates the file, so that a domain it cannot join leaves an earlier recording alone.
+  std::unique_ptr<bus::Participant> part;
+  std::unique_ptr<Recorder> rec;
+  std::unique_ptr<runtime::StatusPublisher> status;
+  try {
+    part = std::make_unique<bus::Participant>(d.domain_id, "recorder/" + d.name, runtime::transport_of(d));
+    rec = std::make_unique<Recorder>(d, o.file, o.out, o.groups);
+    rec->start(*part);
+    status = std::make_unique<runtime::StatusPublisher>(*part, "recorder", "recorder", "");
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "tandem record: %s\n", e.what());
+    return 2;
+  }
+  status->msg().deployment(d.name);
+  status->set(runtime::Lifecycle::Active, "recording to " + o.out);
+  if (!o.attached) {
+    std::printf("tandem record: recording %s (domain %d) to %s; Ctrl-C to stop\n", d.name.c_str(), d.domain_id,
+                o.out.c_str());
+  }
+  record_until_done(*rec, *status, o);
+  status->set(runtime::Lifecycle::Finalized, "recording closed");
   try {
     const std::string account = rec->finish();
-    std::printf("tandem record: %s: %s\n", out.c_str(), account.c_str());
+    std::printf("tandem record: %s: %s\n", o.out.c_str(), account.c_str());
   } catch (const std::exception& e) {
     std::fprintf(stderr, "tandem record: %s\n", e.what());
     return 1;

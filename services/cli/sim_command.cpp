@@ -82,13 +82,14 @@ void record_case(record::RecordingWriter& rec, const std::string& name, double h
   }
 }
 
-}  // namespace
-
-int sim_command(const std::vector<std::string>& args) {
-  std::string file, out_dir;
+struct SimArgs {
+  std::string file, out_dir, mcap_file;
   std::vector<std::string> only;
   bool csv = true, mcap = true;
-  std::string mcap_file;
+};
+
+/// Reads the command line; -1 to go on, else the exit code (0 after --help).
+int parse_sim_args(const std::vector<std::string>& args, SimArgs& o) {
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
     if (a == "--help" || a == "-h") {
@@ -99,50 +100,54 @@ int sim_command(const std::vector<std::string>& args) {
         std::fprintf(stderr, "tandem sim: %s needs a value\n", a.c_str());
         return 2;
       }
-      (a == "--out" ? out_dir : (only.emplace_back(), only.back())) = args[++i];
+      (a == "--out" ? o.out_dir : (o.only.emplace_back(), o.only.back())) = args[++i];
     } else if (a == "--no-csv") {
-      csv = false;
+      o.csv = false;
     } else if (a == "--no-mcap") {
-      mcap = false;
+      o.mcap = false;
     } else if (a == "--mcap") {
       if (i + 1 >= args.size()) {
         std::fprintf(stderr, "tandem sim: --mcap needs a file name\n");
         return 2;
       }
-      mcap_file = args[++i];
+      o.mcap_file = args[++i];
     } else if (!a.empty() && a[0] == '-') {
       std::fprintf(stderr, "tandem sim: unknown option '%s' (see 'tandem help sim')\n", a.c_str());
       return 2;
-    } else if (file.empty()) {
-      file = a;
+    } else if (o.file.empty()) {
+      o.file = a;
     } else {
       std::fprintf(stderr, "tandem sim: one scenario file expected, got '%s' too\n", a.c_str());
       return 2;
     }
   }
-  if (file.empty()) {
+  if (o.file.empty()) {
     std::fprintf(stderr, "tandem sim: missing the scenario file\n\n");
     sim_usage(stderr);
     return 2;
   }
-  sim::Scenario sc;
+  return -1;
+}
+
+/// Loads the scenario and checks the cases asked for and every case's module (a configuration that cannot run
+/// fails before any output), then the output places; -1 to go on, else the exit code.
+int load_checked(SimArgs& o, sim::Scenario& sc) {
   try {
-    sc = sim::load_scenario(file);
+    sc = sim::load_scenario(o.file);
   } catch (const sim::ConfigError& e) {
     std::fprintf(stderr, "tandem sim: %s\n", e.what());
     return 2;
   }
-  for (const auto& n : only) {
+  for (const auto& n : o.only) {
     bool found = false;
     for (const auto& c : sc.cases) found = found || c.name == n;
     if (!found) {
       std::string list;
       for (const auto& c : sc.cases) list += (list.empty() ? "" : ", ") + c.name;
-      std::fprintf(stderr, "tandem sim: no case '%s' in %s; cases: %s\n", n.c_str(), file.c_str(), list.c_str());
+      std::fprintf(stderr, "tandem sim: no case '%s' in %s; cases: %s\n", n.c_str(), o.file.c_str(), list.c_str());
       return 2;
     }
   }
-  // Build every selected case's module first: a configuration that cannot run fails before any output.
   for (const auto& c : sc.cases) {
     try {
       (void)sim::make_module(sc, c);
@@ -151,19 +156,23 @@ int sim_command(const std::vector<std::string>& args) {
       return 2;
     }
   }
-  if (out_dir.empty()) out_dir = "runs/" + sc.name;
-  if (mcap && mcap_file.empty()) mcap_file = out_dir + "/" + sim::file_name(sc.name) + ".mcap";
-  if (!mcap) mcap_file.clear();
-  if (((csv || !mcap_file.empty()) && !page::make_dirs(out_dir)) ||
-      (!mcap_file.empty() && mcap_file.find('/') != std::string::npos && !page::make_dirs(mcap_file.substr(0, mcap_file.rfind('/'))))) {
-    std::fprintf(stderr, "tandem sim: cannot create output directory '%s'\n", out_dir.c_str());
+  if (o.out_dir.empty()) o.out_dir = "runs/" + sc.name;
+  if (o.mcap && o.mcap_file.empty()) o.mcap_file = o.out_dir + "/" + sim::file_name(sc.name) + ".mcap";
+  if (!o.mcap) o.mcap_file.clear();
+  const std::string& mf = o.mcap_file;
+  if (((o.csv || !mf.empty()) && !page::make_dirs(o.out_dir)) ||
+      (!mf.empty() && mf.find('/') != std::string::npos && !page::make_dirs(mf.substr(0, mf.rfind('/'))))) {
+    std::fprintf(stderr, "tandem sim: cannot create output directory '%s'\n", o.out_dir.c_str());
     return 2;
   }
+  return -1;
+}
 
+/// The run's header: the scenario, the reaching-condition gains (eq. 33-34) of each controller that asks for them,
+/// and the table's columns.
+void print_header(const sim::Scenario& sc, const std::string& file) {
   std::printf("scenario %s (%s): %zu cases, %.1f s each, T = %g s, %d RK4 substeps\n", sc.name.c_str(),
               file.c_str(), sc.cases.size(), sc.duration, sc.period, sc.substeps);
-  const int rep = sc.report_robot;
-  // Reaching-condition gains (eq. 33-34) for each controller that asks for them.
   for (const auto& ctrl : sc.controllers) {
     if (ctrl.law.type == model::LawType::PD) continue;
     for (bool dist : {false, true}) {
@@ -181,82 +190,88 @@ int sim_command(const std::vector<std::string>& args) {
               "frame); e_p pos: ||(x_d - x)_xy|| (the paper's e_p); e_h = h_ref - h_n [N]; steady: final hold.\n");
   std::printf("%-22s %-6s %12s %12s %12s %10s %12s %10s | %11s %9s | %s\n", "case", "robot", "e_p Sp RMS",
               "e_p pos RMS", "e_p phi RMS", "e_h RMS N", "e_p steady", "min h_n N", "Table IV ep", "eh", "grasp");
-  bool ok = true;
-  std::vector<sim::SeriesRow> series;
-  std::unique_ptr<record::RecordingWriter> rec;
-  if (!mcap_file.empty()) {
-    try {
-      rec = std::make_unique<record::RecordingWriter>(mcap_file);
-      std::map<std::string, std::string> meta{{"scenario", sc.name}, {"scenario_file", file},
-                                              {"period", std::to_string(sc.period)}, {"duration", std::to_string(sc.duration)}};
-      rec->metadata("scenario", meta);
-    } catch (const std::exception& e) {
-      std::fprintf(stderr, "tandem sim: %s\n", e.what());
-      return 2;
-    }
+}
+
+/// A case's rows of the table (each robot beside the paper's Table IV for the reported one).
+void print_case(const sim::Scenario& sc, const sim::CaseConfig& c, const sim::CaseResult& r, double secs) {
+  const bool held = r.grasp_held();
+  const sim::PaperRow* paper = sim::paper_table_iv(c.paper_case);
+  for (int j = 0; j < 2 && !r.finite; ++j) {
+    std::printf("%-22s %-6s %s\n", j == 0 ? c.name.c_str() : "", sc.robots[j].name.c_str(),
+                j == 0 ? (c.require_grasp ? "DIVERGED" : "DIVERGED (allowed)") : "");
   }
+  for (int j = 0; j < 2 && r.finite; ++j) {
+    const auto& m = r.robots[j];
+    std::printf("%-22s %-6s %12.4e %12.4e %12.4e %10.4f %12.4e %10.2f | ", j == 0 ? c.name.c_str() : "",
+                sc.robots[j].name.c_str(), m.ep_sel_rms, m.ep_pos_rms, m.ep_ori_rms, m.eh_rms, m.ep_pos_rms_steady,
+                m.min_normal_force);
+    if (j == sc.report_robot && paper != nullptr) {
+      std::printf("%11.4e %9.4g | ", paper->ep_rms, paper->eh_rms);
+    } else {
+      std::printf("%11s %9s | ", "", "");
+    }
+    if (j == 0) {
+      std::printf("%s%s", held ? "held" : "LOST", !held && !c.require_grasp ? " (allowed)" : "");
+    } else {
+      std::printf("K/K_P [%.3g %.3g %.3g]", m.gains(0), m.gains(1), m.gains(2));
+    }
+    std::printf("\n");
+  }
+  if (!held) std::printf("%-22s   -> %s\n", "", r.failure().c_str());
+  if (r.finite) {
+    std::printf("%-22s   object RMS %.3e m, final %.3e m; torque limit hit in %ld periods; %.2f s wall\n", "",
+                r.object_pos_rms, r.object_final_error, r.counters.torque_saturated, secs);
+  }
+}
+
+/// Runs the selected cases, prints each and writes its CSV and recording; -1 when all ran (`ok`: every case that
+/// requires it kept the safe grasp), else the exit code.
+int run_cases(const SimArgs& o, const sim::Scenario& sc, record::RecordingWriter* rec, bool& ok) {
+  std::vector<sim::SeriesRow> series;
   for (const auto& c : sc.cases) {
-    bool selected = only.empty();
-    for (const auto& n : only) selected = selected || n == c.name;
+    bool selected = o.only.empty();
+    for (const auto& n : o.only) selected = selected || n == c.name;
     if (!selected) continue;
     const auto t0 = std::chrono::steady_clock::now();
-    sim::CaseResult r;
     try {
-      r = sim::run_case(sc, c, {}, (csv || rec) ? &series : nullptr);
+      const sim::CaseResult r = sim::run_case(sc, c, {}, (o.csv || rec != nullptr) ? &series : nullptr);
+      if (!r.grasp_held() && c.require_grasp) ok = false;
+      print_case(sc, c, r, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+      if (rec != nullptr) record_case(*rec, c.name, sim::make_module(sc, c).safe_grasp_force, series, sc);
+      if (o.csv) sim::write_csv(o.out_dir + "/" + sim::file_name(c.name) + ".csv", series, sc);
     } catch (const std::exception& e) {
       std::fprintf(stderr, "tandem sim: case '%s': %s\n", c.name.c_str(), e.what());
       return 2;
     }
-    const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    const bool held = r.grasp_held();
-    if (!held && c.require_grasp) ok = false;
-    const sim::PaperRow* paper = sim::paper_table_iv(c.paper_case);
-    for (int j = 0; j < 2 && !r.finite; ++j) {
-      std::printf("%-22s %-6s %s\n", j == 0 ? c.name.c_str() : "", sc.robots[j].name.c_str(),
-                  j == 0 ? (c.require_grasp ? "DIVERGED" : "DIVERGED (allowed)") : "");
-    }
-    for (int j = 0; j < 2 && r.finite; ++j) {
-      const auto& m = r.robots[j];
-      std::printf("%-22s %-6s %12.4e %12.4e %12.4e %10.4f %12.4e %10.2f | ", j == 0 ? c.name.c_str() : "",
-                  sc.robots[j].name.c_str(), m.ep_sel_rms, m.ep_pos_rms, m.ep_ori_rms, m.eh_rms,
-                  m.ep_pos_rms_steady, m.min_normal_force);
-      if (j == rep && paper != nullptr) {
-        std::printf("%11.4e %9.4g | ", paper->ep_rms, paper->eh_rms);
-      } else {
-        std::printf("%11s %9s | ", "", "");
-      }
-      if (j == 0) {
-        std::printf("%s%s", held ? "held" : "LOST", !held && !c.require_grasp ? " (allowed)" : "");
-      } else {
-        std::printf("K/K_P [%.3g %.3g %.3g]", m.gains(0), m.gains(1), m.gains(2));
-      }
-      std::printf("\n");
-    }
-    if (!held) std::printf("%-22s   -> %s\n", "", r.failure().c_str());
-    if (r.finite) {
-      std::printf("%-22s   object RMS %.3e m, final %.3e m; torque limit hit in %ld periods; %.2f s wall\n", "",
-                  r.object_pos_rms, r.object_final_error, r.counters.torque_saturated, secs);
-    }
-    if (rec) {
-      try {
-        record_case(*rec, c.name, sim::make_module(sc, c).safe_grasp_force, series, sc);
-      } catch (const std::exception& e) {
-        std::fprintf(stderr, "tandem sim: %s\n", e.what());
-        return 2;
-      }
-    }
-    if (csv) {
-      try {
-        sim::write_csv(out_dir + "/" + sim::file_name(c.name) + ".csv", series, sc);
-      } catch (const std::exception& e) {
-        std::fprintf(stderr, "tandem sim: %s\n", e.what());
-        return 2;
-      }
-    }
   }
+  return -1;
+}
+
+}  // namespace
+
+int sim_command(const std::vector<std::string>& args) {
+  SimArgs o;
+  if (const int code = parse_sim_args(args, o); code >= 0) return code;
+  sim::Scenario sc;
+  if (const int code = load_checked(o, sc); code >= 0) return code;
+  print_header(sc, o.file);
+  std::unique_ptr<record::RecordingWriter> rec;
+  try {
+    if (!o.mcap_file.empty()) {
+      rec = std::make_unique<record::RecordingWriter>(o.mcap_file);
+      std::map<std::string, std::string> meta{{"scenario", sc.name}, {"scenario_file", o.file},
+                                              {"period", std::to_string(sc.period)}, {"duration", std::to_string(sc.duration)}};
+      rec->metadata("scenario", meta);
+    }
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "tandem sim: %s\n", e.what());
+    return 2;
+  }
+  bool ok = true;
+  if (const int code = run_cases(o, sc, rec.get(), ok); code >= 0) return code;
   std::printf("\nh_sg (eq. 16) = %.3f N; reference force h_ref = %.2f x h_sg. Table IV: robot on the right.\n",
               model::safe_grasp_force(sc.object.mass, sc.object.mu_s, sc.g0), sc.grasp_safety_factor);
-  if (csv) std::printf("time series: %s/<case>.csv\n", out_dir.c_str());
+  if (o.csv) std::printf("time series: %s/<case>.csv\n", o.out_dir.c_str());
   if (rec) {
     try {
       rec->close();
@@ -264,8 +279,8 @@ int sim_command(const std::vector<std::string>& args) {
       std::fprintf(stderr, "tandem sim: %s\n", e.what());
       return 2;
     }
-    std::printf("recording: %s (%llu samples; tandem report %s -o DIR for the figures)\n", mcap_file.c_str(),
-                static_cast<unsigned long long>(rec->messages()), mcap_file.c_str());
+    std::printf("recording: %s (%llu samples; tandem report %s -o DIR for the figures)\n", o.mcap_file.c_str(),
+                static_cast<unsigned long long>(rec->messages()), o.mcap_file.c_str());
   }
   std::printf("%s\n", ok ? "result: PASS (every case that requires it kept the safe grasp)"
                          : "result: FAIL (a case lost the safe grasp; see above)");

@@ -50,6 +50,7 @@ launcher::SupervisorConfig supervisor_config(const Deployment& d, const std::str
                                                   d.coordinator_restart_window, 0.2};
   cfg.timeout = d.timeout;
   cfg.start_timeout = d.start_timeout;
+  cfg.realtime = d.timing == "realtime";
   for (const auto& h : d.hosts) cfg.hosts.push_back(h.name);
   cfg.host_timeout = d.host_timeout;
   cfg.run = run;
@@ -225,91 +226,76 @@ bool start_discovery(const Deployment& d, pid_t& pid, std::string& profile) {
 
 
 
-bool print_summary(double wall_s, const launcher::Supervisor& L, const Deployment& d, Heard& heard,
-                   const std::string& summary_file, std::ofstream& out, bool& failed) {
-  std::printf("\nsummary (%.1f s wall)\n", wall_s);
-  std::printf("%-16s %8s %12s %12s %12s %10s %10s %9s\n", "robot", "ticks", "e_p Sp RMS", "e_p pos RMS",
-              "e_p phi RMS", "e_h RMS N", "min h_n N", "rejected");
-  if (!summary_file.empty()) {
-    out.open(summary_file);
-    if (!out) std::fprintf(stderr, "tandem up: cannot write the summary to %s\n", summary_file.c_str());
-    out.precision(17);
+namespace {
+
+/// A robot's row of the summary (and its keys in the summary file); false if its grasp went below h_sg.
+bool summarize_robot(const std::string& id, const msg::RobotSummary& r, double h_sg, std::ofstream& out) {
+  char min_force[32] = "-";  // a robot that computed no tick has no force to report
+  if (r.ticks() > 0) std::snprintf(min_force, sizeof min_force, "%.2f", r.min_normal_force());
+  std::printf("%-16s %8llu %12.4e %12.4e %12.4e %10.4f %10s %9llu\n", id.c_str(),
+              static_cast<unsigned long long>(r.ticks()), r.ep_sel_rms(), r.ep_pos_rms(), r.ep_ori_rms(), r.eh_rms(),
+              min_force, static_cast<unsigned long long>(r.rejected()));
+  if (out) {
+    out << id << ".ep_pos_rms=" << r.ep_pos_rms() << "\n" << id << ".ep_ori_rms=" << r.ep_ori_rms() << "\n"
+        << id << ".ep_sel_rms=" << r.ep_sel_rms() << "\n" << id << ".eh_rms=" << r.eh_rms() << "\n"
+        << id << ".min_normal_force=" << r.min_normal_force() << "\n" << id << ".ticks=" << r.ticks() << "\n"
+        << id << ".rejected=" << r.rejected() << "\n";
   }
-  bool grasp_ok = true;
-  for (const auto& [name, mr] : L.modules()) {
-    if (!mr.started) continue;
-    // Failed or unplugged modules: reported only.
-    const bool counted = mr.end.running() || mr.end.is(launcher::ModuleEnd::Kind::Draining);
-    if (!mr.end.running()) std::printf("%s: %s\n", name.c_str(), mr.end.text().c_str());
-    if (out) out << name << ".end=" << (mr.end.running() ? "ran" : mr.end.word()) << "\n";
-    for (const auto& [id, r] : heard.robots) {
-      if (id.rfind(name + "/", 0) != 0) continue;
-      char min_force[32] = "-";  // a robot that computed no tick has no force to report
-      if (r.ticks() > 0) std::snprintf(min_force, sizeof min_force, "%.2f", r.min_normal_force());
-      std::printf("%-16s %8llu %12.4e %12.4e %12.4e %10.4f %10s %9llu\n", id.c_str(),
-                  static_cast<unsigned long long>(r.ticks()), r.ep_sel_rms(), r.ep_pos_rms(), r.ep_ori_rms(),
-                  r.eh_rms(), min_force, static_cast<unsigned long long>(r.rejected()));
-      if (counted && r.ticks() > 0 && r.min_normal_force() < mr.spec.h_sg) grasp_ok = false;
-      if (out) {
-        out << id << ".ep_pos_rms=" << r.ep_pos_rms() << "\n" << id << ".ep_ori_rms=" << r.ep_ori_rms() << "\n"
-            << id << ".ep_sel_rms=" << r.ep_sel_rms() << "\n" << id << ".eh_rms=" << r.eh_rms() << "\n"
-            << id << ".min_normal_force=" << r.min_normal_force() << "\n" << id << ".ticks=" << r.ticks() << "\n"
-            << id << ".rejected=" << r.rejected() << "\n";
-      }
-    }
-    const auto w = heard.worlds.find(name);
-    if (w == heard.worlds.end()) {
-      std::printf("%s: no summary from the world\n", name.c_str());
-      if (counted) failed = true;
-      continue;
-    }
-    const msg::WorldSummary& ws = w->second;
-    std::printf("%s: %llu ticks, object at (%.6f, %.6f), slips %llu, contact lost %llu, rejected commands %llu, "
-                "%s %llu, braked arm-ticks %llu\n",
-                name.c_str(), static_cast<unsigned long long>(ws.ticks()), ws.object_final()[0], ws.object_final()[1],
-                static_cast<unsigned long long>(ws.slip_events()), static_cast<unsigned long long>(ws.contact_lost()),
-                static_cast<unsigned long long>(ws.rejected_commands()), ws.realtime() ? "late arm-ticks" : "brakings",
-                static_cast<unsigned long long>(ws.late_commands()), static_cast<unsigned long long>(ws.braked_ticks()));
-    for (size_t i = 0; i < ws.switch_gap_ms().size(); ++i) {
-      std::printf("%s: %s after %.1f ms; over the next 300 ticks worst |e_p| %.3e m, lowest normal force %.2f N "
-                  "(h_sg %.2f N)\n",
-                  name.c_str(), ws.switch_failover()[i] ? "failover" : "takeover", ws.switch_gap_ms()[i],
-                  ws.switch_ep_max()[i], ws.switch_hn_min()[i], mr.spec.h_sg);
-    }
-    if (ws.realtime()) {
-      std::printf("%s: real time: sample->command latency p50 %.0f us, p99 %.0f us, max %.0f us; late arm-ticks %llu "
-                  "of %llu (%.2f%%); world tick start late p99 %.0f us, world overruns %llu; paused for load %llu "
-                  "time(s), %.1f s\n",
-                  name.c_str(), ws.latency_p50_us(), ws.latency_p99_us(), ws.latency_max_us(),
-                  static_cast<unsigned long long>(ws.late_commands()), 2ULL * ws.ticks(),
-                  ws.ticks() > 0 ? 50.0 * static_cast<double>(ws.late_commands()) / static_cast<double>(ws.ticks()) : 0.0,
-                  ws.wake_late_p99_us(), static_cast<unsigned long long>(ws.overruns()),
-                  static_cast<unsigned long long>(ws.load_pauses()), static_cast<double>(ws.load_paused_ticks()) * 1e-3);
-    }
-    if (counted && (ws.slip_events() > 0 || ws.contact_lost() > 0)) grasp_ok = false;
-    if (out) {
-      out << name << ".ticks=" << ws.ticks() << "\n" << name << ".slip_events=" << ws.slip_events() << "\n"
-          << name << ".contact_lost=" << ws.contact_lost() << "\n" << name
-          << ".rejected_commands=" << ws.rejected_commands() << "\n" << name
-          << ".late_commands=" << ws.late_commands() << "\n" << name << ".latency_p50_us=" << ws.latency_p50_us()
-          << "\n" << name << ".latency_p99_us=" << ws.latency_p99_us() << "\n" << name
-          << ".failovers=" << ws.failovers() << "\n" << name << ".failover_max_ms=" << ws.failover_max_ms() << "\n"
-          << name << ".braked_ticks=" << ws.braked_ticks() << "\n" << name << ".overruns=" << ws.overruns() << "\n"
-          << name << ".load_pauses=" << ws.load_pauses() << "\n" << name << ".load_paused_ticks=" << ws.load_paused_ticks()
-          << "\n";
-      auto list = [&out, &module = name](const char* key, const auto& seq) {  // (C++17: no binding captures)
-        out << module << "." << key << "=";
-        for (size_t i = 0; i < seq.size(); ++i) out << (i ? "," : "") << static_cast<double>(seq[i]);
-        out << "\n";
-      };
-      list("switch_gap_ms", ws.switch_gap_ms());
-      list("switch_failover", ws.switch_failover());
-      list("switch_ep_max", ws.switch_ep_max());
-      list("switch_hn_min", ws.switch_hn_min());
-      for (size_t i = 0; i < 6; ++i) out << name << ".q_final" << i << "=" << ws.q_final()[i] << "\n";
-      for (size_t i = 0; i < 3; ++i) out << name << ".object_final" << i << "=" << ws.object_final()[i] << "\n";
-    }
+  return !(r.ticks() > 0 && r.min_normal_force() < h_sg);
+}
+
+/// A world's lines of the summary (and its keys in the summary file); false if its object slipped or was let go.
+bool summarize_world(const std::string& name, const msg::WorldSummary& ws, double h_sg, std::ofstream& out) {
+  std::printf("%s: %llu ticks, object at (%.6f, %.6f), slips %llu, contact lost %llu, rejected commands %llu, "
+              "%s %llu, braked arm-ticks %llu\n",
+              name.c_str(), static_cast<unsigned long long>(ws.ticks()), ws.object_final()[0], ws.object_final()[1],
+              static_cast<unsigned long long>(ws.slip_events()), static_cast<unsigned long long>(ws.contact_lost()),
+              static_cast<unsigned long long>(ws.rejected_commands()), ws.realtime() ? "late arm-ticks" : "brakings",
+              static_cast<unsigned long long>(ws.late_commands()), static_cast<unsigned long long>(ws.braked_ticks()));
+  for (size_t i = 0; i < ws.switch_gap_ms().size(); ++i) {
+    std::printf("%s: %s after %.1f ms; over the next 300 ticks worst |e_p| %.3e m, lowest normal force %.2f N "
+                "(h_sg %.2f N)\n",
+                name.c_str(), ws.switch_failover()[i] ? "failover" : "takeover", ws.switch_gap_ms()[i],
+                ws.switch_ep_max()[i], ws.switch_hn_min()[i], h_sg);
   }
+  if (ws.realtime()) {
+    std::printf("%s: real time: sample->command latency p50 %.0f us, p99 %.0f us, max %.0f us; late arm-ticks %llu "
+                "of %llu (%.2f%%); world tick start late p99 %.0f us, world overruns %llu; paused for load %llu "
+                "time(s), %.1f s\n",
+                name.c_str(), ws.latency_p50_us(), ws.latency_p99_us(), ws.latency_max_us(),
+                static_cast<unsigned long long>(ws.late_commands()), 2ULL * ws.ticks(),
+                ws.ticks() > 0 ? 50.0 * static_cast<double>(ws.late_commands()) / static_cast<double>(ws.ticks()) : 0.0,
+                ws.wake_late_p99_us(), static_cast<unsigned long long>(ws.overruns()),
+                static_cast<unsigned long long>(ws.load_pauses()), static_cast<double>(ws.load_paused_ticks()) * 1e-3);
+  }
+  if (out) {
+    out << name << ".ticks=" << ws.ticks() << "\n" << name << ".slip_events=" << ws.slip_events() << "\n"
+        << name << ".contact_lost=" << ws.contact_lost() << "\n" << name
+        << ".rejected_commands=" << ws.rejected_commands() << "\n" << name
+        << ".late_commands=" << ws.late_commands() << "\n" << name << ".latency_p50_us=" << ws.latency_p50_us()
+        << "\n" << name << ".latency_p99_us=" << ws.latency_p99_us() << "\n" << name
+        << ".failovers=" << ws.failovers() << "\n" << name << ".failover_max_ms=" << ws.failover_max_ms() << "\n"
+        << name << ".braked_ticks=" << ws.braked_ticks() << "\n" << name << ".overruns=" << ws.overruns() << "\n"
+        << name << ".load_pauses=" << ws.load_pauses() << "\n" << name << ".load_paused_ticks=" << ws.load_paused_ticks()
+        << "\n";
+    auto list = [&out, &module = name](const char* key, const auto& seq) {  // (C++17: no binding captures)
+      out << module << "." << key << "=";
+      for (size_t i = 0; i < seq.size(); ++i) out << (i ? "," : "") << static_cast<double>(seq[i]);
+      out << "\n";
+    };
+    list("switch_gap_ms", ws.switch_gap_ms());
+    list("switch_failover", ws.switch_failover());
+    list("switch_ep_max", ws.switch_ep_max());
+    list("switch_hn_min", ws.switch_hn_min());
+    for (size_t i = 0; i < 6; ++i) out << name << ".q_final" << i << "=" << ws.q_final()[i] << "\n";
+    for (size_t i = 0; i < 3; ++i) out << name << ".object_final" << i << "=" << ws.object_final()[i] << "\n";
+  }
+  return ws.slip_events() == 0 && ws.contact_lost() == 0;
+}
+
+/// The deployment's lines after the modules': processes that failed, the coordinator's count, start-up costs and
+/// the launcher's repairs, restarts and parks.
+void summarize_run(const launcher::Supervisor& L, const Deployment& d, Heard& heard, std::ofstream& out) {
   for (const auto& c : L.children()) {
     if (c.status != 0) {
       std::printf("process %s exited with code %d%s\n", c.label.c_str(), c.status,
@@ -351,6 +337,40 @@ bool print_summary(double wall_s, const launcher::Supervisor& L, const Deploymen
                 L.parks(), L.parked_text().empty() ? "none" : L.parked_text().c_str());
     if (out) out << "shedding.parks=" << L.parks() << "\nshedding.parked=" << L.parked_text() << "\n";
   }
+}
+
+}  // namespace
+
+bool print_summary(double wall_s, const launcher::Supervisor& L, const Deployment& d, Heard& heard,
+                   const std::string& summary_file, std::ofstream& out, bool& failed) {
+  std::printf("\nsummary (%.1f s wall)\n", wall_s);
+  std::printf("%-16s %8s %12s %12s %12s %10s %10s %9s\n", "robot", "ticks", "e_p Sp RMS", "e_p pos RMS",
+              "e_p phi RMS", "e_h RMS N", "min h_n N", "rejected");
+  if (!summary_file.empty()) {
+    out.open(summary_file);
+    if (!out) std::fprintf(stderr, "tandem up: cannot write the summary to %s\n", summary_file.c_str());
+    out.precision(17);
+  }
+  bool grasp_ok = true;
+  for (const auto& [name, mr] : L.modules()) {
+    if (!mr.started) continue;
+    // Failed or unplugged modules: reported only.
+    const bool counted = mr.end.running() || mr.end.is(launcher::ModuleEnd::Kind::Draining);
+    if (!mr.end.running()) std::printf("%s: %s\n", name.c_str(), mr.end.text().c_str());
+    if (out) out << name << ".end=" << (mr.end.running() ? "ran" : mr.end.word()) << "\n";
+    for (const auto& [id, r] : heard.robots) {
+      if (id.rfind(name + "/", 0) != 0) continue;
+      if (!summarize_robot(id, r, mr.spec.h_sg, out) && counted) grasp_ok = false;
+    }
+    const auto w = heard.worlds.find(name);
+    if (w == heard.worlds.end()) {
+      std::printf("%s: no summary from the world\n", name.c_str());
+      if (counted) failed = true;
+      continue;
+    }
+    if (!summarize_world(name, w->second, mr.spec.h_sg, out) && counted) grasp_ok = false;
+  }
+  summarize_run(L, d, heard, out);
   return grasp_ok;
 }
 

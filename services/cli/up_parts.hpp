@@ -13,11 +13,13 @@
 #include <string>
 #include <vector>
 
+#include "tandem/coordinator/options.hpp"
 #include "tandem/dds/bus.hpp"
 #include "tandem/launcher/estimate.hpp"
 #include "tandem/launcher/spawn.hpp"
 #include "tandem/launcher/supervisor.hpp"
 #include "tandem/runtime/deployment.hpp"
+#include "tandem/runtime/role.hpp"
 #include "tandem/runtime/security.hpp"
 #include "tandem/runtime/status.hpp"
 
@@ -53,26 +55,27 @@ class CommandLines {
   std::string exe(const Child& c) const { return dir_ + "/tandem-" + c.role; }
   std::vector<std::string> args(const Child& c) const {
     if (c.role == "coordinator") {
-      std::vector<std::string> a{"--deployment-file", file_, "--domain", std::to_string(d_.domain_id), "--timeout",
-                                 std::to_string(std::max(30.0, 3 * d_.timeout)), "--id", c.label};
-      if (c.standby) a.push_back("--standby");
-      if (c.resume) a.push_back("--resume");
-      return a;
+      coordinator::Options o;
+      o.file = file_;
+      o.domain = d_.domain_id;
+      o.timeout = std::max(30.0, 3 * d_.timeout);
+      o.id = c.label;
+      o.standby = c.standby;
+      o.resume = c.resume;
+      return coordinator::to_args(o);
     }
     const runtime::ModuleDeployment& m = modules_.at(c.module);
-    std::vector<std::string> a = common_args(m);
+    runtime::RoleOptions o = role_options(m);
     if (c.role == "world") {
       // On several hosts the world also waits for every robot of each arm (standbys included) before its first
       // tick: the primaries' host may answer later than a standby's, and the arms would start braked. (With a
-      // recorder common_args counts them already.)
-      if (!d_.hosts.empty() && !records_ticks() && m.standby > 0) {
-        a.insert(a.end(), {"--observers", std::to_string(m.standby)});
-      }
-      return a;
+      // recorder role_options counts them already.)
+      if (!d_.hosts.empty() && !records_ticks() && m.standby > 0) o.observers = m.standby;
+    } else {
+      if (c.role == "robot") o.arm = slot_of(c);
+      o.strength = c.strength;
     }
-    if (c.role == "robot") a.insert(a.end(), {"--arm", slot_of(c)});
-    a.insert(a.end(), {"--strength", std::to_string(c.strength)});
-    return a;
+    return runtime::role_args(c.role, o);
   }
   /// Multi-host: the host `c` runs on.
   std::string host(const Child& c) const {
@@ -99,18 +102,24 @@ class CommandLines {
 
  private:
   static std::string slot_of(const Child& c) { return c.arm.substr(c.arm.find('/') + 1); }
-  std::vector<std::string> common_args(const runtime::ModuleDeployment& m) const {
-    std::vector<std::string> a{"--scenario", m.scenario, "--case",      m.case_name,
-                               "--module",   m.name,     "--domain",    std::to_string(d_.domain_id),
-                               "--transport", d_.transport, "--timeout", std::to_string(d_.timeout),
-                               "--timing",   d_.timing,   "--deployment", d_.name};
-    if (d_.coordinator) a.push_back("--continuous");
-    if (!d_.overload_brake) a.push_back("--no-overload-brake");
-    if (d_.test_no_brakes) a.push_back("--test-no-brakes");
+  /// What every role of module `m` is told (runtime::role_args makes the command line of it).
+  runtime::RoleOptions role_options(const runtime::ModuleDeployment& m) const {
+    runtime::RoleOptions o;
+    o.scenario = m.scenario;
+    o.case_name = m.case_name;
+    o.module = m.name;
+    o.domain = d_.domain_id;
+    o.transport = d_.transport == "udp" ? dds::Transport::Udp : dds::Transport::SharedMemory;
+    o.timeout = d_.timeout;
+    o.realtime = d_.timing == "realtime";
+    o.deployment = d_.name;
+    o.continuous = d_.coordinator;
+    o.overload_brake = d_.overload_brake;
+    o.test_no_brakes = d_.test_no_brakes;
     // Lockstep with a recorder of the per-tick topics: the world waits for every reader of its sensors (the
     // robots of the arm and the recorder) before tick 0, so that the recording has every tick.
-    if (records_ticks()) a.insert(a.end(), {"--observers", std::to_string(m.standby + 1)});
-    return a;
+    if (records_ticks()) o.observers = m.standby + 1;
+    return o;
   }
   const Deployment& d_;
   std::string file_, dir_;

@@ -4,13 +4,21 @@
 // rate, and the page's own JSON channels (state, decimated plot points, events) come from view::LiveState.
 #include "view_command.hpp"
 
+#include <fcntl.h>
+#include <poll.h>
 #include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
+#include <cerrno>
 #include <cmath>
 #include <csignal>
 #include <cstdlib>
+#include <cstring>
+#include <fstream>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <thread>
 
 #include "tandem/dds/bus.hpp"
@@ -22,6 +30,7 @@
 #include "tandem/runtime/status.hpp"
 #include "tandem/sim/module_setup.hpp"
 #include "tandem/sim/scenario_yaml.hpp"
+#include "tandem/view/commands.hpp"
 #include "tandem/view/live_state.hpp"
 #include "tandem/view/server.hpp"
 #include "tandem/view/timeline.hpp"
@@ -39,7 +48,7 @@ void on_view_signal(int) {
 }
 
 struct ViewArgs {
-  std::string file, bind = "127.0.0.1", web;
+  std::string file, bind = "127.0.0.1", web, token_file;
   int port = 8765;
   double duration = 0.0;
 };
@@ -100,7 +109,7 @@ int parse_view_args(const std::vector<std::string>& args, ViewArgs& a) {
       view_usage(stdout);
       return 0;
     }
-    if ((x == "--port" || x == "--bind" || x == "--web" || x == "--duration") && !has_value) {
+    if ((x == "--port" || x == "--bind" || x == "--web" || x == "--duration" || x == "--token-file") && !has_value) {
       std::fprintf(stderr, "tandem view: %s needs a value (see 'tandem help view')\n", x.c_str());
       return 2;
     }
@@ -117,6 +126,8 @@ int parse_view_args(const std::vector<std::string>& args, ViewArgs& a) {
       a.bind = args[++i];
     } else if (x == "--web") {
       a.web = args[++i];
+    } else if (x == "--token-file") {
+      a.token_file = args[++i];
     } else if (x == "--duration") {
       char* end = nullptr;
       a.duration = std::strtod(args[++i].c_str(), &end);
@@ -215,6 +226,104 @@ void serve(record::Tap& tap, view::LiveState& live, view::Server& server, const 
   }
 }
 
+/// Runs `tandem <args>` (this program, from its own directory) as a user would, and returns its exit code, with what
+/// it printed (both streams, at most 4 kB) in `out`. Killed after 30 s (the CLI itself gives up within 15 s).
+int run_cli(const std::vector<std::string>& args, std::string& out) {
+  int fd[2];
+  if (::pipe2(fd, O_CLOEXEC) != 0) {  // (dup2 gives the child's stdout and stderr without the flag)
+    out = std::string("cannot make a pipe: ") + std::strerror(errno);
+    return 1;
+  }
+  const std::string exe = launcher::self_dir() + "/tandem";
+  std::vector<char*> argv{const_cast<char*>(exe.c_str())};
+  for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+  argv.push_back(nullptr);
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    ::dup2(fd[1], 1);
+    ::dup2(fd[1], 2);
+    ::close(fd[0]);
+    ::close(fd[1]);
+    ::execv(exe.c_str(), argv.data());
+    ::_exit(127);
+  }
+  ::close(fd[1]);
+  if (pid < 0) {
+    ::close(fd[0]);
+    out = std::string("cannot start tandem: ") + std::strerror(errno);
+    return 1;
+  }
+  const auto t0 = Clock::now();
+  char buf[512];
+  for (;;) {
+    pollfd p{fd[0], POLLIN, 0};
+    const int r = ::poll(&p, 1, 200);
+    if (r > 0) {
+      const ssize_t n = ::read(fd[0], buf, sizeof buf);
+      if (n <= 0) break;
+      if (out.size() < 4096) out.append(buf, static_cast<size_t>(n));
+    }
+    if (Clock::now() - t0 > std::chrono::seconds(30)) {
+      ::kill(pid, SIGKILL);
+      out += "\n(no answer within 30 s; stopped)";
+      break;
+    }
+  }
+  ::close(fd[0]);
+  int st = 0;
+  ::waitpid(pid, &st, 0);
+  while (!out.empty() && (out.back() == '\n' || out.back() == ' ')) out.pop_back();
+  return WIFEXITED(st) ? WEXITSTATUS(st) : 1;
+}
+
+/// The token for live commands from other machines: read from --token-file, or made afresh when the viewer listens
+/// on another address than loopback (printed with the URL), else none (this machine only). False (said) on a bad
+/// file.
+bool command_token(const ViewArgs& a, std::string& token) {
+  if (!a.token_file.empty()) {
+    std::ifstream f(a.token_file);
+    if (!(f >> token) || token.size() < 16) {
+      std::fprintf(stderr, "tandem view: --token-file %s: expected a token of at least 16 characters on its first line\n",
+                   a.token_file.c_str());
+      return false;
+    }
+    return true;
+  }
+  token = view::is_loopback(a.bind) ? "" : view::make_token();
+  return true;
+}
+
+/// POST /api/command: a live command from the page, carried out by the CLI (view::LiveCommand), one at a time.
+void serve_commands(view::Server& server, const std::string& file, const std::string& token, const std::string& bind) {
+  static std::mutex one_at_a_time;
+  server.set_post("/api/command", [file, token, bind, &server](const view::Server::PostIn& in) {
+    view::Server::PostOut o;
+    std::string why = view::refusal(in.remote, in.token, token);
+    if (why.empty()) why = view::browser_refusal(in.content_type, in.origin, in.host, bind, server.port());
+    if (!why.empty()) {
+      o.status = 403;
+      o.json = view::answer_json(false, why);
+      return o;
+    }
+    view::LiveCommand c;
+    try {
+      c = view::parse_live_command(in.body);
+    } catch (const std::exception& e) {
+      o.status = 400;
+      o.json = view::answer_json(false, e.what());
+      return o;
+    }
+    std::lock_guard<std::mutex> lock(one_at_a_time);
+    std::string text;
+    const int rc = run_cli(view::cli_args(c, file), text);
+    std::printf("tandem view: live command from %s: %s %s -> %s\n", in.remote.c_str(), c.verb.c_str(), c.target.c_str(),
+                rc == 0 ? "done" : "refused or failed");
+    std::fflush(stdout);
+    o.json = view::answer_json(rc == 0, text);
+    return o;
+  });
+}
+
 /// The server's options from the command line: address, port, the page's files, and what serverInfo says.
 view::Server::Options server_options(const ViewArgs& a, std::string name,
                                      std::vector<std::pair<std::string, std::string>> metadata) {
@@ -294,6 +403,13 @@ void view_usage(std::FILE* f) {
       "                  the deployment's data to the network)\n"
       "  --duration S    stop after S seconds (default: until Ctrl-C or SIGTERM)\n"
       "  --web DIR       the page's files (default: share/tandem/view beside the binaries)\n"
+      "  --token-file F  the token that live commands from other machines must carry (its first line, 16+\n"
+      "                  characters); without it a viewer on another address than loopback makes one and prints\n"
+      "                  the page's URL with it\n"
+      "\n"
+      "Live commands: the page's buttons (down, kill, unplug) run `tandem <command> <deploy.yaml> ...` as the\n"
+      "CLI does (with security on, through the cli identity). From this machine they need nothing more, as the\n"
+      "CLI does not; from another machine, the token (X-Tandem-Token header; the page takes it from ?token=).\n"
       "\n"
       "Each client has a bounded queue per channel (1000 frames; 64 for the page's state and plot) that "
       "drops its\n"
@@ -336,6 +452,9 @@ int view_command(const std::vector<std::string>& args) {
                       ch.list);
   server.set_json("/recording",
                   [](const std::string&) { return std::string("null"); });  // the page: live mode
+  std::string token;
+  if (!command_token(a, token)) return 2;
+  serve_commands(server, a.file, token, a.bind);
   view::LiveState live(h_sg);
   ViewSink sink(live, server, ch);
   std::unique_ptr<bus::Participant> part;
@@ -356,6 +475,10 @@ int view_command(const std::vector<std::string>& args) {
   status->set(runtime::Lifecycle::Active, "serving " + server.url());
   std::printf("tandem view: %s (domain %d) at %s (Foxglove: ws://%s:%d)\n", d.name.c_str(), d.domain_id,
               server.url().c_str(), a.bind.c_str(), server.port());
+  if (!token.empty() && a.token_file.empty()) {
+    std::printf("tandem view: live commands from other machines need the token: open %s?token=%s\n",
+                server.url().c_str(), token.c_str());
+  }
   std::fflush(stdout);
   serve(*tap, live, server, ch, *status, a.duration);
   tap->close();

@@ -32,99 +32,14 @@
 #include "tandem/runtime/status.hpp"
 #include "tandem/coordinator/leadership.hpp"
 #include "tandem/coordinator/coordinator_core.hpp"
+#include "tandem/coordinator/options.hpp"
 
 using namespace tandem;
 namespace bus = tandem::dds;
 
 namespace {
 
-struct Options {
-  std::string file;
-  int domain = -1;
-  double timeout = 30.0;
-  std::string id = "coordinator";
-  bool standby = false;
-  bool resume = false;  ///< a queue existed before this one started: never take over without its state
-};
-
-void usage(std::FILE* f) {
-  std::fprintf(
-      f,
-      "usage: tandem-coordinator --deployment-file FILE --domain ID [--timeout S] [--id NAME] [--standby] [--resume]\n"
-      "Started by 'tandem up' for deployments with a coordinator section. --timeout: give up after S\n"
-      "seconds with no task finished (default 30); --id: process id in status (default coordinator);\n"
-      "--standby: assign nothing until the primary falls silent, then take over its queue.\n"
-      "--resume (a restart): take over only with a queue state heard, never with a fresh queue.\n"
-      "Exit: 0 every task done or stopped, 1 a task done twice, 2 bad arguments or deployment, 3 left after a\n"
-      "stall (another one leads), 4 no progress, 6 a restart (--resume) that heard no queue state in 10 s.\n");
-}
-
-/// Parses the command line; on error prints the problem and the usage and returns false with `exit_code`
-/// 2 (0 for --help).
-bool parse_options(int argc, char** argv, Options& o, int& exit_code) {
-  exit_code = launcher::exit_code::kBadArgs;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--help" || a == "-h") {
-      usage(stdout);
-      exit_code = launcher::exit_code::kDone;
-      return false;
-    }
-    if (a == "--standby") {
-      o.standby = true;
-      continue;
-    }
-    if (a == "--resume") {
-      o.resume = true;
-      continue;
-    }
-    if (a != "--deployment-file" && a != "--domain" && a != "--timeout" && a != "--id") {
-      std::fprintf(
-          stderr,
-          "tandem-coordinator: unknown option '%s'; accepted: --deployment-file, --domain, --timeout, "
-          "--id, --standby, --resume, --help\n",
-          a.c_str());
-      usage(stderr);
-      return false;
-    }
-    if (i + 1 >= argc) {
-      std::fprintf(stderr, "tandem-coordinator: '%s' needs a value\n", a.c_str());
-      usage(stderr);
-      return false;
-    }
-    const std::string v = argv[++i];
-    if (a == "--deployment-file") {
-      o.file = v;
-    } else if (a == "--domain") {
-      if (!runtime::parse_domain(v, o.domain)) {
-        std::fprintf(stderr, "tandem-coordinator: --domain must be an integer in [0, 232], got '%s'\n",
-                     v.c_str());
-        return false;
-      }
-    } else if (a == "--timeout") {
-      char* end = nullptr;
-      o.timeout = std::strtod(v.c_str(), &end);
-      if (v.empty() || *end != '\0' || !std::isfinite(o.timeout) || o.timeout <= 0.0 || o.timeout > 86400.0) {
-        std::fprintf(stderr,
-                     "tandem-coordinator: --timeout must be a number of seconds in (0, 86400], got '%s'\n",
-                     v.c_str());
-        return false;
-      }
-    } else {
-      o.id = v;
-      if (o.id.empty()) {
-        std::fprintf(stderr, "tandem-coordinator: --id must be a non-empty process id\n");
-        return false;
-      }
-    }
-  }
-  if (o.file.empty() || o.domain < 0) {
-    std::fprintf(stderr, "tandem-coordinator: --deployment-file and --domain are required\n");
-    usage(stderr);
-    return false;
-  }
-  return true;
-}
+using coordinator::Options;
 
 msg::CoordinatorState to_msg(const std::string& deployment, const coordinator::Snapshot& s) {
   msg::CoordinatorState m;
@@ -152,12 +67,149 @@ coordinator::Snapshot from_msg(const msg::CoordinatorState& m) {
 }
 
 
+coordinator::CoordinatorOptions core_options(const Options& opt, const runtime::Deployment& d) {
+  coordinator::CoordinatorOptions co;
+  co.lead = {opt.id, opt.standby, opt.resume};
+  co.balance = d.balance == "round_robin" ? coordinator::Balance::RoundRobin : coordinator::Balance::Wear;
+  co.timeout = opt.timeout;
+  return co;
+}
+
+std::vector<std::string> task_names(const runtime::Deployment& d) {
+  std::vector<std::string> names;
+  for (const auto& t : d.tasks) names.push_back(t.name);
+  return names;
+}
+
+/// One coordinator process: its DDS endpoints, its core and the loop's steps.
+class CoordinatorProcess {
+ public:
+  CoordinatorProcess(const Options& opt, const runtime::Deployment& d)
+      : opt_(opt), d_(d), who_(opt.id == "coordinator" ? "coordinator" : "coordinator " + opt.id),
+        // UDP only, as the launcher (up_run.cpp): a shared-memory listener can be wedged for good by a killed
+        // sender's segment (Fast DDS 2.9, eProsima/Fast-DDS#2398, #5732); a primary deaf to the modules' task
+        // states while its own status still went out held the whole queue for 40 s (soak finding 56). Its traffic
+        // (task states, statuses, the queue's state, assignments) is small.
+        part_(opt.domain, opt.id + "/" + d.name, bus::Transport::Udp),
+        states_(part_, bus::kTaskStateTopic, bus::TopicKind::Task),
+        status_in_(part_, bus::kStatusTopic, bus::TopicKind::Status),
+        state_in_(part_, bus::kCoordinatorStateTopic, bus::TopicKind::Task),  // the primary's, read as a standby
+        state_out_(part_, bus::kCoordinatorStateTopic, bus::TopicKind::Task),
+        assign_(part_, bus::kTaskAssignmentTopic, bus::TopicKind::Task),
+        status_(part_, opt.id, "coordinator", ""), t0_(std::chrono::steady_clock::now()),
+        core_(core_options(opt, d), task_names(d), now()) {
+    status_.msg().deployment(d.name);
+    status_.msg().serving(opt.standby ? msg::ROLE_STANDBY : msg::ROLE_PRIMARY);
+    status_.set(runtime::Lifecycle::Active, "task queue of " + std::to_string(d.tasks.size()));
+    // Log lines name the process when it is not the default one (a standby or a restarted coordinator).
+    core_.set_log([this](const std::string& line) {
+      std::printf("%s: %s\n", who_.c_str(), line.c_str());
+      std::fflush(stdout);  // the launcher interleaves the output of many processes
+    });
+  }
+
+  int run() {
+    while (!runtime::g_stop && !core_.end()) {
+      const double t = now();
+      core_.on_loop(t);
+      take_inputs(t);
+      core_.update(t);
+      carry_out(t);
+      if (!core_.end() && core_.heartbeat_due(t)) heartbeat(t);
+      if (!core_.end()) states_.wait(0.02);
+    }
+    return finish();
+  }
+
+ private:
+  double now() const { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count(); }
+
+  void take_inputs(double t) {
+    msg::ProcessStatus ps;
+    while (status_in_.take(ps)) {
+      if (ps.deployment() != d_.name) continue;
+      if (ps.role() == "robot") core_.on_wear(ps.process_id(), ps.wear());
+      if (ps.role() == "coordinator") {
+        core_.on_peer(ps.process_id(), ps.state() == static_cast<uint8_t>(runtime::Lifecycle::Active),
+                      ps.serving() == msg::ROLE_PRIMARY, t, ps.tick());
+      }
+    }
+    msg::TaskState ts;
+    while (states_.take(ts)) {
+      if (ts.deployment() == d_.name) core_.on_task_state({ts.module_id(), ts.task_id(), ts.state()}, t);
+    }
+    if (core_.wants_states(t)) {
+      msg::CoordinatorState cs;
+      while (state_in_.take(cs)) {
+        if (cs.deployment() == d_.name) core_.on_state(from_msg(cs), t);
+      }
+    }
+  }
+
+  void heartbeat(double t) {
+    status_.msg().serving(core_.primary() ? msg::ROLE_PRIMARY : msg::ROLE_STANDBY);
+    status_.msg().tick(core_.said_next_task_id(t));  // the queue's progress: of two primaries the one further on stays
+    status_.msg().detail(core_.detail());
+    status_.publish();
+    core_.heartbeat_sent(t);
+  }
+
+  void carry_out(double t) {
+    for (const coordinator::CoordinatorAction& a : core_.take_actions()) {
+      if (a.kind == coordinator::CoordinatorAction::Kind::PublishState) {
+        msg::CoordinatorState m = to_msg(d_.name, a.state);
+        state_out_.write(m);
+        heartbeat(t);
+      } else {
+        msg::TaskAssignment m;
+        m.module_id(a.assignment.module);
+        m.task_id(a.assignment.id);
+        m.task_name(d_.tasks[a.assignment.task].name);
+        m.waypoints(d_.tasks[a.assignment.task].waypoints);
+        assign_.write(m);
+      }
+    }
+  }
+
+  int finish() {
+    if (!core_.end()) {  // stopped
+      core_.on_stop();
+      carry_out(now());
+      status_.set(runtime::Lifecycle::Finalized, "stopped");
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      return launcher::exit_code::kDone;
+    }
+    const coordinator::CoordinatorEnd& end = *core_.end();
+    if (!end.message.empty()) std::fprintf(stderr, "tandem-coordinator %s: %s\n", opt_.id.c_str(), end.message.c_str());
+    if (core_.queue().complete() && core_.primary()) {
+      for (const std::string& line : core_.summary_lines()) std::printf("%s: %s\n", who_.c_str(), line.c_str());
+      std::printf("coordinator: %s\n", end.status.c_str());
+      std::fflush(stdout);
+    }
+    status_.set(end.error ? runtime::Lifecycle::Error : runtime::Lifecycle::Finalized, end.status);
+    std::this_thread::sleep_for(std::chrono::milliseconds(core_.queue().complete() ? 200 : 100));
+    return end.code;
+  }
+
+  const Options& opt_;
+  const runtime::Deployment& d_;
+  std::string who_;
+  bus::Participant part_;
+  bus::Reader<msg::TaskState, msg::TaskStatePubSubType> states_;
+  bus::Reader<msg::ProcessStatus, msg::ProcessStatusPubSubType> status_in_;
+  bus::Reader<msg::CoordinatorState, msg::CoordinatorStatePubSubType> state_in_;
+  bus::Writer<msg::CoordinatorState, msg::CoordinatorStatePubSubType> state_out_;
+  bus::Writer<msg::TaskAssignment, msg::TaskAssignmentPubSubType> assign_;
+  runtime::StatusPublisher status_;
+  std::chrono::steady_clock::time_point t0_;
+  coordinator::CoordinatorCore core_;
+};
+
 }  // namespace
 
 int run(int argc, char** argv) {
   Options opt;
-  int code = 0;
-  if (!parse_options(argc, argv, opt, code)) return code;
+  if (const int code = coordinator::parse_options(argc, argv, opt); code >= 0) return code;
   runtime::install_stop_handlers();
   runtime::Deployment d;
   try {
@@ -171,107 +223,8 @@ int run(int argc, char** argv) {
                  opt.file.c_str());
     return launcher::exit_code::kBadArgs;
   }
-  // Log lines name the process when it is not the default one (a standby or a restarted coordinator).
-  const std::string who = opt.id == "coordinator" ? "coordinator" : "coordinator " + opt.id;
-
-  bus::Participant part(opt.domain, opt.id + "/" + d.name, runtime::transport_of(d));
-  bus::Reader<msg::TaskState, msg::TaskStatePubSubType> states(part, bus::kTaskStateTopic,
-                                                               bus::TopicKind::Task);
-  bus::Reader<msg::ProcessStatus, msg::ProcessStatusPubSubType> status_in(part, bus::kStatusTopic,
-                                                                          bus::TopicKind::Status);
-  // The primary's state, read while this process is a standby.
-  bus::Reader<msg::CoordinatorState, msg::CoordinatorStatePubSubType> state_in(
-      part, bus::kCoordinatorStateTopic, bus::TopicKind::Task);
-  bus::Writer<msg::CoordinatorState, msg::CoordinatorStatePubSubType> state_out(
-      part, bus::kCoordinatorStateTopic, bus::TopicKind::Task);
-  bus::Writer<msg::TaskAssignment, msg::TaskAssignmentPubSubType> assign(part, bus::kTaskAssignmentTopic,
-                                                                         bus::TopicKind::Task);
-  runtime::StatusPublisher status(part, opt.id, "coordinator", "");
-  status.msg().deployment(d.name);
-  status.msg().serving(opt.standby ? msg::ROLE_STANDBY : msg::ROLE_PRIMARY);
-  status.set(runtime::Lifecycle::Active, "task queue of " + std::to_string(d.tasks.size()));
-
-  std::vector<std::string> names;
-  for (const auto& t : d.tasks) names.push_back(t.name);
-  const auto t0 = std::chrono::steady_clock::now();
-  auto now = [t0] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
-  coordinator::CoordinatorOptions co;
-  co.lead = {opt.id, opt.standby, opt.resume};
-  co.balance = d.balance == "round_robin" ? coordinator::Balance::RoundRobin : coordinator::Balance::Wear;
-  co.timeout = opt.timeout;
-  coordinator::CoordinatorCore core(co, names, now());
-  core.set_log([&who](const std::string& line) {
-    std::printf("%s: %s\n", who.c_str(), line.c_str());
-    std::fflush(stdout);  // the launcher interleaves the output of many processes
-  });
-  auto heartbeat = [&](double t) {
-    status.msg().serving(core.primary() ? msg::ROLE_PRIMARY : msg::ROLE_STANDBY);
-    status.msg().tick(core.said_next_task_id(t));  // the queue's progress: of two primaries the one further on stays
-    status.msg().detail(core.detail());
-    status.publish();
-    core.heartbeat_sent(t);
-  };
-  auto carry_out = [&](double t) {
-    for (const coordinator::CoordinatorAction& a : core.take_actions()) {
-      if (a.kind == coordinator::CoordinatorAction::Kind::PublishState) {
-        msg::CoordinatorState m = to_msg(d.name, a.state);
-        state_out.write(m);
-        heartbeat(t);
-      } else {
-        msg::TaskAssignment m;
-        m.module_id(a.assignment.module);
-        m.task_id(a.assignment.id);
-        m.task_name(d.tasks[a.assignment.task].name);
-        m.waypoints(d.tasks[a.assignment.task].waypoints);
-        assign.write(m);
-      }
-    }
-  };
-
-  while (!runtime::g_stop && !core.end()) {
-    const double t = now();
-    core.on_loop(t);
-    msg::ProcessStatus ps;
-    while (status_in.take(ps)) {
-      if (ps.deployment() != d.name) continue;
-      if (ps.role() == "robot") core.on_wear(ps.process_id(), ps.wear());
-      if (ps.role() == "coordinator") {
-        core.on_peer(ps.process_id(), ps.state() == static_cast<uint8_t>(runtime::Lifecycle::Active),
-                     ps.serving() == msg::ROLE_PRIMARY, t, ps.tick());
-      }
-    }
-    msg::TaskState ts;
-    while (states.take(ts)) {
-      if (ts.deployment() == d.name) core.on_task_state({ts.module_id(), ts.task_id(), ts.state()}, t);
-    }
-    if (core.wants_states(t)) {
-      msg::CoordinatorState cs;
-      while (state_in.take(cs)) {
-        if (cs.deployment() == d.name) core.on_state(from_msg(cs), t);
-      }
-    }
-    core.update(t);
-    carry_out(t);
-    if (!core.end() && core.heartbeat_due(t)) heartbeat(t);
-    if (!core.end()) states.wait(0.02);
-  }
-  if (!core.end()) {  // stopped
-    core.on_stop();
-    carry_out(now());
-    status.set(runtime::Lifecycle::Finalized, "stopped");
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    return launcher::exit_code::kDone;
-  }
-  const coordinator::CoordinatorEnd& end = *core.end();
-  if (!end.message.empty()) std::fprintf(stderr, "tandem-coordinator %s: %s\n", opt.id.c_str(), end.message.c_str());
-  if (core.queue().complete() && core.primary()) {
-    for (const std::string& line : core.summary_lines()) std::printf("%s: %s\n", who.c_str(), line.c_str());
-    std::printf("coordinator: %s\n", end.status.c_str());
-    std::fflush(stdout);
-  }
-  status.set(end.error ? runtime::Lifecycle::Error : runtime::Lifecycle::Finalized, end.status);
-  std::this_thread::sleep_for(std::chrono::milliseconds(core.queue().complete() ? 200 : 100));
-  return end.code;
+  CoordinatorProcess p(opt, d);
+  return p.run();
 }
 
 int main(int argc, char** argv) { return runtime::run_guarded("tandem-coordinator", run, argc, argv); }

@@ -32,6 +32,301 @@ using Clock = std::chrono::steady_clock;
 
 namespace {
 double seconds(Clock::time_point t) { return std::chrono::duration<double>(t.time_since_epoch()).count(); }
+double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+using SensorReader = bus::Reader<msg::ArmSensors, msg::ArmSensorsPubSubType>;
+using TorqueWriter = bus::Writer<msg::TorqueCommand, msg::TorqueCommandPubSubType>;
+
+/// One robot process: its DDS endpoints, its core (shared by the DDS thread that receives the samples, which
+/// computes, and the main thread, which watches the inputs and publishes status, under mu_), and the start-up steps.
+class RobotProcess {
+ public:
+  RobotProcess(const runtime::RoleOptions& opt, const runtime::RoleContext& ctx, int j)
+      : opt_(opt), m_(ctx.module), my_arm_(ctx.arm_id(j)),
+        // Process id: the arm for the primary, "<arm>@<strength>" for a standby (one per strength).
+        robot_id_(opt.strength == runtime::RoleOptions::kPrimaryStrength ? my_arm_ : my_arm_ + "@" + std::to_string(opt.strength)),
+        core_(m_, j, opt.continuous, ctx.scenario.transient), part_(opt.domain, "robot/" + my_arm_, opt.transport),
+        plans_(part_, bus::module_topic(bus::kSupervisorPlanTopic, opt.module), bus::TopicKind::Task),
+        summary_(part_, bus::kRobotSummaryTopic, bus::TopicKind::Summary), status_(part_, robot_id_, "robot", opt.module),
+        watch_(watch_rules(opt), seconds(Clock::now())) {
+    status_.msg().deployment(opt.deployment);
+    status_.msg().strength(opt.strength);
+    status_.set(runtime::Lifecycle::Inactive, "waiting for the plan and the first tick");
+    cmd_.strength(opt.strength);
+    listener_.self = this;
+  }
+
+  // The sensor reader goes first: its listener uses the members below it (the sample, the core, the mutex).
+  ~RobotProcess() { sensors_.reset(); }
+  RobotProcess(const RobotProcess&) = delete;
+  RobotProcess& operator=(const RobotProcess&) = delete;
+
+  int run() {
+    // Secured: ready only once this robot's own side of its inbound pairs works (below). Plain: at once, as a plain
+    // pair that matched on the world's side matches on this side too (a robot that joins a running module must not
+    // wait for anything it does not need).
+    const bool check_ready = part_.secured();
+    if (!check_ready) take_part();
+    if (const int code = wait_for_launcher(); code >= 0) return code;
+    sensors_ = make_sensor_reader();
+    if (check_ready) {
+      if (const int code = wait_until_ready(); code >= 0) return code;
+      take_part();
+    }
+    status_.set(runtime::Lifecycle::Inactive, "waiting for the first tick");
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      watch_.renewed(seconds(Clock::now()));  // no renewal in the loop's first 2 s (start-up is not deafness)
+    }
+    while (!runtime::g_stop && pass()) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    return finish();
+  }
+
+ private:
+  static robot::InputWatch::Rules watch_rules(const runtime::RoleOptions& opt) {
+    robot::InputWatch::Rules rules;
+    rules.timeout_s = opt.timeout;
+    rules.unmatched_s = std::max(rules.unmatched_s, 0.3 * opt.timeout);
+    return rules;
+  }
+
+  void take_plans() {  // under mu_
+    while (plans_.take(plan_in_)) {
+      if (plan_in_.module_id() != opt_.module) continue;
+      watch_.on_plan(seconds(Clock::now()), static_cast<long>(plan_in_.heard_tick()));
+      why_.clear();
+      const plan::PlanFollower::Offer o = core_.offer_plan(runtime::from_wire(plan_in_), &why_);
+      if (o == plan::PlanFollower::Offer::Rejected) {
+        std::fprintf(stderr, "tandem-robot %s: plan from '%s' rejected: %s\n", robot_id_.c_str(),
+                     plan_in_.supervisor_id().c_str(), why_.c_str());
+      } else if (!why_.empty()) {
+        std::fprintf(stderr, "tandem-robot %s: %s\n", robot_id_.c_str(), why_.c_str());
+      }
+    }
+  }
+
+  // One tick, in the thread that received the sample: the core computes, the command goes out at once.
+  void on_sample(const msg::ArmSensors& smp) {  // under mu_
+    const auto t_in = Clock::now();
+    watch_.on_sample(seconds(t_in));
+    // Another robot's torque, the world's drive or the brake's holding torque drove the arm over the last period:
+    // the core tracks it (bumpless transfer and release).
+    const model::Vec3 applied(smp.tau()[0], smp.tau()[1], smp.tau()[2]);
+    const bool other = robot_wire::driven_by_other(smp, opt_.strength);
+    core_.world_plan({smp.plan_epoch(), smp.plan_strength()}, smp.plan_version(), static_cast<long>(smp.plan_since()),
+                     static_cast<long>(smp.tick()));
+    if (core_.cut_off()) return;  // a stale plan is never served: the main loop leaves the arm
+    const std::optional<model::Vec3> tau =
+        core_.on_sample(static_cast<long>(smp.tick()), robot_wire::inputs(smp), smp.braked(), other ? &applied : nullptr);
+    if (!tau) return;
+    robot_wire::fill_command(core_, *tau, cmd_);
+    torque_writer_->write(cmd_);
+    interval_worst_us_ = std::max(interval_worst_us_, std::chrono::duration<double, std::micro>(Clock::now() - t_in).count());
+  }
+
+  struct Listener : fdds::DataReaderListener {
+    RobotProcess* self = nullptr;
+    void on_data_available(fdds::DataReader* r) override {
+      std::lock_guard<std::mutex> lock(self->mu_);
+      if (!self->stopping_ && self->ready_) self->take_plans();
+      fdds::SampleInfo info;
+      while (r->take_next_sample(&self->s_, &info) == ReturnCode_t::RETCODE_OK) {
+        // Always taken: a sample left unread here stops Fast DDS 2.9 from calling this listener again (seen: robots
+        // that never computed a tick). Before the robot is ready, or once it leaves, it is dropped (lockstep sends a
+        // tick's samples again every 50 ms; real time sends the next tick's).
+        if (info.valid_data && !self->stopping_ && self->ready_) self->on_sample(self->s_);
+      }
+    }
+  };
+
+  std::unique_ptr<SensorReader> make_sensor_reader() {
+    return std::make_unique<SensorReader>(part_, bus::arm_topic(bus::kSensorsTopic, my_arm_),
+                                          opt_.realtime ? bus::TopicKind::SensorsRealtime : bus::TopicKind::Sensors,
+                                          &listener_);
+  }
+
+  // Makes the torque writer; lockstep with a recorder (--observers, set by the launcher): the first command waits
+  // until the recorder's reader of this arm's torques has matched too (the world is the other reader), so that the
+  // recording has this robot's every command. A recorder that is slow to match holds the robot for half the timeout
+  // at most. Then samples are answered. The world waits for this writer before its first tick, so with security it
+  // is made only once this robot can serve.
+  void take_part() {
+    torque_writer_.emplace(part_, bus::arm_topic(bus::kTorquesTopic, my_arm_),
+                           opt_.realtime ? bus::TopicKind::TorquesRealtime : bus::TopicKind::Torques, opt_.strength);
+    if (!opt_.realtime && opt_.observers > 0) {
+      const auto w0 = Clock::now();
+      while (!runtime::g_stop && torque_writer_->matched() < 2 && since(w0) < 0.5 * opt_.timeout) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(5));
+      }
+    }
+    std::lock_guard<std::mutex> lock(mu_);
+    ready_ = true;
+  }
+
+  // The robot takes part (its sensor reader, which the world waits for) only once the launcher hears it (the reader
+  // of its summary): a robot the launcher cannot hear (a pair that never authenticated, docs/security.md
+  // "Start-up") would serve an arm whose summary and status are lost. Past the timeout: exit 3, and the launcher
+  // restarts the module if it had not ticked yet. Returns -1 when heard, else the exit code.
+  int wait_for_launcher() {
+    status_.set(runtime::Lifecycle::Inactive, "waiting for the launcher");
+    for (const auto l0 = Clock::now(); !runtime::g_stop && summary_.matched() < 1;) {
+      if (since(l0) > opt_.timeout) {
+        std::fprintf(stderr, "tandem-robot %s: the launcher was not found within %.1f s (summary readers 0/1)\n",
+                     robot_id_.c_str(), opt_.timeout);
+        status_.set(runtime::Lifecycle::Error, "launcher not found");
+        return launcher::exit_code::kPeersNotFound;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    return -1;
+  }
+
+  // Secured: ready to serve only when this side of each inbound pair works too: the sensor reader has matched the
+  // world's writer and a plan has been heard. A secured pair can match on one side only (seen: the world's sensor
+  // writer matched a robot that never got a sample nor a plan, and the world ticked with that arm braked). Past the
+  // timeout: exit 3, and the launcher restarts the module if it had not ticked yet (docs/security.md, "Start-up").
+  // Returns -1 when ready, else the exit code.
+  int wait_until_ready() {
+    status_.set(runtime::Lifecycle::Inactive, "waiting for the world's samples and a plan");
+    for (const auto r0 = Clock::now();;) {
+      if (runtime::g_stop) return launcher::exit_code::kDone;
+      const bool matched = sensors_->matched() >= 1;  // not under mu_ (the listener takes mu_ under the reader's lock)
+      {
+        std::lock_guard<std::mutex> lock(mu_);
+        take_plans();
+        const bool planned = core_.has_plan();
+        if (matched && planned) return -1;
+        const char* waiting = !matched ? (planned ? "waiting for the world's samples" : "waiting for the world's samples and a plan")
+                                       : "waiting for a plan";
+        if (status_.msg().detail() != waiting) status_.set(runtime::Lifecycle::Inactive, waiting);
+        if (since(r0) > opt_.timeout) {
+          std::fprintf(stderr, "tandem-robot %s: not ready within %.1f s (world's sensor writer %s, plan %s)\n",
+                       robot_id_.c_str(), opt_.timeout, matched ? "matched" : "not matched", planned ? "heard" : "not heard");
+          status_.set(runtime::Lifecycle::Error, "peers not found");
+          return launcher::exit_code::kPeersNotFound;
+        }
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+  }
+
+  /// One pass of the main loop (every ~10 ms): plans, activation, status, the cut-off and the input watch. False
+  /// when the robot leaves (its task done, cut off, or no input).
+  bool pass() {
+    // Asked before taking mu_: Fast DDS holds the reader's lock while it calls the listener, which takes mu_, so
+    // asking the reader under mu_ could deadlock the two (the robot then computes nothing more).
+    const bool reader_matched = sensors_->matched() >= 1;
+    std::unique_lock<std::mutex> lock(mu_);
+    take_plans();
+    const long done = core_.done();
+    if (done + 1 >= m_.steps) return false;
+    if (done >= 0 && !activated_) {
+      activated_ = true;
+      status_.set(runtime::Lifecycle::Active, "controlling");
+      if (runtime::raise_to_realtime_from_env() < 0) std::fprintf(stderr, "tandem-robot: could not raise to SCHED_FIFO once active\n");
+    }
+    if (done >= 0 && done / 100 != reported_tick_ / 100) {
+      reported_tick_ = done;
+      robot_wire::fill_status(core_, status_);
+      status_.msg().latency_p99_us(interval_worst_us_);  // worst control step + write of the interval
+      interval_worst_us_ = 0.0;
+      status_.publish();
+    }
+    if (core_.cut_off()) {
+      std::fprintf(stderr, "tandem-robot %s: the world has followed a newer plan than this robot's (epoch %llu, "
+                   "strength %d, version %llu) for %ld ticks at tick %ld: cut off from the module's leader; leaving its arm "
+                   "and exiting, to come back with a fresh participant\n",
+                   robot_id_.c_str(), static_cast<unsigned long long>(core_.plan_rank().epoch), core_.plan_rank().strength,
+                   static_cast<unsigned long long>(core_.plan_version()), robot::RobotCore::kBehindTicks, core_.done());
+      cut_off_ = true;
+      return false;
+    }
+    // Samples stopped while the module's plan still comes (robot::InputWatch): a new reader, outside the lock (its
+    // listener takes it).
+    const double now = seconds(Clock::now());
+    const robot::InputWatch::Action act = watch_.on_pass(now, activated_, reader_matched);
+    if (act == robot::InputWatch::Action::GiveUp) {
+      if (watch_.gave_up_unmatched()) {
+        std::fprintf(stderr, "tandem-robot %s: the sensor reader has not matched the world's writer in %.1f s while the "
+                     "module ran; stopping, to come back with a fresh participant\n", robot_id_.c_str(),
+                     watch_.rules().unmatched_s);
+      } else {
+        std::fprintf(stderr, "tandem-robot %s: no input for %.1f s after tick %ld%s; stopping\n", robot_id_.c_str(),
+                     watch_.silent_s(now), core_.done(),
+                     watch_.renewals() > 0 && !activated_ ? " while the module ran, with new sensor readers" : "");
+      }
+      return false;
+    }
+    if (act == robot::InputWatch::Action::RenewReader) {
+      std::fprintf(stderr, "tandem-robot %s: no sample for %.1f s after tick %ld while the module's plan comes: a new "
+                   "sensor reader (%d so far)\n", robot_id_.c_str(), watch_.silent_s(now), core_.done(), watch_.renewals());
+      lock.unlock();
+      sensors_.reset();
+      sensors_ = make_sensor_reader();
+      lock.lock();
+      watch_.renewed(seconds(Clock::now()));
+    }
+    return true;
+  }
+
+  int finish() {
+    std::unique_lock<std::mutex> lock(mu_);
+    stopping_ = true;   // nothing more is computed or written by the receiving thread
+    const bool had_writer = torque_writer_.has_value();
+    if (had_writer) {
+      cmd_.leaving(true);  // the last word: the world follows the next robot of the arm at once
+      torque_writer_->write(cmd_);
+    }
+    lock.unlock();
+    if (had_writer) {
+      torque_writer_->wait_for_acks(0.1);  // lockstep: the last command reaches the world
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));  // real time (best effort): give it a tick or two
+    }
+    torque_writer_.reset();  // give the arm up: the world follows the next strongest robot at once, then report
+    lock.lock();
+    const long done = core_.done();
+    msg::RobotSummary rs;
+    robot_wire::fill_summary(core_, my_arm_, robot_id_, rs);
+    summary_.write(rs);
+    robot_wire::fill_status(core_, status_);
+    const bool finished = done + 1 >= m_.steps;
+    if (finished) {
+      status_.set(runtime::Lifecycle::Finalized, "task done");
+    } else {
+      status_.set(runtime::g_stop ? runtime::Lifecycle::Finalized : runtime::Lifecycle::Error,
+                  runtime::g_stop ? "stopped" : cut_off_ ? "cut off from the module's leader" : "no input");
+    }
+    lock.unlock();
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    if (finished || runtime::g_stop) return launcher::exit_code::kDone;
+    return cut_off_ ? launcher::exit_code::kCutOff : launcher::exit_code::kNoInput;
+  }
+
+  const runtime::RoleOptions& opt_;
+  const sim::ModuleSetup& m_;
+  std::string my_arm_, robot_id_;
+  robot::RobotCore core_;
+  bus::Participant part_;
+  bus::Reader<msg::SupervisorPlan, msg::SupervisorPlanPubSubType> plans_;
+  // The torque writer: the world hears every robot of the arm and follows the strongest that answers.
+  std::optional<TorqueWriter> torque_writer_;
+  bus::Writer<msg::RobotSummary, msg::RobotSummaryPubSubType> summary_;
+  runtime::StatusPublisher status_;
+  std::mutex mu_;
+  robot::InputWatch watch_;  // under mu_
+  Listener listener_;
+  std::unique_ptr<SensorReader> sensors_;  // reset first by the destructor, before what its listener uses
+  msg::TorqueCommand cmd_;
+  msg::SupervisorPlan plan_in_;
+  msg::ArmSensors s_;
+  std::string why_;
+  double interval_worst_us_ = 0.0;
+  long reported_tick_ = -1;
+  bool activated_ = false;
+  bool stopping_ = false;  // under mu_: set once the robot leaves; the receiving thread computes nothing more
+  bool ready_ = false;     // under mu_: the torque writer exists; until then samples are dropped
+  bool cut_off_ = false;   // the module's leader fell silent for this robot (RobotCore::cut_off): exit 6
+};
 
 int run(int argc, char** argv) {
   runtime::RoleOptions opt;
@@ -47,239 +342,8 @@ int run(int argc, char** argv) {
                  opt.scenario.c_str(), ctx.scenario.robots[0].name.c_str(), ctx.scenario.robots[1].name.c_str());
     return launcher::exit_code::kBadArgs;
   }
-  const sim::ModuleSetup& m = ctx.module;
-  const std::string my_arm = ctx.arm_id(j);
-  // Process id: the arm for the primary, "<arm>@<strength>" for a standby (one per strength).
-  const std::string robot_id =
-      opt.strength == runtime::RoleOptions::kPrimaryStrength ? my_arm : my_arm + "@" + std::to_string(opt.strength);
-  robot::RobotCore core(m, j, opt.continuous, ctx.scenario.transient);
-
-  bus::Participant part(opt.domain, "robot/" + my_arm, opt.transport);
-  bus::Reader<msg::SupervisorPlan, msg::SupervisorPlanPubSubType> plans(
-      part, bus::module_topic(bus::kSupervisorPlanTopic, opt.module), bus::TopicKind::Task);
-  // The torque writer: the world hears every robot of the arm and follows the strongest that answers. The world
-  // starts ticking when every arm has a torque writer matched, so with security it is made only once this robot
-  // can serve (below).
-  std::optional<bus::Writer<msg::TorqueCommand, msg::TorqueCommandPubSubType>> torque_writer;
-  bus::Writer<msg::RobotSummary, msg::RobotSummaryPubSubType> summary(part, bus::kRobotSummaryTopic,
-                                                                       bus::TopicKind::Summary);
-  runtime::StatusPublisher status(part, robot_id, "robot", opt.module);
-  status.msg().deployment(opt.deployment);
-  status.msg().strength(opt.strength);
-  status.set(runtime::Lifecycle::Inactive, "waiting for the plan and the first tick");
-
-  // The core is shared by the receiving thread (which computes) and the main thread (status, exit).
-  std::mutex mu;
-  msg::TorqueCommand cmd;
-  cmd.strength(opt.strength);
-  bool activated = false;
-  double interval_worst_us = 0.0;
-  robot::InputWatch::Rules rules;
-  rules.timeout_s = opt.timeout;
-  robot::InputWatch watch(rules, seconds(Clock::now()));  // under mu
-  msg::SupervisorPlan plan_in;
-  std::string why;
-  bool cut_off = false;  // the module's leader fell silent for this robot (RobotCore::cut_off): exit 6
-  auto take_plans = [&] {  // under mu
-    while (plans.take(plan_in)) {
-      if (plan_in.module_id() != opt.module) continue;
-      watch.on_plan(seconds(Clock::now()), static_cast<long>(plan_in.heard_tick()));
-      why.clear();
-      const plan::PlanFollower::Offer o = core.offer_plan(runtime::from_wire(plan_in), &why);
-      if (o == plan::PlanFollower::Offer::Rejected) {
-        std::fprintf(stderr, "tandem-robot %s: plan from '%s' rejected: %s\n", robot_id.c_str(),
-                     plan_in.supervisor_id().c_str(), why.c_str());
-      } else if (!why.empty()) {
-        std::fprintf(stderr, "tandem-robot %s: %s\n", robot_id.c_str(), why.c_str());
-      }
-    }
-  };
-  // One tick, in the thread that received the sample: the core computes, the command goes out at once.
-  msg::ArmSensors s;
-  auto on_sample = [&](const msg::ArmSensors& smp) {  // under mu
-    const auto t_in = Clock::now();
-    watch.on_sample(seconds(t_in));
-    // Another robot's torque, the world's drive or the brake's holding torque drove the arm over the last period:
-    // the core tracks it (bumpless transfer and release).
-    const model::Vec3 applied(smp.tau()[0], smp.tau()[1], smp.tau()[2]);
-    const bool other = robot_wire::driven_by_other(smp, opt.strength);
-    core.world_plan({smp.plan_epoch(), smp.plan_strength()}, smp.plan_version(), static_cast<long>(smp.plan_since()),
-                    static_cast<long>(smp.tick()));
-    if (core.cut_off()) return;  // a stale plan is never served: the main loop leaves the arm
-    const std::optional<model::Vec3> tau =
-        core.on_sample(static_cast<long>(smp.tick()), robot_wire::inputs(smp), smp.braked(), other ? &applied : nullptr);
-    if (!tau) return;
-    robot_wire::fill_command(core, *tau, cmd);
-    torque_writer->write(cmd);
-    interval_worst_us = std::max(interval_worst_us, std::chrono::duration<double, std::micro>(Clock::now() - t_in).count());
-  };
-  struct Listener : fdds::DataReaderListener {
-    std::function<void(fdds::DataReader*)> fn;
-    void on_data_available(fdds::DataReader* r) override { fn(r); }
-  } listener;
-  bool stopping = false;  // under mu: set once the robot leaves; the receiving thread computes nothing more
-  bool ready = false;     // under mu: the torque writer exists; until then samples are dropped
-  listener.fn = [&](fdds::DataReader* r) {
-    std::lock_guard<std::mutex> lock(mu);
-    if (!stopping && ready) take_plans();
-    fdds::SampleInfo info;
-    while (r->take_next_sample(&s, &info) == ReturnCode_t::RETCODE_OK) {
-      // Always taken: a sample left unread here stops Fast DDS 2.9 from calling this listener again (seen: robots
-      // that never computed a tick). Before the robot is ready, or once it leaves, it is dropped (lockstep sends a
-      // tick's samples again every 50 ms; real time sends the next tick's).
-      if (info.valid_data && !stopping && ready) on_sample(s);
-    }
-  };
-  // Makes the torque writer; lockstep with a recorder (--observers, set by the launcher): the first command waits
-  // until the recorder's reader of this arm's torques has matched too (the world is the other reader), so that the
-  // recording has this robot's every command. A recorder that is slow to match holds the robot for half the
-  // timeout at most. Then samples are answered.
-  auto take_part = [&] {
-    torque_writer.emplace(part, bus::arm_topic(bus::kTorquesTopic, my_arm),
-                          opt.realtime ? bus::TopicKind::TorquesRealtime : bus::TopicKind::Torques, opt.strength);
-    if (!opt.realtime && opt.observers > 0) {
-      const auto w0 = Clock::now();
-      while (!runtime::g_stop && torque_writer->matched() < 2 &&
-             std::chrono::duration<double>(Clock::now() - w0).count() < 0.5 * opt.timeout) {
-        std::this_thread::sleep_for(std::chrono::milliseconds(5));
-      }
-    }
-    std::lock_guard<std::mutex> lock(mu);
-    ready = true;
-  };
-  // Secured: ready only once this robot's own side of its inbound pairs works (below). Plain: at once, as a
-  // plain pair that matched on the world's side matches on this side too (a robot that joins a running module
-  // must not wait for anything it does not need).
-  const bool check_ready = part.secured();
-  if (!check_ready) take_part();
-  // The robot takes part (its sensor reader, which the world waits for) only once the launcher hears it (the
-  // reader of its summary): a robot the launcher cannot hear (a pair that never authenticated, docs/security.md
-  // "Start-up") would serve an arm whose summary and status are lost. Past the timeout: exit 3, and the launcher
-  // restarts the module if it had not ticked yet.
-  status.set(runtime::Lifecycle::Inactive, "waiting for the launcher");
-  for (const auto l0 = Clock::now(); !runtime::g_stop && summary.matched() < 1;) {
-    if (std::chrono::duration<double>(Clock::now() - l0).count() > opt.timeout) {
-      std::fprintf(stderr, "tandem-robot %s: the launcher was not found within %.1f s (summary readers 0/1)\n",
-                   robot_id.c_str(), opt.timeout);
-      status.set(runtime::Lifecycle::Error, "launcher not found");
-      return launcher::exit_code::kPeersNotFound;
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  }
-  using SensorReader = bus::Reader<msg::ArmSensors, msg::ArmSensorsPubSubType>;
-  auto make_sensor_reader = [&] {
-    return std::make_unique<SensorReader>(part, bus::arm_topic(bus::kSensorsTopic, my_arm),
-                                          opt.realtime ? bus::TopicKind::SensorsRealtime : bus::TopicKind::Sensors, &listener);
-  };
-  std::unique_ptr<SensorReader> sensors = make_sensor_reader();
-  // Secured: ready to serve only when this side of each inbound pair works too: the sensor reader has matched the
-  // world's writer and a plan has been heard. A secured pair can match on one side only (seen: the world's sensor
-  // writer matched a robot that never got a sample nor a plan, and the world ticked with that arm braked); the
-  // world waits for this robot's torque writer, so it starts only once the robot can serve. Past the timeout:
-  // exit 3, and the launcher restarts the module if it had not ticked yet (docs/security.md, "Start-up").
-  if (check_ready) status.set(runtime::Lifecycle::Inactive, "waiting for the world's samples and a plan");
-  for (const auto r0 = Clock::now(); check_ready;) {
-    if (runtime::g_stop) return launcher::exit_code::kDone;
-    {
-      const bool matched = sensors->matched() >= 1;  // not under mu (the listener takes mu under the reader's lock)
-      std::lock_guard<std::mutex> lock(mu);
-      take_plans();
-      const bool planned = core.has_plan();
-      if (matched && planned) break;
-      const char* waiting = !matched ? (planned ? "waiting for the world's samples" : "waiting for the world's samples and a plan")
-                                     : "waiting for a plan";
-      if (status.msg().detail() != waiting) status.set(runtime::Lifecycle::Inactive, waiting);
-      if (std::chrono::duration<double>(Clock::now() - r0).count() > opt.timeout) {
-        std::fprintf(stderr, "tandem-robot %s: not ready within %.1f s (world's sensor writer %s, plan %s)\n",
-                     robot_id.c_str(), opt.timeout, matched ? "matched" : "not matched", planned ? "heard" : "not heard");
-        status.set(runtime::Lifecycle::Error, "peers not found");
-        return launcher::exit_code::kPeersNotFound;
-      }
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  }
-  if (check_ready) take_part();
-  status.set(runtime::Lifecycle::Inactive, "waiting for the first tick");
-
-  long reported_tick = -1;
-  {
-    std::lock_guard<std::mutex> lock(mu);
-    watch.renewed(seconds(Clock::now()));  // no renewal in the loop's first 2 s (start-up is not deafness)
-  }
-  while (!runtime::g_stop) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-    // Asked before taking mu: Fast DDS holds the reader's lock while it calls the listener, which takes mu, so asking
-    // the reader under mu could deadlock the two (the robot then computes nothing more).
-    const bool reader_matched = sensors->matched() >= 1;
-    std::unique_lock<std::mutex> lock(mu);
-    take_plans();
-    const long done = core.done();
-    if (done + 1 >= m.steps) break;
-    if (done >= 0 && !activated) {
-      activated = true;
-      status.set(runtime::Lifecycle::Active, "controlling");
-      if (runtime::raise_to_realtime_from_env() < 0) std::fprintf(stderr, "tandem-robot: could not raise to SCHED_FIFO once active\n");
-    }
-    if (done >= 0 && done / 100 != reported_tick / 100) {
-      reported_tick = done;
-      robot_wire::fill_status(core, status);
-      status.msg().latency_p99_us(interval_worst_us);  // worst control step + write of the interval
-      interval_worst_us = 0.0;
-      status.publish();
-    }
-    if (core.cut_off()) {
-      std::fprintf(stderr, "tandem-robot %s: the world has followed a newer plan than this robot's (epoch %llu, "
-                   "strength %d, version %llu) for %ld ticks at tick %ld: cut off from the module's leader; leaving its arm "
-                   "and exiting, to come back with a fresh participant\n",
-                   robot_id.c_str(), static_cast<unsigned long long>(core.plan_rank().epoch), core.plan_rank().strength,
-                   static_cast<unsigned long long>(core.plan_version()), robot::RobotCore::kBehindTicks, core.done());
-      cut_off = true;
-      break;
-    }
-    // Samples stopped while the module's plan still comes (robot::InputWatch): a new reader, outside the lock
-    // (its listener takes it).
-    const double now = seconds(Clock::now());
-    const robot::InputWatch::Action act = watch.on_pass(now, activated, reader_matched);
-    if (act == robot::InputWatch::Action::GiveUp) {
-      std::fprintf(stderr, "tandem-robot %s: no input for %.1f s after tick %ld%s; stopping\n", robot_id.c_str(),
-                   watch.silent_s(now), core.done(),
-                   watch.renewals() > 0 && !activated ? " while the module ran, with new sensor readers" : "");
-      break;
-    }
-    if (act == robot::InputWatch::Action::RenewReader) {
-      std::fprintf(stderr, "tandem-robot %s: no sample for %.1f s after tick %ld while the module's plan comes: a new "
-                   "sensor reader (%d so far)\n", robot_id.c_str(), watch.silent_s(now), core.done(), watch.renewals());
-      lock.unlock();
-      sensors.reset();
-      sensors = make_sensor_reader();
-      lock.lock();
-      watch.renewed(seconds(Clock::now()));
-    }
-  }
-  std::unique_lock<std::mutex> lock(mu);
-  stopping = true;             // nothing more is computed or written by the receiving thread
-  cmd.leaving(true);           // the last word: the world follows the next robot of the arm at once
-  torque_writer->write(cmd);
-  lock.unlock();
-  torque_writer->wait_for_acks(0.1);  // lockstep: the last command reaches the world
-  std::this_thread::sleep_for(std::chrono::milliseconds(5));  // real time (best effort): give it a tick or two
-  torque_writer.reset();       // give the arm up: the world follows the next strongest robot at once, then report
-  lock.lock();
-  const long done = core.done();
-  msg::RobotSummary rs;
-  robot_wire::fill_summary(core, my_arm, robot_id, rs);
-  summary.write(rs);
-  robot_wire::fill_status(core, status);
-  const bool finished = done + 1 >= m.steps;
-  if (finished) {
-    status.set(runtime::Lifecycle::Finalized, "task done");
-  } else {
-    status.set(runtime::g_stop ? runtime::Lifecycle::Finalized : runtime::Lifecycle::Error,
-               runtime::g_stop ? "stopped" : cut_off ? "cut off from the module's leader" : "no input");
-  }
-  lock.unlock();
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));
-  return (finished || runtime::g_stop) ? launcher::exit_code::kDone : cut_off ? launcher::exit_code::kCutOff : launcher::exit_code::kNoInput;
+  RobotProcess p(opt, ctx, j);
+  return p.run();
 }
 
 }  // namespace

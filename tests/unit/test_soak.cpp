@@ -2,6 +2,8 @@
 // the SVG plot writer.
 #include <catch2/catch.hpp>
 
+#include "tandem/page/html.hpp"
+
 #include <unistd.h>
 
 #include <algorithm>
@@ -542,6 +544,9 @@ TEST_CASE("soak report: index.html renders the summary as HTML tables and lists,
   CHECK(html.find("|---") == std::string::npos);
   CHECK(html.find("\n| ") == std::string::npos);  // no Markdown table row left as text
   CHECK(html.find("<img src=\"faults.svg\"") != std::string::npos);
+  // The pages' visual language: the shared stylesheet inline (services/page/style.css) and the live view's header.
+  CHECK(html.find(tandem::page::style_css()) != std::string::npos);
+  CHECK(html.find("<header><h1>tandem soak of unit &lt;test&gt;</h1><span class=\"verdict") != std::string::npos);
 }
 
 TEST_CASE("soak checker: a supervisor kill with no warm standby is judged by the lost-plan bound") {

@@ -913,3 +913,43 @@ TEST_CASE("coordinator: a primary back from a stall adopts its successor's state
   for (size_t k = 0; k < s.running_id.size(); ++k) holds = holds || (s.running_id[k] == given.id && s.running_on[k] == "m1");
   CHECK(holds);
 }
+
+TEST_CASE("coordinator: a primary that hears no module for 10 s while another coordinator lives leaves for it (exit 6)", "[coordinator]") {
+  for (const bool peer : {true, false}) {
+    CoordinatorOptions o = core_options("coordinator@r21", false);
+    o.timeout = 100.0;
+    CoordinatorCore c(o, task_names(20), 0.0);
+    double t = 0.0, left_at = -1.0;
+    for (; t < 40.0; t += 0.1) {
+      c.on_loop(t);
+      if (peer) c.on_peer("coordinator@r22", true, false, t);  // a live standby
+      if (t < 5.0) {  // the modules run their tasks, then the primary hears them no more (deaf)
+        for (const char* m : {"m1", "m2"}) c.on_task_state({m, c.queue().snapshot().next_task_id - 1, kRunning}, t);
+      }
+      c.update(t);
+      (void)c.take_actions();
+      if (c.end() && left_at < 0.0) {
+        left_at = t;
+        break;
+      }
+    }
+    INFO("peer " << peer);
+    if (peer) {
+      REQUIRE(c.end().has_value());
+      CHECK(c.end()->code == 6);
+      CHECK(left_at == Approx(5.0 + CoordinatorCore::kDeafPrimaryS).margin(0.25));
+      CHECK(c.end()->message.find("cannot hear the modules") != std::string::npos);
+    } else {
+      CHECK_FALSE(c.end().has_value());  // alone it stays: no other coordinator would hear them better
+    }
+  }
+  // At start-up, before any module was heard, the silence is the modules' start: no leaving.
+  CoordinatorCore fresh(core_options("coordinator", false), task_names(5), 0.0);
+  for (double t = 0.0; t < 20.0; t += 0.1) {
+    fresh.on_loop(t);
+    fresh.on_peer("coordinator@r1", true, false, t);
+    fresh.update(t);
+    (void)fresh.take_actions();
+  }
+  CHECK_FALSE(fresh.end().has_value());
+}

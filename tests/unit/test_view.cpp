@@ -10,6 +10,7 @@
 
 #include "tandem/record/recording.hpp"
 #include "tandem/view/foxglove.hpp"
+#include "tandem/view/commands.hpp"
 #include "tandem/view/live_state.hpp"
 #include "tandem/view/outbox.hpp"
 #include "tandem/view/timeline.hpp"
@@ -244,4 +245,73 @@ TEST_CASE("view: a recording's timeline gives the page's state, plot window and 
   CHECK(json::parse(tl.at(1009.9))["events"].size() == 2);
   CHECK(json::parse(tl.at(999.0))["state"].is_null());  // before the recording
   CHECK_THROWS(view::Timeline::from_recording("/nonexistent/run.mcap"));
+}
+
+TEST_CASE("live commands: the page's requests as CLI command lines, bad ones refused by field", "[view]") {
+  using tandem::view::cli_args;
+  using tandem::view::parse_live_command;
+  const auto k = parse_live_command(R"({"command": "kill", "target": "m1/left@50"})");
+  CHECK(cli_args(k, "d.yaml") == std::vector<std::string>{"kill", "d.yaml", "m1/left@50"});
+  const auto u = parse_live_command(R"({"command": "unplug", "kind": "module", "target": "m2"})");
+  CHECK(cli_args(u, "d.yaml") == std::vector<std::string>{"unplug", "d.yaml", "module", "m2"});
+  const auto p = parse_live_command(R"({"command": "plug", "kind": "robot", "target": "m1/left", "standby": true})");
+  CHECK(cli_args(p, "/x/d.yaml") == std::vector<std::string>{"plug", "/x/d.yaml", "robot", "m1/left", "--standby"});
+  CHECK(cli_args(parse_live_command(R"({"command": "down"})"), "d.yaml") == std::vector<std::string>{"down", "d.yaml"});
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {"not json", "not JSON"},
+      {"[1, 2]", "not a JSON object"},
+      {R"({"command": "explode"})", "accepted: down, kill, plug, unplug"},
+      {R"({"command": 3})", "'command' must be a string"},
+      {R"({"command": "kill"})", "target ''"},
+      {R"({"command": "kill", "target": "m1/left; rm -rf /"})", "not a process, robot or module name"},
+      {R"({"command": "kill", "target": "--help"})", "not starting with -"},
+      {R"({"command": "unplug", "target": "m1/left"})", "needs kind 'robot' or 'module'"},
+      {R"({"command": "unplug", "kind": "robot", "target": "m1/left", "standby": true})", "standby is for plug robot only"},
+      {R"({"command": "plug", "kind": "robot", "target": "m1/left", "standby": "yes"})", "'standby' must be true or false"},
+      {R"({"command": "down", "target": "m1"})", "down takes no target"},
+  };
+  for (const auto& [body, says] : bad) {
+    INFO(body);
+    try {
+      (void)parse_live_command(body);
+      FAIL("accepted");
+    } catch (const std::invalid_argument& e) {
+      CHECK(std::string(e.what()).find(says) != std::string::npos);
+    }
+  }
+}
+
+TEST_CASE("live commands: this machine may command; another machine only with the viewer's token", "[view]") {
+  using tandem::view::is_loopback;
+  using tandem::view::refusal;
+  CHECK(is_loopback("127.0.0.1"));
+  CHECK(is_loopback("127.8.9.10"));
+  CHECK(is_loopback("::1"));
+  CHECK(is_loopback("::ffff:127.0.0.1"));
+  CHECK_FALSE(is_loopback("10.0.0.5"));
+  CHECK_FALSE(is_loopback("::ffff:10.0.0.5"));
+  CHECK_FALSE(is_loopback("fe80::1"));
+  const std::string token = tandem::view::make_token();
+  CHECK(token.size() == 32);
+  CHECK(token.find_first_not_of("0123456789abcdef") == std::string::npos);
+  CHECK(tandem::view::make_token() != token);
+  CHECK(refusal("127.0.0.1", "", "").empty());
+  CHECK(refusal("127.0.0.1", "", token).empty());
+  CHECK(refusal("10.0.0.5", token, token).empty());
+  CHECK(refusal("10.0.0.5", "", token).find("not given") != std::string::npos);
+  CHECK(refusal("10.0.0.5", token.substr(0, 31) + "x", token).find("wrong") != std::string::npos);
+  CHECK(refusal("10.0.0.5", token + "0", token).find("wrong") != std::string::npos);
+  CHECK(refusal("10.0.0.5", "anything", "").find("has none") != std::string::npos);
+  CHECK(tandem::view::answer_json(true, "m1: \"killed\"\n") == R"({"ok":true,"text":"m1: \"killed\"\n"})");
+  // Another web page open in a browser here: not JSON (a form or text/plain post needs no preflight), another Host
+  // (DNS rebinding), another Origin.
+  using tandem::view::browser_refusal;
+  CHECK(browser_refusal("application/json", "http://127.0.0.1:8765", "127.0.0.1:8765", "127.0.0.1", 8765).empty());
+  CHECK(browser_refusal("application/json; charset=utf-8", "", "localhost:8765", "127.0.0.1", 8765).empty());
+  CHECK(browser_refusal("application/json", "", "10.1.2.3:9000", "10.1.2.3", 9000).empty());
+  CHECK(browser_refusal("text/plain", "", "127.0.0.1:8765", "127.0.0.1", 8765).find("Content-Type") != std::string::npos);
+  CHECK(browser_refusal("application/json", "", "evil.example:8765", "127.0.0.1", 8765).find("Host") != std::string::npos);
+  CHECK(browser_refusal("application/json", "", "127.0.0.1:9999", "127.0.0.1", 8765).find("Host") != std::string::npos);
+  CHECK(browser_refusal("application/json", "http://evil.example", "127.0.0.1:8765", "127.0.0.1", 8765).find("origin") !=
+        std::string::npos);
 }

@@ -6,7 +6,8 @@
 #  3. a client that subscribes to everything and never reads for 15 s: the viewer's resident memory stays within
 #     the bound stated in docs/view.md, and the next client is served (drops and late ticks: the benchmark's);
 #  4. the page in headless Chromium: the process table fills, the plots grow, an event appears when a robot is
-#     killed, no console errors; a screenshot is kept (WORK/page.png);
+#     killed through the page's live-command API (bad requests refused), no console errors; a screenshot is kept
+#     (WORK/page.png);
 #  5. the same page over the run's recording (tandem view run.mcap): replay mode, a slider over the run, tables,
 #     plots and events at its time (WORK/replay.png);
 #  6. `tandem up --view-port 0` starts the viewer beside a short run and stops it at the end.
@@ -70,7 +71,17 @@ echo "== 4. the page in headless Chromium"
 node "$node/check_view_page.mjs" "http://127.0.0.1:$port/" m1/left "$work/page.png" > page.log 2>&1 & page=$!
 for _ in $(seq 600); do grep -q "^READY" page.log && break; kill -0 "$page" 2>/dev/null || break; sleep 0.1; done
 grep -q "^READY" page.log || { cat page.log; fail "the page never got ready"; }
-"$bin/tandem" kill d.yaml m1/left > kill.log 2>&1 || { cat kill.log; fail "tandem kill"; }
+# The kill goes through the page's live-command API (POST /api/command), which runs `tandem kill` as the CLI would;
+# bad requests are refused with what is accepted, and change nothing.
+post() { node -e 'fetch(process.argv[1], {method: "POST", headers: {"Content-Type": "application/json"}, body: process.argv[2]})
+  .then(async r => { console.log(r.status); console.log(await r.text()); })' "$1" "$2"; }
+post "http://127.0.0.1:$port/api/command" '{"command": "explode", "target": "m1/left"}' > cmd_bad.out
+head -1 cmd_bad.out | grep -q 400 && grep -q "accepted: down, kill, plug, unplug" cmd_bad.out || { cat cmd_bad.out; fail "a bad live command"; }
+post "http://127.0.0.1:$port/api/command" '{"command": "kill", "target": "m1/left; rm -rf /"}' > cmd_bad2.out
+head -1 cmd_bad2.out | grep -q 400 || { cat cmd_bad2.out; fail "a target that is no name"; }
+get "http://127.0.0.1:$port/api/command" | head -1 | grep -q 405 || fail "GET /api/command was not refused"
+post "http://127.0.0.1:$port/api/command" '{"command": "kill", "target": "m1/left"}' > kill.log
+head -1 kill.log | grep -q 200 && grep -q '"ok":true' kill.log || { cat kill.log; fail "the live kill"; }
 rc=0; wait "$page" || rc=$?
 cat page.log
 [ "$rc" -eq 0 ] || fail "the page check"

@@ -37,6 +37,7 @@ void CoordinatorCore::on_peer(const std::string& id, bool active, bool claims_pr
 }
 
 void CoordinatorCore::on_task_state(const ModuleReport& r, double now) {
+  last_module_heard_ = now;
   for (const auto& e : queue_.report(r, now)) {
     if (lead_.primary()) log(queue_.describe(e));  // a standby only keeps the latest reports
   }
@@ -76,6 +77,14 @@ void CoordinatorCore::update(double now) {
     publish(now);
     for (const auto& a : r.resend) assign(a);
   }
+  if (lead_.primary() && !queue_.complete() && last_module_heard_ >= 0.0 &&
+      now - std::max({last_module_heard_, lead_.last_stall(), primary_since_}) > kDeafPrimaryS && lead_.peer_alive(now)) {
+    char why[200];
+    std::snprintf(why, sizeof why, "heard no module's task state for %.0f s, with tasks left and another coordinator "
+                  "alive: this primary cannot hear the modules; leaving for the other one", kDeafPrimaryS);
+    end_ = CoordinatorEnd{launcher::exit_code::kCutOff, true, "cannot hear the modules", why};
+    return;
+  }
   std::string line;
   const Leadership::Step step = lead_.step(now, queue_.task_count(), &line);
   if (!line.empty() && step != Leadership::Step::TakeOver) log(line);
@@ -89,6 +98,7 @@ void CoordinatorCore::update(double now) {
     case Leadership::Step::Wait:
       return;
     case Leadership::Step::TakeOver: {
+      primary_since_ = now;  // the modules' silence counts from here (CoordinatorCore::kDeafPrimaryS)
       // The primary's queue, checked against what the modules report.
       const double silent = lead_.silent(now);
       if (lead_.last_state()) {

@@ -624,8 +624,9 @@ void Supervisor::poll(double now) {
   if (!stopping_) {
     for (auto& [name, mr] : modules_) {
       if (!mr.started || mr.ticked || !mr.end.running() || mr.repairs >= kStartRepairs) continue;
-      // (A world waits up to half its timeout for late sensor readers besides the first: not cut short.)
-      const double limit = std::max(cfg_.start_timeout, 0.5 * cfg_.timeout + 2.0);
+      // (A world waits up to half its timeout for late sensor readers besides the first, and in real time its
+      // first tick up to 5 s more for the robots' first commands, world::StartWait: not cut short.)
+      const double limit = std::max(cfg_.start_timeout, 0.5 * cfg_.timeout + 2.0) + (cfg_.realtime ? 5.0 : 0.0);
       if (now - mr.started_at < limit) continue;
       char why[96];
       std::snprintf(why, sizeof why, "its world did not tick within %.1f s of its start", limit);

@@ -12,6 +12,7 @@
 #include <stdexcept>
 
 #include "tandem/page/files.hpp"
+#include "tandem/page/html.hpp"
 #include "tandem/page/svg.hpp"
 
 namespace tandem::record {
@@ -445,11 +446,8 @@ ReportResult write_recording_report(const std::string& mcap, const std::string& 
   for (const auto& md : info.metadata) {
     if (md.name == "scenario" && md.values.count("scenario") != 0) title = "tandem sim " + md.values.at("scenario");
   }
-  html << "<!doctype html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>" << xml_escape(title)
-       << "</title>\n<style>body{font-family:sans-serif;max-width:1200px;margin:2em auto;color:#222}"
-          "table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #ccc;padding:2px 8px;font-size:90%}"
-          ".row{display:flex;flex-wrap:wrap;gap:6px}.warn{background:#fdecea;padding:1em;border:1px solid #c0392b}</style>"
-          "</head><body>\n<h1>" << xml_escape(title) << "</h1>\n";
+  // In the pages' visual language (services/page/style.css, as the live view and the soak's report).
+  html << page::html_head(title) << page::header_bar(title) << "<main><section>\n";
   html << "<p>Recording <code>" << xml_escape(mcap) << "</code>: " << info.messages << " messages on " << info.channels.size()
        << " channels in " << info.chunks << " chunks";
   for (const char* k : {"timing", "domain", "modules", "topics"}) {
@@ -460,7 +458,7 @@ ReportResult write_recording_report(const std::string& mcap, const std::string& 
     html << "<p class=\"warn\">This recording is damaged; the report shows what came before the damage: "
          << xml_escape(info.damage) << "</p>\n";
   }
-  html << body.str() << "</body></html>\n";
+  html << body.str() << "</section></main></body></html>\n";
   res.index = dir + "/index.html";
   write_file(res.index, html.str());
 

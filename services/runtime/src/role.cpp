@@ -2,6 +2,7 @@
 #include "tandem/launcher/exit_codes.hpp"
 #include "tandem/launcher/sched_group.hpp"
 #include "tandem/runtime/role.hpp"
+#include "tandem/runtime/args.hpp"
 
 #include <sched.h>
 
@@ -24,18 +25,6 @@ std::atomic<bool> g_stop{false};
 namespace {
 void on_signal(int /*sig*/) { g_stop = true; }
 
-void usage(const char* role, bool needs_arm, std::FILE* f) {
-  std::fprintf(f,
-               "usage: tandem-%s --scenario FILE --case NAME [--module NAME]%s [--domain ID]\n"
-               "       [--transport shm|udp] [--timeout SECONDS] [--timing lockstep|realtime]\n"
-               "       [--deployment NAME] [--continuous] [--no-overload-brake] [--observers N]%s\n"
-               "Started by 'tandem up'; one Fast DDS participant. Exit: 0 done, 2 bad arguments or\n"
-               "configuration, 3 peers not found in time, 4 a tick timed out, 5 (supervisor) no plan to\n"
-               "follow, 6 cut off from the module's leader (robot: the world followed a newer plan for 2000 ticks;\n"
-               "supervisor: a standby that cannot hear the live leader).\n",
-               role, needs_arm ? " --arm ROBOT" : "",
-               needs_arm || std::string(role) == "supervisor" ? " [--strength N (100 primary)]" : "");
-}
 }  // namespace
 
 void install_stop_handlers() {
@@ -43,94 +32,59 @@ void install_stop_handlers() {
   std::signal(SIGTERM, on_signal);
 }
 
-bool parse_role_options(const char* role, int argc, char** argv, bool needs_arm, RoleOptions& o,
-                        int& exit_code) {
-  exit_code = launcher::exit_code::kBadArgs;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--help" || a == "-h") {
-      usage(role, needs_arm, stdout);
-      exit_code = launcher::exit_code::kDone;
-      return false;
-    }
-    if (a == "--continuous") {
-      o.continuous = true;
-      continue;
-    }
-    if (a == "--test-no-brakes") {  // world, test only: an arm whose controller is gone keeps its last torque
-      o.test_no_brakes = true;
-      continue;
-    }
-    if (a == "--no-overload-brake") {  // world, real time: keep stepping a module whose commands come late
-      o.overload_brake = false;
-      continue;
-    }
-    if (i + 1 >= argc) {
-      std::fprintf(stderr, "tandem-%s: '%s' needs a value (or is unknown)\n", role, a.c_str());
-      usage(role, needs_arm, stderr);
-      return false;
-    }
-    const std::string v = argv[++i];
-    if (a == "--scenario") {
-      o.scenario = v;
-    } else if (a == "--case") {
-      o.case_name = v;
-    } else if (a == "--module") {
-      o.module = v;
-    } else if (a == "--arm" && needs_arm) {
-      o.arm = v;
-    } else if (a == "--domain") {
-      if (!parse_domain(v, o.domain)) {
-        std::fprintf(stderr, "tandem-%s: --domain must be an integer in [0, 232], got '%s'\n", role, v.c_str());
-        return false;
-      }
-    } else if (a == "--transport") {
-      if (v != "shm" && v != "udp") {
-        std::fprintf(stderr, "tandem-%s: --transport must be shm or udp, got '%s'\n", role, v.c_str());
-        return false;
-      }
-      o.transport = v == "shm" ? dds::Transport::SharedMemory : dds::Transport::Udp;
-    } else if (a == "--strength" && (needs_arm || std::string(role) == "supervisor")) {
-      char* end = nullptr;
-      const long v2 = std::strtol(v.c_str(), &end, 10);
-      if (*end != '\0' || v2 < 1 || v2 > 1000000) {
-        std::fprintf(stderr, "tandem-%s: --strength must be an integer in [1, 1000000], got '%s'\n", role, v.c_str());
-        return false;
-      }
-      o.strength = static_cast<int>(v2);
-    } else if (a == "--deployment") {
-      o.deployment = v;
-    } else if (a == "--timing") {
-      if (v != "lockstep" && v != "realtime") {
-        std::fprintf(stderr, "tandem-%s: --timing must be lockstep or realtime, got '%s'\n", role, v.c_str());
-        return false;
-      }
-      o.realtime = v == "realtime";
-    } else if (a == "--observers") {
-      o.observers = std::atoi(v.c_str());
-      if (v.empty() || v.find_first_not_of("0123456789") != std::string::npos || o.observers > 16) {
-        std::fprintf(stderr, "tandem-%s: --observers must be a count 0-16, got '%s'\n", role, v.c_str());
-        return false;
-      }
-    } else if (a == "--timeout") {
-      o.timeout = std::atof(v.c_str());
-      if (!(o.timeout > 0.0)) {
-        std::fprintf(stderr, "tandem-%s: --timeout must be > 0 seconds, got '%s'\n", role, v.c_str());
-        return false;
-      }
-    } else {
-      std::fprintf(stderr, "tandem-%s: unknown option '%s'\n", role, a.c_str());
-      usage(role, needs_arm, stderr);
-      return false;
-    }
+bool parse_role_options(const char* role, int argc, const char* const* argv, bool needs_arm, RoleOptions& o,
+                        int& exit_code, std::string* err) {
+  const bool ranked = needs_arm || std::string(role) == "supervisor";
+  CLI::App app("Started by 'tandem up': one Fast DDS participant of a module.", std::string("tandem-") + role);
+  app.add_option("--scenario", o.scenario, "scenario file (module physics, task, controllers)")->required()->type_name("FILE");
+  app.add_option("--case", o.case_name, "case of the scenario (controller, disturbance)")->required()->type_name("NAME");
+  app.add_option("--module", o.module, "module name, prefix of the arm ids")->capture_default_str()->type_name("NAME");
+  if (needs_arm) app.add_option("--arm", o.arm, "robot name (an arm of the scenario)")->required()->type_name("ROBOT");
+  add_domain(app, o.domain)->capture_default_str();
+  std::string transport = "shm", timing = "lockstep";
+  app.add_option("--transport", transport, "DDS transport")->check(CLI::IsMember(std::vector<std::string>{"shm", "udp"}))->capture_default_str();
+  app.add_option("--timeout", o.timeout, "seconds to wait for peers or a tick before giving up")
+      ->check(seconds_up_to(86400.0))->capture_default_str()->type_name("SECONDS");
+  app.add_option("--timing", timing, "step on the wall clock at 1 kHz, or tick by tick")
+      ->check(CLI::IsMember(std::vector<std::string>{"lockstep", "realtime"}))->capture_default_str();
+  app.add_option("--deployment", o.deployment, "deployment name (in status messages)")->type_name("NAME");
+  app.add_flag("--continuous", o.continuous, "run until stopped, with tasks from the coordinator");
+  bool no_overload_brake = false;
+  app.add_flag("--no-overload-brake", no_overload_brake, "world, real time: keep stepping a module whose commands come late");
+  app.add_flag("--test-no-brakes", o.test_no_brakes, "world, test only: an arm whose controller is gone keeps no brake");
+  app.add_option("--observers", o.observers, "world: sensor readers besides the first robot to wait for at start")
+      ->check(CLI::Range(0, 16))->capture_default_str()->type_name("N");
+  if (ranked) {
+    app.add_option("--strength", o.strength, "ownership strength (robot) or rank (supervisor); 100: primary")
+        ->check(CLI::Range(1, 1000000))->capture_default_str()->type_name("N");
   }
-  if (o.scenario.empty() || o.case_name.empty() || (needs_arm && o.arm.empty())) {
-    std::fprintf(stderr, "tandem-%s: --scenario, --case%s are required\n", role, needs_arm ? " and --arm" : "");
-    usage(role, needs_arm, stderr);
-    return false;
-  }
+  app.footer("Exit: 0 done, 2 bad arguments or configuration, 3 peers not found in time, 4 a tick timed out, 5\n"
+             "(supervisor) no plan to follow, 6 cut off from the module's leader (robot: the world followed a newer\n"
+             "plan for 2000 ticks; supervisor: a standby that cannot hear the live leader).");
+  exit_code = parse_args(app, argc, argv, err);
+  if (exit_code >= 0) return false;
+  o.transport = transport == "shm" ? dds::Transport::SharedMemory : dds::Transport::Udp;
+  o.realtime = timing == "realtime";
+  o.overload_brake = !no_overload_brake;
   exit_code = launcher::exit_code::kDone;
   return true;
+}
+
+std::vector<std::string> role_args(const std::string& role, const RoleOptions& o) {
+  char timeout[32];
+  std::snprintf(timeout, sizeof timeout, "%.17g", o.timeout);  // read back exactly
+  std::vector<std::string> a{"--scenario", o.scenario, "--case", o.case_name, "--module", o.module,
+                             "--domain", std::to_string(o.domain),
+                             "--transport", o.transport == dds::Transport::Udp ? "udp" : "shm",
+                             "--timeout", timeout, "--timing", o.realtime ? "realtime" : "lockstep"};
+  if (!o.deployment.empty()) a.insert(a.end(), {"--deployment", o.deployment});
+  if (o.continuous) a.emplace_back("--continuous");
+  if (!o.overload_brake) a.emplace_back("--no-overload-brake");
+  if (o.test_no_brakes) a.emplace_back("--test-no-brakes");
+  if (o.observers > 0) a.insert(a.end(), {"--observers", std::to_string(o.observers)});
+  if (role == "robot") a.insert(a.end(), {"--arm", o.arm});
+  if (role == "robot" || role == "supervisor") a.insert(a.end(), {"--strength", std::to_string(o.strength)});
+  return a;
 }
 
 RoleContext load_context(const RoleOptions& o) {

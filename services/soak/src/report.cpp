@@ -14,6 +14,7 @@
 #include <stdexcept>
 
 #include "tandem/page/files.hpp"
+#include "tandem/page/html.hpp"
 #include "tandem/page/svg.hpp"
 
 namespace tandem::soak {
@@ -415,16 +416,17 @@ std::string write_report(const std::string& dir, const RunInfo& info, const Hist
   write_file(dir + "/faults.csv", fl.str());
   // index.html: the summary with the plots inline.
   std::ostringstream html;
-  html << "<!doctype html>\n<html><head><meta charset=\"utf-8\"><title>tandem soak " << xml_escape(info.deployment)
-       << "</title><style>body{font-family:sans-serif;max-width:1150px;margin:2em auto}table{border-collapse:collapse}"
-          "td,th{border:1px solid #ccc;padding:2px 8px}pre{white-space:pre-wrap}</style></head><body>\n";
-  html << "<h1>tandem soak of " << xml_escape(info.deployment) << ": "
-       << (v.ok() ? "<span style=\"color:green\">PASS</span>" : "<span style=\"color:#c00\">FAIL</span>") << "</h1>\n";
-  html << markdown_to_html(md.substr(md.find('\n') + 1, md.find("## Plots") - md.find('\n') - 1));
+  // In the pages' visual language (services/page/style.css, as the live view and the recording's report).
+  html << page::html_head("tandem soak " + info.deployment)
+       << page::header_bar("tandem soak of " + info.deployment,
+                           v.ok() ? "<span class=\"verdict ok\">PASS</span>" : "<span class=\"verdict bad\">FAIL</span>");
+  html << "<main><section>\n"
+       << markdown_to_html(md.substr(md.find('\n') + 1, md.find("## Plots") - md.find('\n') - 1))
+       << "</section>\n<section><h2>Plots</h2>\n";
   for (const char* f : {"faults", "normal_force", "late_ticks", "tasks", "recovery", "rss"}) {
     html << "<p><img src=\"" << f << ".svg\" alt=\"" << f << "\"></p>\n";
   }
-  html << "</body></html>\n";
+  html << "</section></main></body></html>\n";
   write_file(dir + "/index.html", html.str());
   return dir + "/summary.md";
 }

@@ -184,9 +184,10 @@ void SupervisorCore::on_report(const ReportIn& r, int64_t now_ns) {
     log("heard the world again " + std::to_string(r.tick - heard_tick_) +
         " ticks on (this one heard nothing meanwhile); the leader's silence counts from now");
   }
-  if (!active_ && heard_stronger_ && heard_tick_ < 0) {
-    // The world's first report: a leader plans and publishes only once it hears the world (update), so its silence
-    // before the world ran was no failure. It counts from now (the lockstep soak hour, finding 53: a standby in a
+  if (!active_ && heard_stronger_ && heard_tick_ < 0 && r.tick <= kTakeOverTicks) {
+    // A fresh world's first report: a leader plans and publishes only once it hears the world (update), so its
+    // silence before the world ran was no failure. (A standby that joins a running module keeps its count: lockstep
+    // must not wait for the lease to lapse, finding 52.) It counts from now (the lockstep soak hour, finding 53: a standby in a
     // fresh module counted the leader's silence from its first plan, heard 0.8 s before the world's first tick).
     last_stronger_ = std::max(last_stronger_, now_ns);
     stronger_tick_ = std::max(stronger_tick_, r.tick);
@@ -306,10 +307,12 @@ void SupervisorCore::update(int64_t now_ns) {
   // refuse the lead because the fallen object was "67 km off" its replica; the module was restarted as if its plan
   // were lost, which is not the "out until cleared" rule.)
   // The object moves as the replica's plan has it (a replica at rest with the object moving on a leader's plan it
-  // missed is within kReplicaMatch for a while; finding 53). Unknown (no report 10-200 ticks back): the position
-  // and version rules alone.
+  // missed is within kReplicaMatch for a while; finding 53). Not known yet (no report 10-200 ticks back: a world's
+  // first ticks, or a starved standby that heard the world again after a gap): not matching until the next reports
+  // tell (in lockstep a world that waits at its lease for a dead leader runs on once the lease lapses, 0.8 s). A
+  // world that does not report the object: the version rule alone, as the position rule.
   const std::optional<double> speed_off = replica_speed_off();
-  const bool moves_as_replica = !speed_off || *speed_off < kReplicaSpeedMatch;
+  const bool moves_as_replica = !object_known_ || (speed_off && *speed_off < kReplicaSpeedMatch);
   const bool alone_ok = failed_ || (heard_tick_ > kTakeOverTicks && !behind && moves_as_replica &&
                                     (plan_.sample(heard_tick_).pose.head<2>() - object_xy_).norm() < kAloneMatch);
   if (!heard_stronger_ && !active_ && now_ns - t_start_ > kTakeOverAloneNs && !alone_ok && !alone_refused_ && !deaf_) {
@@ -348,6 +351,9 @@ void SupervisorCore::update(int64_t now_ns) {
                       "plan): not taking over", static_cast<unsigned long long>(world_version_),
                       static_cast<unsigned long long>(world_rank_.epoch), world_rank_.strength,
                       static_cast<unsigned long long>(plan_.version()), static_cast<unsigned long long>(followed_.epoch));
+      } else if (replica_off < kReplicaMatch && !moves_as_replica && !speed_off) {
+        std::snprintf(line, sizeof line, "the leader is silent, but the object's speed is not known yet at tick %ld (no "
+                      "report 10-200 ticks back): not taking over until the next reports", heard_tick_);
       } else if (replica_off < kReplicaMatch && !moves_as_replica) {
         std::snprintf(line, sizeof line, "the leader is silent, but the object moves %.0f mm/s off this replica's plan "
                       "at tick %ld (it missed the leader's newest plan): not taking over", *speed_off * 1e3, heard_tick_);

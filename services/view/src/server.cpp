@@ -36,6 +36,7 @@ constexpr WebFile kWebFiles[] = {
     {"/", "index.html", "text/html; charset=utf-8"},
     {"/index.html", "index.html", "text/html; charset=utf-8"},
     {"/app.js", "app.js", "text/javascript; charset=utf-8"},
+    {"/style.css", "style.css", "text/css; charset=utf-8"},
     {"/uPlot.iife.min.js", "uPlot.iife.min.js", "text/javascript; charset=utf-8"},
     {"/uPlot.min.css", "uPlot.min.css", "text/css; charset=utf-8"},
 };
@@ -75,6 +76,7 @@ bool Server::start(std::string& error) {
   port_ = n > 0 ? sp[0].port : o_.port;
   for (const auto& f : kWebFiles) mg_set_request_handler(ctx_, f.uri, &Server::on_http, this);
   for (const auto& [uri, fn] : json_) mg_set_request_handler(ctx_, uri.c_str(), &Server::on_http, this);
+  for (const auto& [uri, fn] : post_) mg_set_request_handler(ctx_, uri.c_str(), &Server::on_http, this);
   static const char* names[] = {kSubprotocols[0], kSubprotocols[1]};
   static mg_websocket_subprotocols subs{2, names};
   mg_set_websocket_handler_with_subprotocols(ctx_, "/", &subs, &Server::on_ws_connect, &Server::on_ws_ready,
@@ -106,6 +108,41 @@ int Server::on_http(mg_connection* c, void* self) {
   auto* s = static_cast<Server*>(self);
   const mg_request_info* ri = mg_get_request_info(c);
   const std::string uri = ri->local_uri != nullptr ? ri->local_uri : "/";
+  if (const auto p = s->post_.find(uri); p != s->post_.end()) {
+    if (ri->request_method == nullptr || std::string(ri->request_method) != "POST") {
+      mg_send_http_error(c, 405, "%s takes POST", uri.c_str());
+      return 405;
+    }
+    if (ri->content_length > 4096) {
+      mg_send_http_error(c, 413, "a request body of at most 4096 bytes");
+      return 413;
+    }
+    PostIn in;
+    in.remote = ri->remote_addr;
+    auto header = [c](const char* name) {
+      const char* v = mg_get_header(c, name);
+      return std::string(v != nullptr ? v : "");
+    };
+    in.token = header("X-Tandem-Token");
+    in.content_type = header("Content-Type");
+    in.origin = header("Origin");
+    in.host = header("Host");
+    char buf[4096];
+    for (int n = 0; in.body.size() < sizeof buf && (n = mg_read(c, buf, sizeof buf - in.body.size())) > 0;) {
+      in.body.append(buf, static_cast<size_t>(n));
+    }
+    PostOut out;
+    try {
+      out = p->second(in);
+    } catch (const std::exception&) {
+      out = {500, std::string("{\"ok\":false,\"text\":\"internal error\"}")};
+    }
+    mg_printf(c, "HTTP/1.1 %d %s\r\nContent-Type: application/json\r\nContent-Length: %zu\r\nCache-Control: no-store\r\n\r\n",
+              out.status, out.status == 200 ? "OK" : out.status == 400 ? "Bad Request" : out.status == 403 ? "Forbidden" : "Error",
+              out.json.size());
+    mg_write(c, out.json.data(), out.json.size());
+    return out.status;
+  }
   if (const auto j = s->json_.find(uri); j != s->json_.end()) {
     std::string body;
     try {
@@ -280,6 +317,10 @@ void Server::publish(uint32_t channel, uint64_t time_ns, std::string_view payloa
 
 void Server::set_json(const std::string& uri, std::function<std::string(const std::string&)> answer) {
   json_[uri] = std::move(answer);
+}
+
+void Server::set_post(const std::string& uri, std::function<PostOut(const PostIn&)> answer) {
+  post_[uri] = std::move(answer);
 }
 
 void Server::set_history(uint32_t channel, std::vector<std::string> messages) {

@@ -12,12 +12,41 @@ let received = {state: 0, plot: 0, events: 0};
 window.tandemView = {received, plots: () => plots.size, points: () => [...plots.values()].map(p => p.data[0].length)};
 
 const decoder = new TextDecoder();
+let live = false;             // a running deployment (commands allowed), not a recording
+const token = new URLSearchParams(location.search).get('token') || '';
+
+// A live command (POST /api/command), as the CLI would run it; the viewer's answer goes in the header.
+async function command(body, confirmText) {
+  if (confirmText && !window.confirm(confirmText)) return;
+  const answer = document.getElementById('answer');
+  answer.textContent = `${body.command} ${body.target || ''}: sent`;
+  try {
+    const headers = {'Content-Type': 'application/json'};
+    if (token) headers['X-Tandem-Token'] = token;
+    const r = await fetch('/api/command', {method: 'POST', headers, body: JSON.stringify(body)});
+    const a = await r.json();
+    answer.textContent = `${body.command} ${body.target || ''}: ${a.text}`;
+    answer.className = a.ok ? 'ok' : 'bad';
+  } catch (e) {
+    answer.textContent = `${body.command}: no answer (${e})`;
+    answer.className = 'bad';
+  }
+}
+
+function button(td, label, body, confirmText) {
+  const b = document.createElement('button');
+  b.textContent = label;
+  b.onclick = () => command(body, confirmText);
+  td.appendChild(b);
+}
 
 function connect() {
   const ws = new WebSocket(`ws://${location.host}/`, ['foxglove.websocket.v1']);
   ws.binaryType = 'arraybuffer';
   const conn = document.getElementById('conn');
   ws.onopen = () => { conn.textContent = 'connected'; conn.className = 'ok'; };
+  live = true;
+  document.getElementById('down').hidden = false;
   ws.onclose = () => {
     conn.textContent = 'disconnected; retrying'; conn.className = 'bad';
     // A new connection is a new session: its subscriptions, and the history it replays, start afresh.
@@ -74,6 +103,11 @@ function showState(s) {
     cell(r, p.id); cell(r, p.role); cell(r, p.state, p.state);
     cell(r, p.serving || (p.role === 'robot' ? `strength ${p.strength}` : ''));
     cell(r, p.pid); cell(r, p.host); cell(r, p.detail);
+    const act = cell(r, '');
+    if (live && ['world', 'robot', 'supervisor', 'coordinator'].includes(p.role) && p.state === 'active') {
+      button(act, 'kill', {command: 'kill', target: p.id}, `SIGKILL ${p.id}? (fault injection: its standby or restart takes over)`);
+      if (p.role === 'robot') button(act, 'unplug', {command: 'unplug', kind: 'robot', target: p.id});
+    }
   }
   const mods = document.querySelector('#mods tbody');
   mods.replaceChildren();
@@ -91,6 +125,8 @@ function showState(s) {
     if (m.load_paused) flags.push('paused for load');
     if (m.braked.some(b => b)) flags.push('braked');
     cell(r, flags.join(', ') || 'running', flags.length ? 'bad' : 'ok');
+    const act = cell(r, '');
+    if (live) button(act, 'unplug', {command: 'unplug', kind: 'module', target: m.name}, `Unplug module ${m.name}? (it finishes its task first)`);
   }
   const drops = Object.entries(s.drops || {}).filter(([, n]) => n > 0);
   document.getElementById('drops').textContent =
@@ -193,5 +229,6 @@ async function replay(rec) {
   await show();
 }
 
+document.getElementById('down').onclick = () => command({command: 'down'}, 'Stop the whole deployment (tandem down)?');
 fetch('/recording').then(r => (r.ok ? r.json() : null)).then(rec => (rec ? replay(rec) : connect()))
     .catch(() => connect());

@@ -46,6 +46,12 @@ struct CoordinatorEnd {
 class CoordinatorCore {
  public:
   static constexpr double kHeartbeatS = 0.1;  ///< state and status are published at least this often
+  /// A primary with tasks left that has heard no module's task state for this long (modules report every 100 ms)
+  /// while another coordinator lives is deaf to the modules: it leaves for the other one (exit kCutOff; the launcher
+  /// restarts it as a standby, with a fresh participant). Soak run 31 (finding 56): a primary deaf for 40 s whose
+  /// status still went out held the whole queue. Counted from the first module heard, its own last stall and its
+  /// takeover. (Every module gone for over 10 s, with a standby alive, makes the coordinators take turns: harmless.)
+  static constexpr double kDeafPrimaryS = 10.0;
 
   CoordinatorCore(const CoordinatorOptions& o, std::vector<std::string> task_names, double now);
   void set_log(std::function<void(const std::string&)> log) { log_ = std::move(log); }
@@ -104,6 +110,8 @@ class CoordinatorCore {
   std::map<std::string, double> wear_;  ///< robot process id -> joint travel [rad]
   uint64_t published_ = 0;              ///< revision of the queue last published
   double last_beat_ = -1.0, last_progress_ = 0.0;
+  double last_module_heard_ = -1.0;  ///< the last task state heard from any module (-1: none yet)
+  double primary_since_ = -1e300;    ///< when this one took over (a standby's silence from the modules is not deafness)
   size_t progress_mark_ = 0;
   uint64_t own_next_ = 1;  ///< one above the highest id this one assigned, or the next id of a state it adopted
   std::vector<CoordinatorAction> actions_;

@@ -96,6 +96,15 @@ class Leadership {
   /// Its loop stood still past kStallS within the last kStallMemoryS: a successor may have led meanwhile (the
   /// primary reads the queue states then, and adopts a more advanced one).
   bool recently_stalled(double now) const { return now - last_stall_ <= kStallMemoryS; }
+  /// When this one last came back from a stall of its own (-1e300: never).
+  double last_stall() const { return last_stall_; }
+  /// Another active coordinator was heard within `within` seconds.
+  bool peer_alive(double now, double within = 1.0) const {
+    for (const auto& [id, at] : peers_) {
+      if (now - at <= within) return true;
+    }
+    return false;
+  }
   const std::optional<Snapshot>& last_state() const { return last_state_; }
   /// Seconds since the primary's last state (since the start if none was heard), or since this standby's own loop
   /// last stood still, whichever is later.

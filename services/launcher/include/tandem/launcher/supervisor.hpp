@@ -99,6 +99,7 @@ struct SupervisorConfig {
   RestartRule coordinator_restart{"never", 3, 30.0, 0.2};
   double timeout = 10.0;         ///< the processes' timeout [s]
   double start_timeout = 20.0;   ///< a module whose world has not ticked within this long is repaired
+  bool realtime = false;         ///< real-time timing: a world's first tick may wait up to world::StartWait's bound
   std::vector<std::string> hosts;  ///< multi-host: the hosts' names (empty: every process here)
   double host_timeout = 1.0;
   unsigned long long run = 0;    ///< this launcher's run (in every request to the agents)

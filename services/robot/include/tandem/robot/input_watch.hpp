@@ -25,6 +25,12 @@ class InputWatch {
     /// ... and when that many renewals brought no sample, give up at the next one: a new process has a new
     /// participant (its transport ports too), where a new reader in the same participant may stay deaf.
     int deaf_renewals = 2;
+    /// Before the first tick served, a reader that has not matched the world's writer while the plans say the module
+    /// runs (module_runs) is given up after this long, for a new process (a new participant discovers anew): the
+    /// lockstep soak hour (run 30) had three replacement robots whose reader never matched wait out the 20 s
+    /// timeout, while each restarted one served within seconds. Discovery of a new participant on this machine
+    /// takes 0.1-2 s, 3-4 s under a one-core hog (docs/soak.md); 6 s leaves room for that.
+    double unmatched_s = 6.0;
   };
   enum class Action { None, RenewReader, GiveUp };
 
@@ -50,10 +56,22 @@ class InputWatch {
   /// being discovered, which a busy machine makes slow, and renewing it would only start that again).
   Action on_pass(double now, bool active, bool matched = true) {
     // (The first pass has no previous one: whatever the robot waited for before its loop is not a stall.)
-    if (passes_++ > 0 && now - last_pass_ > r_.self_stall_s && now > last_input_) last_input_ = now;
+    if (passes_++ > 0 && now - last_pass_ > r_.self_stall_s) {
+      if (now > last_input_) last_input_ = now;
+      if (unmatched_since_ >= 0.0) unmatched_since_ += now - last_pass_;  // discovery stood still with the process
+    }
     last_pass_ = now;
     const double silent = now - last_input_;
     if (silent > r_.timeout_s) return Action::GiveUp;
+    if (!active && !matched && module_runs()) {
+      if (unmatched_since_ < 0.0) unmatched_since_ = now;
+      if (now - unmatched_since_ > r_.unmatched_s) {
+        unmatched_gave_up_ = true;
+        return Action::GiveUp;
+      }
+    } else {
+      unmatched_since_ = -1.0;
+    }
     if ((active || (module_runs() && matched)) && silent > r_.renew_after_s && now - last_plan_ < r_.plan_fresh_s &&
         now - renewed_at_ > 2.0 * r_.renew_after_s) {
       if (!active && last_input_ <= renewed_at_ && renewals_ >= r_.deaf_renewals) return Action::GiveUp;
@@ -66,6 +84,8 @@ class InputWatch {
 
   double silent_s(double now) const { return now - last_input_; }
   int renewals() const { return renewals_; }
+  /// The last GiveUp was for a reader that never matched while the module ran (unmatched_s).
+  bool gave_up_unmatched() const { return unmatched_gave_up_; }
   const Rules& rules() const { return r_; }
 
  private:
@@ -73,6 +93,8 @@ class InputWatch {
   double last_input_, last_plan_, last_pass_, renewed_at_;
   int renewals_ = 0;
   long passes_ = 0;
+  double unmatched_since_ = -1.0;
+  bool unmatched_gave_up_ = false;
   long plan_tick_ = -1, tick_at_renewal_ = -1;
 };
 

@@ -33,10 +33,14 @@ struct RoleOptions {
   static constexpr int kPrimaryStrength = plan::kPrimaryStrength;  // one definition (services/plan)
 };
 
-/// Parses the common options; on error prints to stderr the problem and the usage and returns false.
-/// `exit_code` is 0 for --help, 2 for bad arguments.
-bool parse_role_options(const char* role, int argc, char** argv, bool needs_arm, RoleOptions& out,
-                        int& exit_code);
+/// Parses the common options (CLI11, runtime::parse_args); on error says the problem on stderr (or into `err` when
+/// given) and returns false. `exit_code` is 0 for --help, 2 for bad arguments.
+bool parse_role_options(const char* role, int argc, const char* const* argv, bool needs_arm, RoleOptions& out,
+                        int& exit_code, std::string* err = nullptr);
+/// The command line (without the program) that parse_role_options reads back as `o` for `role` ("world", "robot",
+/// "supervisor"): how the launcher hands a role its configuration. It sits beside the parser, the only other place
+/// that names the flags, and a round-trip test keeps the two in step (tests/unit/test_args.cpp).
+std::vector<std::string> role_args(const std::string& role, const RoleOptions& o);
 
 /// The loaded scenario, case and module. Throws with a message naming the file on error.
 struct RoleContext {

@@ -55,6 +55,17 @@ class Server {
   void broadcast_time(uint64_t time_ns);
   /// Serves GET `uri` with the JSON `answer` returns for the request's query string (a recording's timeline).
   void set_json(const std::string& uri, std::function<std::string(const std::string& query)> answer);
+  /// A POST request as a handler sees it: the client's address, its X-Tandem-Token, Content-Type, Origin and Host
+  /// headers ("" when absent), its body (at most 4 kB).
+  struct PostIn {
+    std::string remote, token, content_type, origin, host, body;
+  };
+  struct PostOut {
+    int status = 200;  ///< the HTTP status
+    std::string json;  ///< the answer's body
+  };
+  /// Serves POST `uri` with what `answer` returns (live commands); set before start().
+  void set_post(const std::string& uri, std::function<PostOut(const PostIn&)> answer);
   void broadcast_status(int level, const std::string& message);
 
   struct ClientInfo {
@@ -89,6 +100,7 @@ class Server {
   std::map<uint32_t, std::vector<std::string>> history_;
   std::map<uint32_t, uint64_t> dropped_gone_;  ///< drops of clients gone, per channel
   std::map<std::string, std::function<std::string(const std::string&)>> json_;  ///< set before start()
+  std::map<std::string, std::function<PostOut(const PostIn&)>> post_;            ///< set before start()
 };
 
 }  // namespace tandem::view

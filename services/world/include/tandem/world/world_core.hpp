@@ -268,6 +268,15 @@ class WorldCore {
   std::string flight_record(long ticks) const;
   bool failed() const { return failed_; }
   const std::string& failure() const { return failure_; }
+  /// The world's status line: why the module does not run as it should ("failed: object dropped (...)", "paused for
+  /// load ...", "stopping: ...", "arm braked: ..."), or "" when it does. The first that holds, in that order.
+  std::string status_detail() const {
+    if (failed_) return "failed: object dropped (" + failure_ + ")";
+    if (paused_for_load()) return "paused for load (overload: commands late)";
+    if (stopping(0) || stopping(1)) return "stopping: an arm has no live controller";
+    if (braked(0) || braked(1)) return "arm braked: no live controller";
+    return "";
+  }
   bool answered_once() const { return link_[0].last_tick >= 0 && link_[1].last_tick >= 0; }
   bool serving_changed() { const bool c = serving_changed_; serving_changed_ = false; return c; }
   double tracking_error() const { return std::max(ep_[0], ep_[1]); }

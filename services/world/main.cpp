@@ -198,7 +198,8 @@ class WorldProcess {
     auto& st = status_.msg();
     st.tick(static_cast<uint64_t>(k_));
     st.progress(opt_.continuous ? -1.0 : static_cast<double>(k_) / static_cast<double>(m_.steps));
-    st.grasp_margin(core_.normal_min_since_status() - m_.safe_grasp_force);
+    // (At tick 0 no step has measured a force yet: the margin stays as it was, not 1e300.)
+    if (const double n = core_.normal_min_since_status(); n < 1e299) st.grasp_margin(n - m_.safe_grasp_force);
     st.late(opt_.realtime ? core_.late : core_.timeouts);
     st.tracking_error(core_.tracking_error());
     st.latency_p99_us(interval_worst_us_);  // the worst of the interval (at most 200 arm-ticks)

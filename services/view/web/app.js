@@ -100,10 +100,11 @@ function showState(s) {
   procs.replaceChildren();
   for (const p of s.processes) {
     const r = procs.insertRow();
-    cell(r, p.id); cell(r, p.role); cell(r, p.state, p.state);
+    cell(r, p.id);
+    const act = cell(r, '', 'act');
+    cell(r, p.role); cell(r, p.state, p.state);
     cell(r, p.serving || (p.role === 'robot' ? `strength ${p.strength}` : ''));
     cell(r, p.pid); cell(r, p.host); cell(r, p.detail);
-    const act = cell(r, '');
     if (live && ['world', 'robot', 'supervisor', 'coordinator'].includes(p.role) && p.state === 'active') {
       button(act, 'kill', {command: 'kill', target: p.id}, `SIGKILL ${p.id}? (fault injection: its standby or restart takes over)`);
       if (p.role === 'robot') button(act, 'unplug', {command: 'unplug', kind: 'robot', target: p.id});
@@ -125,7 +126,7 @@ function showState(s) {
     if (m.load_paused) flags.push('paused for load');
     if (m.braked.some(b => b)) flags.push('braked');
     cell(r, flags.join(', ') || 'running', flags.length ? 'bad' : 'ok');
-    const act = cell(r, '');
+    const act = cell(r, '', 'act');
     if (live) button(act, 'unplug', {command: 'unplug', kind: 'module', target: m.name}, `Unplug module ${m.name}? (it finishes its task first)`);
   }
   const drops = Object.entries(s.drops || {}).filter(([, n]) => n > 0);

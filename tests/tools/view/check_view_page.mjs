@@ -24,6 +24,15 @@ try {
   await page.waitForFunction(() => document.querySelectorAll("#procs tbody tr").length >= 3, null, { timeout: 20000 });
 } catch { await fail("the process table did not fill within 20 s", browser); }
 const rows = await page.$$eval("#procs tbody tr", (r) => r.length);
+// Live commands: a visible kill button beside the subject (the page's own buttons; the kill itself goes through the API).
+const killButton = await page.evaluate((s) => {
+  const row = [...document.querySelectorAll("#procs tbody tr")].find((r) => r.cells[0].textContent === s);
+  const b = row && [...row.querySelectorAll("button")].find((x) => x.textContent === "kill");
+  if (!b) return "none";
+  const r = b.getBoundingClientRect(), box = b.closest("section").getBoundingClientRect();
+  return r.width > 0 && r.right <= box.right + 1 ? "visible" : "clipped";
+}, subject);
+if (killButton !== "visible") await fail(`the kill button of ${subject} is ${killButton}`, browser);
 try {
   await page.waitForFunction(() => window.tandemView.plots() >= 2, null, { timeout: 20000 });
 } catch { await fail("no plot of both arms within 20 s", browser); }

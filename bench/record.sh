@@ -11,6 +11,7 @@
 #        PRIO (realtime_priority, default 20)
 set -euo pipefail
 cd "$(dirname "$0")/.."
+. bench/lib.sh
 bin=build/bin
 [ -x "$bin/tandem" ] || { echo "record.sh: build first (bash scripts/build.sh)" >&2; exit 2; }
 ns=("$@")
@@ -23,7 +24,6 @@ dur="${SECONDS_RUN:-10}"
 prio="${PRIO:-20}"
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
-hz=$(getconf CLK_TCK)
 echo "machine: $(nproc) cores, $(lscpu | sed -n 's/^Model name: *//p'), kernel $(uname -r)"
 echo "command: bash bench/record.sh ${ns[*]}  (REPS=$reps, duration ${dur} s, realtime_priority $prio, commit $(git rev-parse --short HEAD 2>/dev/null || echo '?'))"
 sed "s/^  duration: .*/  duration: $dur/" config/scenarios/paper.yaml > "$work/scenario.yaml"
@@ -63,22 +63,14 @@ for n in "${ns[@]}"; do
         sleep 1
         pids=$( (pgrep -P "$up" -f "tandem-(world|robot|supervisor)" || true) | tr '\n' ' ')
         rpid=$(pgrep -P "$up" -f "tandem record" || true)
-        snap() { for p in $pids $rpid; do [ -r /proc/$p/stat ] && echo "$p $(awk '{print $14 + $15}' /proc/$p/stat 2>/dev/null)"; done; return 0; }
-        snap > "$work/t0"; w0=$(date +%s.%N)
+        cpu_snap $pids $rpid > "$work/t0"; w0=$(date +%s.%N)
         sleep 3
-        snap > "$work/t1"; w1=$(date +%s.%N)
-        delta() { awk -v sel="$1" 'NR == FNR {a[$1] = $2; next} ($1 in a) && (sel == "" || index(" " sel " ", " " $1 " ")) {s += $2 - a[$1]} END {print s + 0}' "$work/t0" "$work/t1"; }
-        cpu=$(awk -v d="$(delta "$pids")" -v hz="$hz" -v w0="$w0" -v w1="$w1" -v n="$n" 'BEGIN {printf "%.3f", d / hz / (w1 - w0) / n}')
-        [ -n "$rpid" ] && rcpu=$(awk -v d="$(delta "$rpid")" -v hz="$hz" -v w0="$w0" -v w1="$w1" 'BEGIN {printf "%.3f", d / hz / (w1 - w0)}')
+        cpu_snap $pids $rpid > "$work/t1"; w1=$(date +%s.%N)
+        cpu=$(cpu_cores "$work/t0" "$work/t1" "$w0" "$w1" "$n" "$pids")
+        [ -n "$rpid" ] && rcpu=$(cpu_cores "$work/t0" "$work/t1" "$w0" "$w1" 1 "$rpid")
       fi
       rc=0; wait "$up" || rc=$?
-      read -r late ticks p50 p99 slips < <(awk -F= '
-        /^m[0-9]+\.late_commands=/ {late += $2}
-        /^m[0-9]+\.ticks=/ {ticks += $2}
-        /^m[0-9]+\.latency_p50_us=/ {p50 += $2; c50++}
-        /^m[0-9]+\.latency_p99_us=/ {if ($2 > p99) p99 = $2}
-        /^m[0-9]+\.slip_events=/ {slips += $2}
-        END {printf "%d %d %.0f %.0f %d\n", late, ticks, c50 ? p50 / c50 : 0, p99, slips}' "$sum" 2>/dev/null || echo "0 0 0 0 0")
+      read -r late ticks p50 p99 slips < <(summary_figures "$sum")
       pct=$(awk -v l="$late" -v t="$ticks" 'BEGIN {if (t > 0) printf "%.2f", 100 * l / (2 * t); else print "nan"}')
       gaps=-; mb=-; rate=-
       if [ "$rec" = yes ]; then

@@ -18,6 +18,7 @@
 
 #include "tandem/model/arm.hpp"
 #include "tandem/model/controller.hpp"
+#include "tandem/model/manipulator.hpp"
 #include "tandem/model/plant.hpp"
 #include "tandem/model/reference.hpp"
 
@@ -429,6 +430,29 @@ TEST_CASE("control and plant steps do not allocate", "[controller]") {
   CHECK(plant.state().c.allFinite());
   CHECK(plant.contacts().in_contact[0]);
   CHECK(plant.contacts().in_contact[1]);
+}
+
+TEST_CASE("every manipulator type's model evaluations do not allocate", "[controller][manipulator]") {
+  std::vector<std::unique_ptr<tm::Manipulator>> models;
+  models.push_back(tm::make_manipulator(tm::smart3s2()));
+  models.push_back(tm::make_manipulator(tm::cartesian_ppr()));
+  models.push_back(tm::make_manipulator(tm::planar_4r()));
+  double sink = 0.0;
+  g_allocations = 0;
+  g_count_allocations = true;
+  for (const auto& m : models) {
+    tm::JointVec q = tm::JointVec::Constant(m->dof(), 0.3), qd = tm::JointVec::Constant(m->dof(), -0.2);
+    for (int k = 0; k < 200; ++k) {
+      q(0) += 1e-3;
+      const tm::JointVec qdd = m->forward_dynamics(q, qd, tm::JointVec::Zero(m->dof()), Vec3(1.0, -2.0, 0.1));
+      const tm::TaskJacobian J = m->jacobian(q), Jd = m->jacobian_dot(q, qd);
+      sink += qdd.sum() + J.sum() + Jd.sum() + m->forward_kinematics(q).sum() + m->kinetic_energy(q, qd) +
+              m->potential_energy(q);
+    }
+  }
+  g_count_allocations = false;
+  CHECK(g_allocations.load() == 0);
+  CHECK(std::isfinite(sink));
 }
 
 TEST_CASE("reaching_gain_bound equals the sum of eq. (33)-(34) terms", "[controller]") {

@@ -1,0 +1,367 @@
+// Unit tests of the manipulator model interface (issue "heterogeneous modules"): for each type (the
+// identified planar 3R, the cartesian PPR, the redundant planar 4R) the Jacobian and its derivative against
+// finite differences, B symmetric positive definite, B' - 2C skew and C q' the Lagrangian Coriolis vector,
+// gravity the gradient of U, energy conserved with no torque and no friction, and free fall against an
+// independent computation (the test's own centre-of-mass geometry and a Lagrangian by finite differences,
+// and for the PPR the closed-form parabola).
+#include <catch2/catch.hpp>
+
+#include "test_support.hpp"
+
+#include <cmath>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "tandem/model/manipulator.hpp"
+
+namespace {
+
+namespace tm = tandem::model;
+using tm::JointMat;
+using tm::JointVec;
+using tm::kPi;
+using tm::Vec2;
+using tm::Vec3;
+
+struct Case {
+  std::string name;
+  std::unique_ptr<tm::Manipulator> model;
+  std::unique_ptr<tm::Manipulator> frictionless;
+};
+
+tm::ArmParams frictionless(tm::ArmParams p) {
+  p.viscous.setZero();
+  p.coulomb.setZero();
+  return p;
+}
+tm::ChainParams frictionless(tm::ChainParams p) {
+  p.joints.viscous.fill(0.0);
+  p.joints.coulomb.fill(0.0);
+  return p;
+}
+
+std::vector<Case> all_types() {
+  std::vector<Case> out;
+  tm::ArmParams smart = tm::smart3s2();
+  smart.base = Vec2(-0.9, 0.0);
+  out.push_back({"planar_3r", tm::make_manipulator(smart), tm::make_manipulator(frictionless(smart))});
+  tm::ChainParams ppr = tm::cartesian_ppr();
+  ppr.joints.base = Vec2(0.9, 0.0);
+  out.push_back({"cartesian_ppr", tm::make_manipulator(ppr), tm::make_manipulator(frictionless(ppr))});
+  tm::ChainParams r4 = tm::planar_4r();
+  r4.joints.base = Vec2(0.9, 0.2);
+  out.push_back({"planar_4r", tm::make_manipulator(r4), tm::make_manipulator(frictionless(r4))});
+  return out;
+}
+
+JointVec random_joints(const tm::Manipulator& m, tandem::test::Lcg& rng, double scale) {
+  JointVec q(m.dof());
+  for (int i = 0; i < m.dof(); ++i) {
+    const bool prismatic = m.joints().type[static_cast<size_t>(i)] == tm::JointType::Prismatic;
+    q(i) = prismatic ? rng.uniform(-0.8, 0.8) * scale : rng.uniform(-2.5, 2.5) * scale;
+  }
+  return q;
+}
+
+double max_abs(const Eigen::MatrixXd& m) { return m.size() == 0 ? 0.0 : m.cwiseAbs().maxCoeff(); }
+
+/// One RK4 step of a free arm (no torque, no contact).
+struct State {
+  JointVec q, qd;
+};
+State rk4(const State& s, double h,
+          const std::function<JointVec(const JointVec&, const JointVec&)>& accel) {
+  const JointVec k1q = s.qd, k1v = accel(s.q, s.qd);
+  const JointVec k2q = s.qd + 0.5 * h * k1v, k2v = accel(s.q + 0.5 * h * k1q, s.qd + 0.5 * h * k1v);
+  const JointVec k3q = s.qd + 0.5 * h * k2v, k3v = accel(s.q + 0.5 * h * k2q, s.qd + 0.5 * h * k2v);
+  const JointVec k4q = s.qd + h * k3v, k4v = accel(s.q + h * k3q, s.qd + h * k3v);
+  return {s.q + (h / 6.0) * (k1q + 2.0 * k2q + 2.0 * k3q + k4q), s.qd + (h / 6.0) * (k1v + 2.0 * k2v + 2.0 * k3v + k4v)};
+}
+
+// ----- the test's own geometry of each chain: centres of mass by hand, not by the library's chain code -----
+
+Vec2 d(double a) { return {std::sin(a), std::cos(a)}; }
+
+/// Centres of mass, masses and inertias of a PlanarChain's bodies, written out per type.
+struct Bodies {
+  std::vector<Vec2> com;
+  std::vector<double> angle;  // absolute body angle (for the rotational energy)
+};
+Bodies hand_bodies(const tm::ChainParams& p, const JointVec& q) {
+  Bodies b;
+  const Vec2 base = p.joints.base;
+  if (p.kind == tm::ArmKind::CartesianPPR) {
+    // carriage at (q1, 0), column at (q1, q2), wrist link from (q1, q2) at angle q3
+    const Vec2 c(q(0), q(1));
+    b.com = {base + Vec2(q(0), 0.0), base + c, base + c + p.bodies[2].com * d(q(2))};
+    b.angle = {0.0, 0.0, q(2)};
+  } else {
+    Vec2 joint = base;
+    double a = 0.0;
+    for (int k = 0; k < 4; ++k) {
+      a += q(k);
+      const auto& body = p.bodies[static_cast<size_t>(k)];
+      b.com.push_back(joint + body.com * d(a));
+      b.angle.push_back(a);
+      joint += body.length * d(a);
+    }
+  }
+  return b;
+}
+
+/// Kinetic and potential energy from the hand geometry; velocities by central differences along q'.
+double hand_kinetic(const tm::ChainParams& p, const JointVec& q, const JointVec& qd) {
+  const double h = 1e-6;
+  const Bodies a = hand_bodies(p, q + h * qd), b = hand_bodies(p, q - h * qd);
+  double t = 0.0;
+  for (size_t k = 0; k < a.com.size(); ++k) {
+    const Vec2 v = (a.com[k] - b.com[k]) / (2.0 * h);
+    const double w = (a.angle[k] - b.angle[k]) / (2.0 * h);
+    t += 0.5 * p.bodies[k].mass * v.squaredNorm() + 0.5 * p.bodies[k].inertia * w * w;
+  }
+  return t;
+}
+double hand_potential(const tm::ChainParams& p, const JointVec& q) {
+  const Bodies b = hand_bodies(p, q);
+  double u = 0.0;
+  for (size_t k = 0; k < b.com.size(); ++k) u += p.joints.g0 * p.bodies[k].mass * b.com[k](1);
+  return u;
+}
+
+/// B from the hand kinetic energy: B_ij = T(e_i + e_j) - T(e_i) - T(e_j) (T is quadratic in q').
+Eigen::MatrixXd hand_inertia(const tm::ChainParams& p, const JointVec& q) {
+  const int n = p.joints.dof;
+  Eigen::MatrixXd B(n, n);
+  auto unit = [n](int i) {
+    JointVec e = JointVec::Zero(n);
+    e(i) = 1.0;
+    return e;
+  };
+  for (int i = 0; i < n; ++i) {
+    for (int j = 0; j < n; ++j) {
+      const double tij = hand_kinetic(p, q, unit(i) + unit(j));
+      B(i, j) = tij - hand_kinetic(p, q, unit(i)) - hand_kinetic(p, q, unit(j));
+    }
+  }
+  return B;
+}
+
+/// The Lagrangian's free acceleration: B q'' = -(B' q' - 1/2 d/dq (q'^T B q')) - dU/dq, all by differences
+/// of the hand energies.
+JointVec hand_free_acceleration(const tm::ChainParams& p, const JointVec& q, const JointVec& qd) {
+  const int n = p.joints.dof;
+  const double h = 1e-5;
+  const Eigen::MatrixXd B = hand_inertia(p, q);
+  const Eigen::MatrixXd Bdot = (hand_inertia(p, q + h * qd) - hand_inertia(p, q - h * qd)) / (2.0 * h);
+  Eigen::VectorXd rhs = -Bdot * Eigen::VectorXd(qd);
+  for (int k = 0; k < n; ++k) {
+    JointVec e = JointVec::Zero(n);
+    e(k) = h;
+    const double dT = (hand_kinetic(p, q + e, qd) - hand_kinetic(p, q - e, qd)) / (2.0 * h);
+    const double dU = (hand_potential(p, q + e) - hand_potential(p, q - e)) / (2.0 * h);
+    rhs(k) += dT - dU;
+  }
+  const Eigen::VectorXd qdd = B.ldlt().solve(rhs);
+  return JointVec(qdd);
+}
+
+}  // namespace
+
+TEST_CASE("manipulator types: the Jacobian and its derivative match finite differences", "[manipulator]") {
+  tandem::test::Lcg rng(7);
+  for (const Case& c : all_types()) {
+    INFO(c.name);
+    const tm::Manipulator& m = *c.model;
+    for (int s = 0; s < 20; ++s) {
+      const JointVec q = random_joints(m, rng, 1.0), qd = random_joints(m, rng, 1.0);
+      const double h = 1e-6;
+      Eigen::MatrixXd Jfd(3, m.dof());
+      for (int k = 0; k < m.dof(); ++k) {
+        JointVec dq = JointVec::Zero(m.dof());
+        dq(k) = h;
+        Jfd.col(k) = (m.forward_kinematics(q + dq) - m.forward_kinematics(q - dq)) / (2.0 * h);
+      }
+      CHECK(max_abs(Eigen::MatrixXd(m.jacobian(q)) - Jfd) < 1e-7);
+      const Eigen::MatrixXd Jdfd =
+          (Eigen::MatrixXd(m.jacobian(q + h * qd)) - Eigen::MatrixXd(m.jacobian(q - h * qd))) / (2.0 * h);
+      CHECK(max_abs(Eigen::MatrixXd(m.jacobian_dot(q, qd)) - Jdfd) < 1e-6);
+    }
+  }
+}
+
+TEST_CASE("manipulator types: B is symmetric positive definite, B' - 2C is skew, C q' is Lagrange's", "[manipulator]") {
+  tandem::test::Lcg rng(11);
+  for (const Case& c : all_types()) {
+    INFO(c.name);
+    const tm::Manipulator& m = *c.model;
+    const int n = m.dof();
+    for (int s = 0; s < 20; ++s) {
+      const JointVec q = random_joints(m, rng, 1.0), qd = random_joints(m, rng, 1.0);
+      const Eigen::MatrixXd B = m.inertia(q);
+      CHECK(max_abs(B - B.transpose()) < 1e-12);
+      const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(B);
+      CHECK(eig.eigenvalues().minCoeff() > 1e-3);
+      const double h = 1e-6;
+      const Eigen::MatrixXd Bdot = (Eigen::MatrixXd(m.inertia(q + h * qd)) - Eigen::MatrixXd(m.inertia(q - h * qd))) / (2.0 * h);
+      const Eigen::MatrixXd N = Bdot - 2.0 * Eigen::MatrixXd(m.coriolis(q, qd));
+      CHECK(max_abs(N + N.transpose()) < 1e-6 * (1.0 + max_abs(Bdot)));
+      // Lagrange: C q' = B' q' - 1/2 d/dq (q'^T B q')
+      Eigen::VectorXd lag = Bdot * Eigen::VectorXd(qd);
+      for (int k = 0; k < n; ++k) {
+        JointVec e = JointVec::Zero(n);
+        e(k) = h;
+        lag(k) -= (m.kinetic_energy(q + e, qd) - m.kinetic_energy(q - e, qd)) / (2.0 * h);
+      }
+      const Eigen::VectorXd Cqd = m.coriolis(q, qd) * qd;
+      CHECK(max_abs(Cqd - lag) < 1e-5 * (1.0 + lag.cwiseAbs().maxCoeff()));
+      // gravity is the gradient of U
+      Eigen::VectorXd grad(n);
+      for (int k = 0; k < n; ++k) {
+        JointVec e = JointVec::Zero(n);
+        e(k) = h;
+        grad(k) = (m.potential_energy(q + e) - m.potential_energy(q - e)) / (2.0 * h);
+      }
+      CHECK(max_abs(Eigen::VectorXd(m.gravity(q)) - grad) < 1e-6 * (1.0 + grad.cwiseAbs().maxCoeff()));
+    }
+  }
+}
+
+TEST_CASE("manipulator types: with no torque and no friction energy is conserved", "[manipulator]") {
+  // RK4 at 0.1 ms over 2 s from a leaning pose at rest: the total energy drifts by less than 1e-6 of the
+  // largest kinetic energy reached (RK4's local error is O(h^5); the arms swing through their whole range).
+  tandem::test::Lcg rng(5);
+  for (const Case& c : all_types()) {
+    INFO(c.name);
+    const tm::Manipulator& m = *c.frictionless;
+    State s{random_joints(m, rng, 0.4), JointVec::Zero(m.dof())};
+    const auto accel = [&m](const JointVec& q, const JointVec& qd) {
+      return m.forward_dynamics(q, qd, JointVec::Zero(m.dof()), Vec3::Zero());
+    };
+    const double e0 = m.potential_energy(s.q);
+    double max_kinetic = 0.0, max_drift = 0.0;
+    for (int i = 0; i < 20000; ++i) {
+      s = rk4(s, 1e-4, accel);
+      const double ke = m.kinetic_energy(s.q, s.qd);
+      max_kinetic = std::max(max_kinetic, ke);
+      max_drift = std::max(max_drift, std::abs(ke + m.potential_energy(s.q) - e0));
+    }
+    CHECK(max_kinetic > 1.0);  // it did swing or fall
+    CHECK(max_drift < 1e-6 * max_kinetic);
+    // With friction, energy only goes down.
+    const tm::Manipulator& f = *c.model;
+    State r{random_joints(f, rng, 0.4), JointVec::Zero(f.dof())};
+    const auto accel_f = [&f](const JointVec& q, const JointVec& qd) {
+      return f.forward_dynamics(q, qd, JointVec::Zero(f.dof()), Vec3::Zero());
+    };
+    double prev = f.potential_energy(r.q);
+    bool monotone = true;
+    for (int i = 0; i < 5000; ++i) {
+      r = rk4(r, 1e-4, accel_f);
+      const double e = f.kinetic_energy(r.q, r.qd) + f.potential_energy(r.q);
+      monotone = monotone && e <= prev + 1e-9;
+      prev = e;
+    }
+    CHECK(monotone);
+  }
+}
+
+TEST_CASE("cartesian PPR: free fall is the parabola, with the wrist upright and still", "[manipulator]") {
+  tm::ChainParams p = frictionless(tm::cartesian_ppr());
+  const tm::PlanarChain m(p);
+  State s{JointVec(3), JointVec::Zero(3)};
+  s.q << 0.3, 1.0, 0.0;
+  const auto accel = [&m](const JointVec& q, const JointVec& qd) {
+    return m.forward_dynamics(q, qd, JointVec::Zero(3), Vec3::Zero());
+  };
+  const double h = 1e-3;
+  for (int i = 0; i < 500; ++i) s = rk4(s, h, accel);
+  const double t = 0.5;
+  CHECK(s.q(0) == Approx(0.3).margin(1e-12));
+  CHECK(s.q(1) == Approx(1.0 - 0.5 * p.joints.g0 * t * t).margin(1e-10));
+  CHECK(s.qd(1) == Approx(-p.joints.g0 * t).margin(1e-10));
+  CHECK(s.q(2) == Approx(0.0).margin(1e-12));
+  // The end-effector falls with it: the tool tip is l3 above the column.
+  const Vec3 x = m.forward_kinematics(s.q);
+  CHECK(x(1) == Approx(s.q(1) + 0.34).margin(1e-12));
+}
+
+TEST_CASE("chain types: free fall matches an independent Lagrangian of the bodies", "[manipulator]") {
+  // The test's own centre-of-mass geometry (hand_bodies) gives T and U; B, the Coriolis vector and g come
+  // from differences of those energies. The library's forward dynamics must agree at random states, and a
+  // one-second fall integrated both ways must end in the same state.
+  tandem::test::Lcg rng(3);
+  for (tm::ChainParams p : {frictionless(tm::cartesian_ppr()), frictionless(tm::planar_4r())}) {
+    INFO(tm::arm_kind_name(p.kind));
+    p.joints.base = Vec2(0.4, -0.1);
+    const tm::PlanarChain m(p);
+    const int n = m.dof();
+    for (int s = 0; s < 10; ++s) {
+      const JointVec q = random_joints(m, rng, 1.0), qd = random_joints(m, rng, 0.5);
+      CHECK(max_abs(Eigen::MatrixXd(m.inertia(q)) - hand_inertia(p, q)) < 1e-5);
+      const JointVec lib = m.forward_dynamics(q, qd, JointVec::Zero(n), Vec3::Zero());
+      const JointVec ref = hand_free_acceleration(p, q, qd);
+      CHECK(max_abs(Eigen::VectorXd(lib - ref)) < 1e-3 * (1.0 + ref.cwiseAbs().maxCoeff()));
+    }
+    State a{random_joints(m, rng, 0.3), JointVec::Zero(n)};
+    State b = a;
+    const auto lib = [&m, n](const JointVec& q, const JointVec& qd) {
+      return m.forward_dynamics(q, qd, JointVec::Zero(n), Vec3::Zero());
+    };
+    const auto ref = [&p](const JointVec& q, const JointVec& qd) { return hand_free_acceleration(p, q, qd); };
+    for (int i = 0; i < 200; ++i) {
+      a = rk4(a, 5e-3, lib);
+      b = rk4(b, 5e-3, ref);
+    }
+    CHECK(max_abs(Eigen::VectorXd(a.q - b.q)) < 1e-4);
+    CHECK(a.qd.norm() > 0.5);  // it did fall
+  }
+}
+
+TEST_CASE("a chain built as a 3R equals the identified lumped model with the matching gammas", "[manipulator]") {
+  // Two derivations of the same arm: the chain's sums over bodies, and the paper's closed-form B, C, g with
+  // gamma_1..6 computed from the bodies (gamma_1 = I3 + m3 c3^2, gamma_5 = m2 c2 + m3 l2, gamma_6 = m3 c3, ...).
+  const std::array<double, 3> l{0.65, 0.6576, 0.34}, c{0.3, 0.35, 0.12}, mass{30.0, 18.0, 5.0},
+      I{1.1, 0.7, 0.05};
+  tm::ChainParams cp;
+  cp.kind = tm::ArmKind::Planar3R;
+  cp.joints.dof = 3;
+  for (size_t k = 0; k < 3; ++k) cp.bodies[k] = tm::ChainBody{tm::JointType::Revolute, 0.0, l[k], c[k], mass[k], I[k]};
+  cp.joints.base = Vec2(-0.9, 0.0);
+  tm::ArmParams ap;
+  ap.link_length = Vec3(l[0], l[1], l[2]);
+  ap.base = cp.joints.base;
+  ap.viscous.setZero();
+  ap.coulomb.setZero();
+  ap.gamma[0] = I[2] + mass[2] * c[2] * c[2];
+  ap.gamma[1] = I[1] + mass[1] * c[1] * c[1] + I[2] + mass[2] * (l[1] * l[1] + c[2] * c[2]);
+  ap.gamma[2] = I[0] + mass[0] * c[0] * c[0] + I[1] + mass[1] * (l[0] * l[0] + c[1] * c[1]) + I[2] +
+                mass[2] * (l[0] * l[0] + l[1] * l[1] + c[2] * c[2]);
+  ap.gamma[3] = 9.81 * (mass[0] * c[0] + (mass[1] + mass[2]) * l[0]);
+  ap.gamma[4] = mass[1] * c[1] + mass[2] * l[1];
+  ap.gamma[5] = mass[2] * c[2];
+  const tm::PlanarChain chain(cp);
+  const tm::Planar3R lumped(ap);
+  tandem::test::Lcg rng(17);
+  for (int s = 0; s < 20; ++s) {
+    const JointVec q = random_joints(chain, rng, 1.0), qd = random_joints(chain, rng, 1.0);
+    CHECK(max_abs(Eigen::VectorXd(chain.forward_kinematics(q) - lumped.forward_kinematics(q))) < 1e-12);
+    CHECK(max_abs(Eigen::MatrixXd(chain.jacobian(q) - lumped.jacobian(q))) < 1e-12);
+    CHECK(max_abs(Eigen::MatrixXd(chain.jacobian_dot(q, qd) - lumped.jacobian_dot(q, qd))) < 1e-12);
+    CHECK(max_abs(Eigen::MatrixXd(chain.inertia(q) - lumped.inertia(q))) < 1e-10);
+    CHECK(max_abs(Eigen::VectorXd(chain.coriolis(q, qd) * qd - lumped.coriolis(q, qd) * qd)) < 1e-9);
+    CHECK(max_abs(Eigen::VectorXd(chain.gravity(q) - lumped.gravity(q))) < 1e-9);
+  }
+}
+
+TEST_CASE("arm kind names round-trip and an unknown name is refused", "[manipulator]") {
+  for (tm::ArmKind k : {tm::ArmKind::Planar3R, tm::ArmKind::CartesianPPR, tm::ArmKind::Planar4R}) {
+    tm::ArmKind back = tm::ArmKind::Planar3R;
+    REQUIRE(tm::parse_arm_kind(tm::arm_kind_name(k), back));
+    CHECK(back == k);
+  }
+  tm::ArmKind out = tm::ArmKind::CartesianPPR;
+  CHECK_FALSE(tm::parse_arm_kind("scara", out));
+  CHECK(out == tm::ArmKind::CartesianPPR);
+}

@@ -13,6 +13,7 @@
 #include <ctime>
 #include <fstream>
 
+#include "tandem/runtime/args.hpp"
 #include "tandem/runtime/deployment.hpp"
 #include "tandem/runtime/security.hpp"
 #include "tandem/page/files.hpp"
@@ -51,10 +52,17 @@ std::string iso(std::time_t t) {
 
 }  // namespace
 
-void keys_usage(std::FILE* f) {
-  std::fputs(
-      "usage: tandem keys <deploy.yaml> [--dir DIR] [--days N] [--new-ca]\n"
-      "\n"
+namespace {
+
+struct KeysArgs {
+  std::string file, dir;
+  int days = 365;
+  bool new_ca = false;
+};
+
+/// The command line, on CLI11 (runtime::parse_args): `tandem help keys` prints the same text as --help.
+void describe(CLI::App& app, KeysArgs& o) {
+  app.description(
       "Makes the DDS-Security files of a deployment with openssl (docs/security.md), into DIR (default: the\n"
       "deployment's security.keys):\n"
       "  ca.pem, ca.key            the deployment's CA (identity and permissions CA); kept and reused on later\n"
@@ -66,56 +74,34 @@ void keys_usage(std::FILE* f) {
       "                            discovery and data encrypted (AES-GCM)\n"
       "  permissions.p7s           least privilege per identity: a robot writes only its own arm's torques and\n"
       "                            reads only its own arm's sensors; only the launcher and the CLI write control\n"
-      "                            requests; the recorder reads everything and writes only its status\n"
-      "Certificates and grants are valid for N days (default 365). Keys are 0600 in a 0700 directory; never\n"
-      "commit them. `tandem up` refuses to start with a missing or expired file and names it.\n"
-      "Exit: 0 made, 1 openssl failed or DIR cannot be written, 2 bad command line or deployment.\n",
-      f);
+      "                            requests; the recorder reads everything and writes only its status");
+  app.add_option("deploy", o.file, "the deployment file")->required()->type_name("DEPLOY.yaml");
+  app.add_option("--dir", o.dir, "where the files go (default: the deployment's security.keys)")->type_name("DIR");
+  app.add_option("--days", o.days, "validity of the certificates and grants, in days")
+      ->check(CLI::Range(1, 3650))->capture_default_str()->type_name("N");
+  app.add_flag("--new-ca", o.new_ca, "replace the deployment's CA (every identity gets new keys)");
+  app.footer(
+      "Keys are 0600 in a 0700 directory; never commit them. `tandem up` refuses to start with a missing or\n"
+      "expired file and names it.\n"
+      "Exit: 0 made, 1 openssl failed or DIR cannot be written, 2 bad command line or deployment.");
+}
+
+}  // namespace
+
+void keys_usage(std::FILE* f) {
+  KeysArgs o;
+  CLI::App app("", "tandem keys");
+  describe(app, o);
+  std::fputs(app.help().c_str(), f);
 }
 
 namespace {
 
-struct KeysArgs {
-  std::string file, dir;
-  int days = 365;
-  bool new_ca = false;
-};
-
 /// Reads the command line; -1 to go on, else the exit code (0 after --help).
 int parse_keys_args(const std::vector<std::string>& args, KeysArgs& o) {
-  for (size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    if (a == "--help" || a == "-h") {
-      keys_usage(stdout);
-      return 0;
-    } else if (a == "--dir" && i + 1 < args.size()) {
-      o.dir = args[++i];
-    } else if (a == "--days" && i + 1 < args.size()) {
-      char* end = nullptr;
-      const long v = std::strtol(args[++i].c_str(), &end, 10);
-      if (*end != '\0' || v < 1 || v > 3650) {
-        std::fprintf(stderr, "tandem keys: --days '%s': expected a whole number of days in [1, 3650]\n", args[i].c_str());
-        return 2;
-      }
-      o.days = static_cast<int>(v);
-    } else if (a == "--new-ca") {
-      o.new_ca = true;
-    } else if (!a.empty() && a[0] == '-') {
-      std::fprintf(stderr, "tandem keys: unknown option '%s' (or missing value; see 'tandem help keys')\n", a.c_str());
-      return 2;
-    } else if (o.file.empty()) {
-      o.file = a;
-    } else {
-      std::fprintf(stderr, "tandem keys: one deployment file expected, got '%s' too\n", a.c_str());
-      return 2;
-    }
-  }
-  if (o.file.empty()) {
-    std::fprintf(stderr, "tandem keys: missing the deployment file\n\n");
-    keys_usage(stderr);
-    return 2;
-  }
-  return -1;
+  CLI::App app("", "tandem keys");
+  describe(app, o);
+  return runtime::parse_args(app, args);
 }
 
 /// Makes the CA (unless one is there and no new one is asked for), then a key and certificate per identity, in

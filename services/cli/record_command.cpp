@@ -27,6 +27,7 @@
 #include "tandem/dds/bus.hpp"
 #include "tandem/record/recording.hpp"
 #include "tandem/record/tap.hpp"
+#include "tandem/runtime/args.hpp"
 #include "tandem/runtime/deployment.hpp"
 #include "tandem/runtime/security.hpp"
 #include "tandem/runtime/status.hpp"
@@ -161,51 +162,17 @@ class Recorder : public record::TapSink {
 
 }  // namespace
 
-void record_usage(std::FILE* f) {
-  std::fputs(
-      "usage: tandem record <deploy.yaml> -o FILE.mcap [--topics LIST] [--duration SECONDS] [--attached]\n"
-      "\n"
-      "Joins the deployment's DDS domain as its own participant and writes what it hears to an MCAP file\n"
-      "with Protobuf messages (schema idl/tandem_record.proto; each schema record holds the "
-      "FileDescriptorSet,\n"
-      "so Foxglove Studio, the mcap CLI or any MCAP library decodes it). Start it beside a running "
-      "deployment,\n"
-      "or let `tandem up` start it: `record: FILE` in the deployment, or `tandem up --record FILE`.\n"
-      "\n"
-      "  -o, --out FILE    the recording to write (overwritten)\n"
-      "  --topics LIST     comma-separated groups (default: all):\n"
-      "                      ticks      arm sensors and torque commands of every arm, every tick\n"
-      "                      world      the worlds' reports (brakes, holds, owners, counters), every 10 "
-      "ticks\n"
-      "                      status     every process's status (about every 100 ms)\n"
-      "                      tasks      task assignments, task states, the supervisors' plans\n"
-      "                      summaries  robot and world summaries at the end of a run\n"
-      "                      control    control requests (down, kill, plug, unplug, pause, ...)\n"
-      "                      events     lifecycle changes, failovers/takeovers, brakes, pauses, tasks, gaps\n"
-      "  --duration S      stop after S seconds (default: until Ctrl-C, SIGTERM, or the deployment's "
-      "launcher\n"
-      "                    finishes)\n"
-      "  --attached        started by `tandem up`: stop only on SIGTERM (the launcher stops it last)\n"
-      "\n"
-      "Per-tick topics are read with the robots' QoS: in lockstep nothing is lost (the world waits for the\n"
-      "recorder to match before its first tick); in real time samples are best effort and a tick the "
-      "recorder\n"
-      "did not get is logged as a 'gap' event. Use `tandem report FILE.mcap -o DIR` for plots.\n"
-      "Exit: 0 written, 1 the file could not be written completely, 2 bad command line or deployment.\n",
-      f);
-}
-
 namespace {
 
 struct RecordArgs {
-  std::string file, out;
-  std::set<std::string> groups = kGroups;
+  std::string file, out, topics = "all";
   double duration = 0.0;
+  std::set<std::string> groups = kGroups;
   bool attached = false;
 };
 
-/// --topics: a comma-separated list of groups ("all" for every one); false (said) if one is unknown or none given.
-bool parse_groups(const std::string& list, std::set<std::string>& groups) {
+/// --topics: a comma-separated list of groups ("all" for every one); the message names an unknown group.
+std::string parse_groups(const std::string& list, std::set<std::string>& groups) {
   groups.clear();
   std::stringstream ss(list);
   std::string g;
@@ -213,71 +180,55 @@ bool parse_groups(const std::string& list, std::set<std::string>& groups) {
     if (g == "all") {
       groups = kGroups;
     } else if (kGroups.count(g) == 0) {
-      std::fprintf(stderr,
-                   "tandem record: unknown topic group '%s'; accepted: all, ticks, world, status, tasks, summaries, "
-                   "control, events\n",
-                   g.c_str());
-      return false;
+      return "unknown topic group '" + g + "'; accepted: all, ticks, world, status, tasks, summaries, control, events";
     } else {
       groups.insert(g);
     }
   }
-  if (groups.empty()) {
-    std::fprintf(stderr, "tandem record: --topics names no group\n");
-    return false;
-  }
-  return true;
+  return groups.empty() ? "names no group" : "";
 }
 
-/// Reads the command line; -1 to go on, else the exit code (0 after --help).
-int parse_record_args(const std::vector<std::string>& args, RecordArgs& o) {
-  for (size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    auto value = [&](const char* what) -> const std::string* {
-      if (i + 1 >= args.size()) {
-        std::fprintf(stderr, "tandem record: %s needs %s\n", a.c_str(), what);
-        return nullptr;
-      }
-      return &args[++i];
-    };
-    if (a == "--help" || a == "-h") {
-      record_usage(stdout);
-      return 0;
-    } else if (a == "-o" || a == "--out") {
-      const std::string* v = value("a file name");
-      if (v == nullptr) return 2;
-      o.out = *v;
-    } else if (a == "--topics") {
-      const std::string* v = value("a list of groups");
-      if (v == nullptr || !parse_groups(*v, o.groups)) return 2;
-    } else if (a == "--duration") {
-      const std::string* v = value("seconds");
-      if (v == nullptr) return 2;
-      char* end = nullptr;
-      o.duration = std::strtod(v->c_str(), &end);
-      if (end == v->c_str() || *end != '\0' || !(o.duration > 0.0) || o.duration > 1e7) {
-        std::fprintf(stderr, "tandem record: --duration '%s' is not a number of seconds > 0\n", v->c_str());
-        return 2;
-      }
-    } else if (a == "--attached") {
-      o.attached = true;
-    } else if (!a.empty() && a[0] == '-') {
-      std::fprintf(stderr, "tandem record: unknown option '%s' (see 'tandem help record')\n", a.c_str());
-      return 2;
-    } else if (o.file.empty()) {
-      o.file = a;
-    } else {
-      std::fprintf(stderr, "tandem record: one deployment file expected, got '%s' too\n", a.c_str());
-      return 2;
-    }
-  }
-  if (o.file.empty() || o.out.empty()) {
-    std::fprintf(stderr, "tandem record: %s\n\n", o.file.empty() ? "missing the deployment file" : "missing -o FILE.mcap");
-    record_usage(stderr);
-    return 2;
-  }
-  return -1;
+/// The command line, on CLI11 (runtime::parse_args): `tandem help record` prints the same text as --help.
+void describe(CLI::App& app, RecordArgs& o) {
+  app.description(
+      "Joins the deployment's DDS domain as its own participant and writes what it hears to an MCAP file\n"
+      "with Protobuf messages (schema idl/tandem_record.proto; each schema record holds the FileDescriptorSet,\n"
+      "so Foxglove Studio, the mcap CLI or any MCAP library decodes it). Start it beside a running deployment,\n"
+      "or let `tandem up` start it: `record: FILE` in the deployment, or `tandem up --record FILE`.");
+  app.add_option("deploy", o.file, "the deployment file")->required()->type_name("DEPLOY.yaml");
+  app.add_option("-o,--out", o.out, "the recording to write (overwritten)")->required()->type_name("FILE.mcap");
+  app.add_option("--topics", o.topics,
+                 "comma-separated groups (default: all):\n"
+                 "  ticks      arm sensors and torque commands of every arm, every tick\n"
+                 "  world      the worlds' reports (brakes, holds, owners, counters), every 10 ticks\n"
+                 "  status     every process's status (about every 100 ms)\n"
+                 "  tasks      task assignments, task states, the supervisors' plans\n"
+                 "  summaries  robot and world summaries at the end of a run\n"
+                 "  control    control requests (down, kill, plug, unplug, pause, ...)\n"
+                 "  events     lifecycle changes, failovers/takeovers, brakes, pauses, tasks, gaps")
+      ->check(CLI::Validator([&o](std::string& v) { return parse_groups(v, o.groups); }, ""))
+      ->type_name("LIST");
+  app.add_option("--duration", o.duration,
+                 "stop after S seconds (default: until Ctrl-C, SIGTERM, or the deployment's launcher finishes)")
+      ->check(runtime::seconds_up_to(1e7))->type_name("S");
+  app.add_flag("--attached", o.attached, "started by `tandem up`: stop only on SIGTERM (the launcher stops it last)");
+  app.footer(
+      "Per-tick topics are read with the robots' QoS: in lockstep nothing is lost (the world waits for the\n"
+      "recorder to match before its first tick); in real time samples are best effort and a tick the recorder\n"
+      "did not get is logged as a 'gap' event. Use `tandem report FILE.mcap -o DIR` for plots.\n"
+      "Exit: 0 written, 1 the file could not be written completely, 2 bad command line or deployment.");
 }
+
+}  // namespace
+
+void record_usage(std::FILE* f) {
+  RecordArgs o;
+  CLI::App app("", "tandem record");
+  describe(app, o);
+  std::fputs(app.help().c_str(), f);
+}
+
+namespace {
 
 /// Signals, discovery, security and priority for a recorder of `d`; -1 to go on, else the exit code.
 int prepare_recorder(const runtime::Deployment& d, bool attached) {
@@ -339,7 +290,9 @@ void record_until_done(Recorder& rec, runtime::StatusPublisher& status, const Re
 
 int record_command(const std::vector<std::string>& args) {
   RecordArgs o;
-  if (const int code = parse_record_args(args, o); code >= 0) return code;
+  CLI::App app("", "tandem record");
+  describe(app, o);
+  if (const int code = runtime::parse_args(app, args); code >= 0) return code;
   runtime::Deployment d;
   try {
     d = runtime::load_deployment(o.file);

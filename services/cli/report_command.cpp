@@ -4,6 +4,7 @@
 #include <string>
 
 #include "tandem/record/report.hpp"
+#include "tandem/runtime/args.hpp"
 
 namespace tandem::cli {
 
@@ -15,10 +16,16 @@ std::string fmt_e(double v) {
 }
 }  // namespace
 
-void report_usage(std::FILE* f) {
-  std::fputs(
-      "usage: tandem report <run.mcap> -o DIR [--salvage]\n"
-      "\n"
+namespace {
+
+struct ReportArgs {
+  std::string in, dir;
+  bool salvage = false;
+};
+
+/// The command line, on CLI11 (runtime::parse_args): `tandem help report` prints the same text as --help.
+void describe(CLI::App& app, ReportArgs& o) {
+  app.description(
       "Writes DIR/index.html with SVG plots of a recording, and DIR/summary.txt with the figures recomputed\n"
       "from the recorded samples (key=value):\n"
       "  - per robot: tracking error |x_d - x| and normal force against h_sg over time, failovers and takeovers\n"
@@ -26,44 +33,32 @@ void report_usage(std::FILE* f) {
       "  - per module: task progress, tasks done, pauses and brakes, late arm-ticks per second and the\n"
       "    sample->command latency p99 over time;\n"
       "  - for `tandem sim --mcap` recordings: the paper's figures (Cartesian errors, force error, sliding\n"
-      "    variables, normal force) for every case side by side.\n"
-      "A corrupt or truncated file is refused with the byte offset and what was wrong; --salvage reports what\n"
-      "came before the damage (every intact chunk) and says so on the page.\n"
-      "Exit: 0 written, 1 the recording is unreadable or DIR cannot be written, 2 bad command line.\n",
-      f);
+      "    variables, normal force) for every case side by side.");
+  app.add_option("recording", o.in, "the recording (tandem record, tandem sim --mcap)")->required()->type_name("RUN.mcap");
+  app.add_option("-o,--out", o.dir, "the report's directory")->required()->type_name("DIR");
+  app.add_flag("--salvage", o.salvage,
+               "a corrupt or truncated file is refused with the byte offset and what was wrong; with this, report\n"
+               "what came before the damage (every intact chunk) and say so on the page");
+  app.footer("Exit: 0 written, 1 the recording is unreadable or DIR cannot be written, 2 bad command line.");
+}
+
+}  // namespace
+
+void report_usage(std::FILE* f) {
+  ReportArgs o;
+  CLI::App app("", "tandem report");
+  describe(app, o);
+  std::fputs(app.help().c_str(), f);
 }
 
 int report_command(const std::vector<std::string>& args) {
-  std::string in, dir;
-  bool salvage = false;
-  for (size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    if (a == "--help" || a == "-h") {
-      report_usage(stdout);
-      return 0;
-    } else if (a == "-o" || a == "--out") {
-      if (i + 1 >= args.size()) {
-        std::fprintf(stderr, "tandem report: %s needs a directory\n", a.c_str());
-        return 2;
-      }
-      dir = args[++i];
-    } else if (a == "--salvage") {
-      salvage = true;
-    } else if (!a.empty() && a[0] == '-') {
-      std::fprintf(stderr, "tandem report: unknown option '%s' (see 'tandem help report')\n", a.c_str());
-      return 2;
-    } else if (in.empty()) {
-      in = a;
-    } else {
-      std::fprintf(stderr, "tandem report: one recording expected, got '%s' too\n", a.c_str());
-      return 2;
-    }
-  }
-  if (in.empty() || dir.empty()) {
-    std::fprintf(stderr, "tandem report: %s\n\n", in.empty() ? "missing the recording (run.mcap)" : "missing -o DIR");
-    report_usage(stderr);
-    return 2;
-  }
+  ReportArgs o;
+  CLI::App app("", "tandem report");
+  describe(app, o);
+  if (const int code = runtime::parse_args(app, args); code >= 0) return code;
+  const std::string& in = o.in;
+  const std::string& dir = o.dir;
+  const bool salvage = o.salvage;
   try {
     const record::ReportResult r = record::write_recording_report(in, dir, salvage);
     if (r.salvaged) std::printf("tandem report: warning: %s\n  reported what came before the damage\n", r.damage.c_str());

@@ -17,32 +17,12 @@
 #include "tandem/model/grasp.hpp"
 #include "tandem/record/recording.hpp"
 #include "tandem/page/files.hpp"
+#include "tandem/runtime/args.hpp"
 #include "tandem/sim/embedded.hpp"
 #include "tandem/sim/module_setup.hpp"
 #include "tandem/sim/scenario_yaml.hpp"
 
 namespace tandem::cli {
-
-void sim_usage(std::FILE* f) {
-  std::fputs(
-      "usage: tandem sim <scenario.yaml> [--out DIR] [--case NAME]... [--no-csv] [--mcap FILE | --no-mcap]\n"
-      "\n"
-      "Runs every case of the scenario (or only those named with --case) on the embedded module:\n"
-      "world, supervisor and both robot controllers in one process, 1 kHz control, RK4 plant.\n"
-      "Prints per case and robot the RMS of e_p (position and orientation) and e_h, the grasp checks,\n"
-      "and the paper's Table IV beside the reported robot. Writes the time series of every case to\n"
-      "DIR/<scenario name>.mcap (MCAP, Protobuf SimSample per tick on tandem/sim/<case>; `tandem report` makes\n"
-      "the paper's figures from it; --mcap FILE elsewhere, --no-mcap not at all) and to DIR/<case>.csv\n"
-      "(--no-csv: not). Default DIR: runs/<scenario name>.\n"
-      "\n"
-      "RMS definition: root mean square over every control period of the whole run of\n"
-      "  e_p,pos = ||(x_d - x)_xy|| [m], e_p,phi = phi_d - phi [rad], e_h = h_ref - h_n [N],\n"
-      "with x_d from eq. (15); 'steady' columns use only the final hold after the motion.\n"
-      "\n"
-      "Exit: 0 all cases that require the grasp kept it (no slip, no contact loss, force >= h_sg after\n"
-      "the start-up transient); 1 some case failed; 2 bad arguments or scenario file.\n",
-      f);
-}
 
 namespace {
 
@@ -86,47 +66,52 @@ struct SimArgs {
   std::string file, out_dir, mcap_file;
   std::vector<std::string> only;
   bool csv = true, mcap = true;
+  bool no_csv = false, no_mcap = false;  // the flags as given
 };
+
+/// The command line, on CLI11 (runtime::parse_args): `tandem help sim` prints the same text as --help.
+void describe(CLI::App& app, SimArgs& o) {
+  app.description(
+      "Runs every case of the scenario (or only those named with --case) on the embedded module:\n"
+      "world, supervisor and both robot controllers in one process, 1 kHz control, RK4 plant.\n"
+      "Prints per case and robot the RMS of e_p (position and orientation) and e_h, the grasp checks,\n"
+      "and the paper's Table IV beside the reported robot. Writes the time series of every case to\n"
+      "DIR/<scenario name>.mcap (MCAP, Protobuf SimSample per tick on tandem/sim/<case>; `tandem report` makes\n"
+      "the paper's figures from it) and to DIR/<case>.csv.");
+  app.add_option("scenario", o.file, "the scenario file (docs/scenario-schema.md)")->required()->type_name("SCENARIO.yaml");
+  app.add_option("--out", o.out_dir, "the output directory (default: runs/<scenario name>)")->type_name("DIR");
+  app.add_option("--case", o.only, "run only this case (repeat for more)")->type_name("NAME");
+  app.add_flag("--no-csv", o.no_csv, "write no CSV files");
+  auto* mcap = app.add_option("--mcap", o.mcap_file, "write the MCAP file here instead")->type_name("FILE");
+  app.add_flag("--no-mcap", o.no_mcap, "write no MCAP file")->excludes(mcap);
+  app.footer(
+      "RMS definition: root mean square over every control period of the whole run of\n"
+      "  e_p,pos = ||(x_d - x)_xy|| [m], e_p,phi = phi_d - phi [rad], e_h = h_ref - h_n [N],\n"
+      "with x_d from eq. (15); 'steady' columns use only the final hold after the motion.\n"
+      "\n"
+      "Exit: 0 all cases that require the grasp kept it (no slip, no contact loss, force >= h_sg after\n"
+      "the start-up transient); 1 some case failed; 2 bad arguments or scenario file.");
+}
+
+}  // namespace
+
+void sim_usage(std::FILE* f) {
+  SimArgs o;
+  CLI::App app("", "tandem sim");
+  describe(app, o);
+  std::fputs(app.help().c_str(), f);
+}
+
+namespace {
 
 /// Reads the command line; -1 to go on, else the exit code (0 after --help).
 int parse_sim_args(const std::vector<std::string>& args, SimArgs& o) {
-  for (size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    if (a == "--help" || a == "-h") {
-      sim_usage(stdout);
-      return 0;
-    } else if (a == "--out" || a == "--case") {
-      if (i + 1 >= args.size()) {
-        std::fprintf(stderr, "tandem sim: %s needs a value\n", a.c_str());
-        return 2;
-      }
-      (a == "--out" ? o.out_dir : (o.only.emplace_back(), o.only.back())) = args[++i];
-    } else if (a == "--no-csv") {
-      o.csv = false;
-    } else if (a == "--no-mcap") {
-      o.mcap = false;
-    } else if (a == "--mcap") {
-      if (i + 1 >= args.size()) {
-        std::fprintf(stderr, "tandem sim: --mcap needs a file name\n");
-        return 2;
-      }
-      o.mcap_file = args[++i];
-    } else if (!a.empty() && a[0] == '-') {
-      std::fprintf(stderr, "tandem sim: unknown option '%s' (see 'tandem help sim')\n", a.c_str());
-      return 2;
-    } else if (o.file.empty()) {
-      o.file = a;
-    } else {
-      std::fprintf(stderr, "tandem sim: one scenario file expected, got '%s' too\n", a.c_str());
-      return 2;
-    }
-  }
-  if (o.file.empty()) {
-    std::fprintf(stderr, "tandem sim: missing the scenario file\n\n");
-    sim_usage(stderr);
-    return 2;
-  }
-  return -1;
+  CLI::App app("", "tandem sim");
+  describe(app, o);
+  const int code = runtime::parse_args(app, args);
+  o.csv = !o.no_csv;
+  o.mcap = !o.no_mcap;
+  return code;
 }
 
 /// Loads the scenario and checks the cases asked for and every case's module (a configuration that cannot run

@@ -25,6 +25,7 @@
 #include "tandem/launcher/spawn.hpp"
 #include "tandem/record/recording.hpp"
 #include "tandem/record/tap.hpp"
+#include "tandem/runtime/args.hpp"
 #include "tandem/runtime/deployment.hpp"
 #include "tandem/runtime/security.hpp"
 #include "tandem/runtime/status.hpp"
@@ -101,57 +102,54 @@ class ViewSink : public record::TapSink {
   std::string buf_;
 };
 
+/// The command line, on CLI11 (runtime::parse_args): `tandem help view` prints the same text as --help.
+void describe_args(CLI::App& app, ViewArgs& a) {
+  app.description(
+      "With a recording (tandem record, tandem up --record): the same page over the recorded run, with a time\n"
+      "slider (Foxglove Studio opens the .mcap file itself). With a deployment file: joins the deployment's DDS\n"
+      "domain as one more participant (read only, as `tandem record`) and serves, on one port, a page of its own\n"
+      "at http://ADDRESS:PORT/ and the Foxglove WebSocket protocol (foxglove.websocket.v1, also offered as\n"
+      "foxglove.sdk.v1) on the same address: in Foxglove Studio, open a connection to ws://ADDRESS:PORT. Every\n"
+      "DDS topic is a protobuf channel (the schemas the recordings embed), at full rate; tandem/view/state,\n"
+      "tandem/view/plot (|e_p| and h_n of each arm's serving robot, 50 Hz) and tandem/view/events are the\n"
+      "page's JSON channels.");
+  app.add_option("source", a.file, "a deployment file, or a recording (.mcap)")->required()->type_name("DEPLOY.yaml|RUN.mcap");
+  app.add_option("--port", a.port, "the port (0: any free port, printed)")
+      ->check(CLI::Validator(
+          [](std::string& v) {
+            char* end = nullptr;
+            const long p = std::strtol(v.c_str(), &end, 10);
+            return v.empty() || *end != '\0' || p < 0 || p > 65535
+                       ? "'" + v + "' is not a port number 0-65535 (0: any free port)"
+                       : std::string();
+          },
+          ""))
+      ->capture_default_str()->type_name("N");
+  app.add_option("--bind", a.bind,
+                 "the address to listen on (127.0.0.1: this machine only; other addresses expose the\n"
+                 "deployment's data to the network)")
+      ->capture_default_str()->type_name("ADDR");
+  app.add_option("--duration", a.duration, "stop after S seconds (default: until Ctrl-C or SIGTERM)")
+      ->check(runtime::seconds_up_to(1e7))->type_name("S");
+  app.add_option("--web", a.web, "the page's files (default: share/tandem/view beside the binaries)")->type_name("DIR");
+  app.add_option("--token-file", a.token_file,
+                 "the token that live commands from other machines must carry (its first line, 16+ characters);\n"
+                 "without it a viewer on another address than loopback makes one and prints the page's URL with it")
+      ->type_name("F");
+  app.footer(
+      "Live commands: the page's buttons (down, kill, unplug) run `tandem <command> <deploy.yaml> ...` as the\n"
+      "CLI does (with security on, through the cli identity). From this machine they need nothing more, as the\n"
+      "CLI does not; from another machine, the token (X-Tandem-Token header; the page takes it from ?token=).\n"
+      "\n"
+      "Each client has a bounded queue per channel (1000 frames; 64 for the page's state and plot) that drops its\n"
+      "oldest frame when the client falls behind and counts it; the page shows the drops. A slow client never\n"
+      "slows the deployment. Exit: 0 stopped, 2 bad command line, deployment, or a port it cannot listen on.");
+}
+
 int parse_view_args(const std::vector<std::string>& args, ViewArgs& a) {
-  for (size_t i = 0; i < args.size(); ++i) {
-    const std::string& x = args[i];
-    const bool has_value = i + 1 < args.size();
-    if (x == "--help" || x == "-h") {
-      view_usage(stdout);
-      return 0;
-    }
-    if ((x == "--port" || x == "--bind" || x == "--web" || x == "--duration" || x == "--token-file") && !has_value) {
-      std::fprintf(stderr, "tandem view: %s needs a value (see 'tandem help view')\n", x.c_str());
-      return 2;
-    }
-    if (x == "--port") {
-      char* end = nullptr;
-      const long p = std::strtol(args[++i].c_str(), &end, 10);
-      if (*end != '\0' || p < 0 || p > 65535) {
-        std::fprintf(stderr, "tandem view: --port '%s' is not a port number 0-65535 (0: any free port)\n",
-                     args[i].c_str());
-        return 2;
-      }
-      a.port = static_cast<int>(p);
-    } else if (x == "--bind") {
-      a.bind = args[++i];
-    } else if (x == "--web") {
-      a.web = args[++i];
-    } else if (x == "--token-file") {
-      a.token_file = args[++i];
-    } else if (x == "--duration") {
-      char* end = nullptr;
-      a.duration = std::strtod(args[++i].c_str(), &end);
-      if (*end != '\0' || !(a.duration > 0.0)) {
-        std::fprintf(stderr, "tandem view: --duration '%s' is not a number of seconds > 0\n",
-                     args[i].c_str());
-        return 2;
-      }
-    } else if (!x.empty() && x[0] == '-') {
-      std::fprintf(stderr, "tandem view: unknown option '%s' (see 'tandem help view')\n", x.c_str());
-      return 2;
-    } else if (a.file.empty()) {
-      a.file = x;
-    } else {
-      std::fprintf(stderr, "tandem view: one deployment file expected, got '%s' too\n", x.c_str());
-      return 2;
-    }
-  }
-  if (a.file.empty()) {
-    std::fprintf(stderr, "tandem view: missing the deployment file\n\n");
-    view_usage(stderr);
-    return 2;
-  }
-  return -1;
+  CLI::App app("", "tandem view");
+  describe_args(app, a);
+  return runtime::parse_args(app, args);
 }
 
 /// The tap's configuration and the channels of deployment `d`; the safe-grasp force of each module.
@@ -379,45 +377,10 @@ int view_recording(const ViewArgs& a) {
 }  // namespace
 
 void view_usage(std::FILE* f) {
-  std::fputs(
-      "usage: tandem view <deploy.yaml | run.mcap> [--port 8765] [--bind 127.0.0.1] [--duration SECONDS] "
-      "[--web DIR]\n"
-      "\n"
-      "With a recording (tandem record, tandem up --record): the same page over the recorded run, with a "
-      "time\n"
-      "slider (Foxglove Studio opens the .mcap file itself). With a deployment file:\n"
-      "Joins the deployment's DDS domain as one more participant (read only, as `tandem record`) and serves, "
-      "on one\n"
-      "port, a page of its own at http://ADDRESS:PORT/ and the Foxglove WebSocket protocol "
-      "(foxglove.websocket.v1,\n"
-      "also offered as foxglove.sdk.v1) on the same address: in Foxglove Studio, open a connection to\n"
-      "ws://ADDRESS:PORT. Every DDS topic is a protobuf channel (the schemas the recordings embed), at full "
-      "rate;\n"
-      "tandem/view/state, tandem/view/plot (|e_p| and h_n of each arm's serving robot, 50 Hz) and "
-      "tandem/view/events\n"
-      "are the page's JSON channels.\n"
-      "\n"
-      "  --port N        the port (default 8765; 0: any free port, printed)\n"
-      "  --bind ADDR     the address to listen on (default 127.0.0.1: this machine only; other addresses "
-      "expose\n"
-      "                  the deployment's data to the network)\n"
-      "  --duration S    stop after S seconds (default: until Ctrl-C or SIGTERM)\n"
-      "  --web DIR       the page's files (default: share/tandem/view beside the binaries)\n"
-      "  --token-file F  the token that live commands from other machines must carry (its first line, 16+\n"
-      "                  characters); without it a viewer on another address than loopback makes one and prints\n"
-      "                  the page's URL with it\n"
-      "\n"
-      "Live commands: the page's buttons (down, kill, unplug) run `tandem <command> <deploy.yaml> ...` as the\n"
-      "CLI does (with security on, through the cli identity). From this machine they need nothing more, as the\n"
-      "CLI does not; from another machine, the token (X-Tandem-Token header; the page takes it from ?token=).\n"
-      "\n"
-      "Each client has a bounded queue per channel (1000 frames; 64 for the page's state and plot) that "
-      "drops its\n"
-      "oldest frame when the client falls behind and counts it; the page shows the drops. A slow client "
-      "never\n"
-      "slows the deployment. Exit: 0 stopped, 2 bad command line, deployment, or a port it cannot listen "
-      "on.\n",
-      f);
+  ViewArgs a;
+  CLI::App app("", "tandem view");
+  describe_args(app, a);
+  std::fputs(app.help().c_str(), f);
 }
 
 int view_command(const std::vector<std::string>& args) {

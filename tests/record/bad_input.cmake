@@ -60,8 +60,8 @@ if(pos EQUAL -1)
 endif()
 set(cases
   "--topics|ticks,bogus|unknown topic group 'bogus'"
-  "--duration|-5|--duration '-5' is not a number of seconds > 0"
-  "--frobnicate|-|unknown option '--frobnicate'")
+  "--duration|-5|--duration: must be a number of seconds"
+  "--frobnicate|-|unknown option or extra argument '--frobnicate'")
 foreach(c IN LISTS cases)
   string(REPLACE "|" ";" parts "${c}")
   list(GET parts 0 opt)
@@ -84,7 +84,7 @@ if(EXISTS ${W}/never.mcap)
   message(FATAL_ERROR "a refused tandem record created its file")
 endif()
 execute_process(COMMAND ${TANDEM} record ${SRC}/deploy/one-module.yaml RESULT_VARIABLE rc ERROR_VARIABLE err)
-string(FIND "${err}" "missing -o FILE.mcap" pos)
+string(FIND "${err}" "--out is required" pos)
 if(NOT rc EQUAL 2 OR pos EQUAL -1)
   message(FATAL_ERROR "record without -o: exit ${rc}\n${err}")
 endif()

@@ -5,14 +5,14 @@ file(MAKE_DIRECTORY ${WORK}/bad-soak)
 file(WRITE ${WORK}/bad-soak/typo.yaml "faults:\n  - {kind: kill, target: robot, rate: 2, ofen: 1}\n")
 file(WRITE ${WORK}/bad-soak/target.yaml "faults:\n  - {kind: unplug, target: world, rate: 1}\n")
 set(cases
-  "--duration|10x|--duration '10x': expected a time above 0"
-  "--seed|-3|--seed '-3': expected a whole number"
+  "--duration|10x|'10x': expected a time above 0"
+  "--seed|-3|expected a whole number"
   "--timing|fast|accepted: realtime, lockstep"
   "--transport|tcp|accepted: udp, shm"
   "--faults|gentle|presets: mixed, ci, kills, none"
   "--faults|${WORK}/bad-soak/typo.yaml|unknown key 'ofen'"
   "--faults|${WORK}/bad-soak/target.yaml|accepted: robot, standby, module"
-  "--frobnicate|-|unknown option '--frobnicate'")
+  "--frobnicate|-|unknown option or extra argument '--frobnicate'")
 foreach(c IN LISTS cases)
   string(REPLACE "|" ";" parts "${c}")
   list(GET parts 0 opt)

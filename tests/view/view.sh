@@ -22,11 +22,11 @@ fail() { echo "FAIL: $*"; for f in up.log view.log; do [ -f "$f" ] && { echo "--
 
 echo "== 1. bad command lines"
 rc=0; "$bin/tandem" view > bad1.log 2>&1 || rc=$?
-[ "$rc" -eq 2 ] && grep -q "missing the deployment file" bad1.log || fail "no file: expected exit 2 (got $rc)"
+[ "$rc" -eq 2 ] && grep -q "source is required" bad1.log || fail "no file: expected exit 2 (got $rc)"
 rc=0; "$bin/tandem" view x.yaml --port 70000 > bad2.log 2>&1 || rc=$?
 [ "$rc" -eq 2 ] && grep -q "not a port number 0-65535" bad2.log || fail "bad port: expected exit 2 (got $rc)"
 rc=0; "$bin/tandem" view x.yaml --frobnicate > bad3.log 2>&1 || rc=$?
-[ "$rc" -eq 2 ] && grep -q "unknown option '--frobnicate'" bad3.log || fail "unknown option: expected exit 2 (got $rc)"
+[ "$rc" -eq 2 ] && grep -q "unknown option or extra argument '--frobnicate'" bad3.log || fail "unknown option: expected exit 2 (got $rc)"
 rc=0; "$bin/tandem" view "$work/none.yaml" > bad4.log 2>&1 || rc=$?
 [ "$rc" -eq 2 ] || fail "a missing deployment file: expected exit 2 (got $rc)"
 

@@ -29,6 +29,7 @@
 #include "tandem/dds/bus.hpp"
 #include "tandem/launcher/agent_core.hpp"
 #include "tandem/launcher/spawn.hpp"
+#include "tandem/runtime/args.hpp"
 #include "tandem/runtime/deployment.hpp"
 #include "tandem/runtime/security.hpp"
 #include "tandem/runtime/shm_clean.hpp"
@@ -43,27 +44,6 @@ using Clock = std::chrono::steady_clock;
 std::atomic<bool> g_agent_stop{false};
 void on_agent_signal(int) { g_agent_stop = true; }
 
-void agent_usage(std::FILE* f) {
-  std::fputs(
-      "usage: tandem agent <deploy.yaml> --host NAME [--once]\n"
-      "\n"
-      "Runs the agent of host NAME of a multi-host deployment (its 'hosts:'): start it on each host before\n"
-      "'tandem up'. The launcher asks it over DDS to start the processes placed on NAME (world, supervisor,\n"
-      "robots, coordinator) and to signal them; it reports them every 100 ms. Every host needs the same\n"
-      "deployment file, scenarios and build at the same paths.\n"
-      "\n"
-      "  --host NAME   this host's name in 'hosts:'; its address must be one of this machine's\n"
-      "  --once        exit when the launcher's run is over, or its launcher has been silent for host_timeout\n"
-      "                (default: keep serving: the same launcher once heard again, or the next run)\n"
-      "\n"
-      "Fencing: when the launcher is silent for host_timeout seconds (a cut link), or says it counts this host\n"
-      "as lost (it does not hear the agent), the agent SIGKILLs its processes: standbys on other hosts have\n"
-      "taken over. One agent per host: a second one for the same host is refused (exit 2).\n"
-      "SIGINT/SIGTERM stop the agent: its processes get SIGTERM, SIGKILL after 5 s, and are reaped.\n"
-      "\n"
-      "Exit: 0 stopped; 2 bad arguments, an unknown host, or an address not on this machine.\n",
-      f);
-}
 
 /// The IPv4 addresses of this machine's interfaces.
 std::vector<std::string> local_addresses() {
@@ -182,32 +162,33 @@ struct AgentArgs {
   bool once = false;
 };
 
+/// The command line, on CLI11 (runtime::parse_args): `tandem help agent` prints the same text as --help.
+void describe(CLI::App& app, AgentArgs& o) {
+  app.description(
+      "Runs the agent of host NAME of a multi-host deployment (its 'hosts:'): start it on each host before\n"
+      "'tandem up'. The launcher asks it over DDS to start the processes placed on NAME (world, supervisor,\n"
+      "robots, coordinator) and to signal them; it reports them every 100 ms. Every host needs the same\n"
+      "deployment file, scenarios and build at the same paths.");
+  app.add_option("deploy", o.file, "the deployment file (docs/multihost.md)")->required()->type_name("DEPLOY.yaml");
+  app.add_option("--host", o.host, "this host's name in 'hosts:'; its address must be one of this machine's")
+      ->required()->type_name("NAME");
+  app.add_flag("--once", o.once,
+               "exit when the launcher's run is over, or its launcher has been silent for host_timeout\n"
+               "(default: keep serving: the same launcher once heard again, or the next run)");
+  app.footer(
+      "Fencing: when the launcher is silent for host_timeout seconds (a cut link), or says it counts this host\n"
+      "as lost (it does not hear the agent), the agent SIGKILLs its processes: standbys on other hosts have\n"
+      "taken over. One agent per host: a second one for the same host is refused (exit 2).\n"
+      "SIGINT/SIGTERM stop the agent: its processes get SIGTERM, SIGKILL after 5 s, and are reaped.\n"
+      "\n"
+      "Exit: 0 stopped; 2 bad arguments, an unknown host, or an address not on this machine.");
+}
+
 /// Reads the command line; -1 to go on, else the exit code (0 after --help).
 int parse_agent_args(const std::vector<std::string>& args, AgentArgs& o) {
-  for (size_t i = 0; i < args.size(); ++i) {
-    if (args[i] == "--help" || args[i] == "-h") {
-      agent_usage(stdout);
-      return 0;
-    } else if (args[i] == "--host" && i + 1 < args.size()) {
-      o.host = args[++i];
-    } else if (args[i] == "--once") {
-      o.once = true;
-    } else if (!args[i].empty() && args[i][0] == '-') {
-      std::fprintf(stderr, "tandem agent: unknown option '%s' (see 'tandem help agent')\n", args[i].c_str());
-      return 2;
-    } else if (o.file.empty()) {
-      o.file = args[i];
-    } else {
-      std::fprintf(stderr, "tandem agent: one deployment file expected, got '%s' too\n", args[i].c_str());
-      return 2;
-    }
-  }
-  if (o.file.empty() || o.host.empty()) {
-    std::fprintf(stderr, "tandem agent: %s\n\n", o.file.empty() ? "missing the deployment file" : "missing --host NAME");
-    agent_usage(stderr);
-    return 2;
-  }
-  return -1;
+  CLI::App app("", "tandem agent");
+  describe(app, o);
+  return runtime::parse_args(app, args);
 }
 
 /// The host's entry of the deployment, if it is this machine's; else nullptr, said.

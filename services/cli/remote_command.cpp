@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include "tandem/launcher/spawn.hpp"
+#include "tandem/runtime/args.hpp"
 #include "tandem/runtime/deployment.hpp"
 #include "tandem/runtime/role.hpp"
 #include "tandem/runtime/security.hpp"
@@ -23,34 +24,90 @@ using runtime::load_deployment;
 namespace {
 namespace bus = tandem::dds;
 
-// Target: a deployment file (its name, domain and transport), or --domain ID [--name NAME].
-bool parse_target(const char* cmd, const std::vector<std::string>& args, Deployment& d) {
-  bool have = false;
-  for (size_t i = 0; i < args.size(); ++i) {
-    if (args[i] == "--domain" && i + 1 < args.size()) {
-      if (!runtime::parse_domain(args[++i], d.domain_id)) {
-        std::fprintf(stderr, "tandem %s: --domain must be an integer in [0, 232], got '%s'\n", cmd, args[i].c_str());
-        return false;
-      }
-      have = true;
-    } else if (args[i] == "--name" && i + 1 < args.size()) {
-      d.name = args[++i];
-    } else if (!args[i].empty() && args[i][0] != '-') {
-      try {
-        d = load_deployment(args[i]);
-      } catch (const std::exception& e) {
-        std::fprintf(stderr, "tandem %s: %s\n", cmd, e.what());
-        return false;
-      }
-      have = true;
-    } else {
-      std::fprintf(stderr, "tandem %s: unknown option '%s'\n", cmd, args[i].c_str());
+const char* const kRemoteHelp =
+    "status: prints the lifecycle state and live figures of every process of the deployment(s) on the domain;\n"
+    "        with a launcher, it waits (at most 10 s) until every process the launcher runs has been heard.\n"
+    "down:   asks the deployment's launcher to stop it cleanly (as Ctrl-C would) and prints its answer; exit 1\n"
+    "        if no launcher of that deployment answers.\n"
+    "kill:   fault injection: the launcher SIGKILLs PROCESS (a label of the status view, e.g. m1/left, m1/world,\n"
+    "        m1/supervisor, m1/supervisor@50, coordinator) or every process of a MODULE. A robot or supervisor\n"
+    "        with a standby is replaced at once; see docs/failure-model.md for what happens to the others.\n"
+    "plug robot: starts a robot process for the arm, as its primary (default; refused if the arm has one) or as\n"
+    "        a standby computing in shadow. Plugged into a paused module (arm braked), it releases the brake and\n"
+    "        the module resumes.\n"
+    "plug module: starts a module of the deployment file not yet running (autostart: false), or a new one\n"
+    "        with --scenario and --case (and --host, a host of the deployment's hosts:, in a multi-host\n"
+    "        deployment); the coordinator gives it tasks.\n"
+    "unplug robot: graceful. With another robot on the arm, it hands over at once (its writer is deleted\n"
+    "        first). Without, the module pauses (object brought to rest, the arm braked) until a robot is plugged.\n"
+    "unplug module: the module finishes its task, takes no new one, and its processes stop.\n"
+    "down, kill, plug and unplug wait for the launcher's answer and print it: exit 0 done, 1 refused or no\n"
+    "answer, 2 bad command line.";
+
+/// A live command's command line: its target (a deployment file, or --domain ID [--name NAME]) and its words.
+struct RemoteArgs {
+  std::vector<std::string> words;  ///< the deployment file first (unless --domain), then the command's own words
+  int domain = -1;
+  std::string name;
+  bool standby = false, primary = false;  // plug robot
+  std::string scenario, case_name, host;  // plug module
+};
+
+/// The command line of `tandem <verb>`, on CLI11 (runtime::parse_args).
+void describe(CLI::App& app, RemoteArgs& a, const std::string& verb) {
+  const bool plug = verb == "plug", unplug = verb == "unplug";
+  std::string words = "DEPLOY.yaml";
+  if (verb == "kill") words += " PROCESS|MODULE";
+  if (plug) words += " robot MODULE/ARM | module NAME";
+  if (unplug) words += " robot MODULE/ARM[@STRENGTH] | module NAME";
+  app.description("tandem " + verb + ": a live command to a running deployment, over DDS.");
+  app.add_option("words", a.words, "the deployment file (none with --domain), then what the command acts on")
+      ->type_name(words);
+  app.add_option("--domain", a.domain, "the DDS domain of a deployment given without its file")
+      ->check(CLI::Range(0, 232))->type_name("ID");
+  app.add_option("--name", a.name, "the deployment's name (with --domain)")->type_name("NAME");
+  if (plug) {
+    app.add_flag("--standby", a.standby, "plug robot: as a standby computing in shadow");
+    app.add_flag("--primary", a.primary, "plug robot: as the arm's primary (the default)");
+    app.add_option("--scenario", a.scenario, "plug module: a new module's scenario")->type_name("FILE");
+    app.add_option("--case", a.case_name, "plug module: the case of that scenario")->type_name("CASE");
+    app.add_option("--host", a.host, "plug module: the host of a multi-host deployment to start it on")->type_name("H");
+  }
+  app.footer(kRemoteHelp);
+}
+
+/// The target of `a` into `d` (the file loaded, or --domain and --name), and the remaining words; false (said)
+/// if there is none or the file is bad.
+bool resolve_target(const char* cmd, const RemoteArgs& a, Deployment& d, std::vector<std::string>& rest) {
+  rest = a.words;
+  if (a.domain >= 0) {
+    d.domain_id = a.domain;
+  } else if (!rest.empty()) {
+    try {
+      d = load_deployment(rest.front());
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "tandem %s: %s\n", cmd, e.what());
       return false;
     }
+    rest.erase(rest.begin());
+  } else {
+    std::fprintf(stderr, "tandem %s: give a deployment file, or --domain ID [--name NAME]\n", cmd);
+    return false;
   }
-  if (!have) std::fprintf(stderr, "tandem %s: give a deployment file, or --domain ID [--name NAME]\n", cmd);
-  return have;
+  if (!a.name.empty()) d.name = a.name;
+  return true;
 }
+
+/// Parses `args` for `tandem <verb>`; -1 to go on (the target in `d`, the command's own words in `rest`), else
+/// the exit code.
+int parse_remote(const std::string& verb, const std::vector<std::string>& args, RemoteArgs& a, Deployment& d,
+                 std::vector<std::string>& rest) {
+  CLI::App app("", "tandem " + verb);
+  describe(app, a, verb);
+  if (const int code = runtime::parse_args(app, args); code >= 0) return code;
+  return resolve_target(verb.c_str(), a, d, rest) ? -1 : 2;
+}
+
 }  // namespace
 
 void remote_usage(std::FILE* f) {
@@ -60,31 +117,22 @@ void remote_usage(std::FILE* f) {
       "       tandem kill   <deploy.yaml> | --domain ID --name NAME  PROCESS\n"
       "       tandem plug   <deploy.yaml> | --domain ID --name NAME  robot MODULE/ARM [--standby | --primary]\n"
       "       tandem plug   <deploy.yaml> | --domain ID --name NAME  module NAME [--scenario FILE --case CASE [--host H]]\n"
-      "       tandem unplug <deploy.yaml> | --domain ID --name NAME  robot MODULE/ARM[@STRENGTH] | module NAME\n"
-      "status: prints the lifecycle state and live figures of every process of the deployment(s) on the domain;\n"
-      "        with a launcher, it waits (at most 10 s) until every process the launcher runs has been heard.\n"
-      "down:   asks the deployment's launcher to stop it cleanly (as Ctrl-C would) and prints its answer; exit 1\n"
-      "        if no launcher of that deployment answers.\n"
-      "kill:   fault injection: the launcher SIGKILLs PROCESS (a label of the status view, e.g. m1/left, m1/world,\n"
-      "        m1/supervisor, m1/supervisor@50, coordinator) or every process of a MODULE. A robot or supervisor\n"
-      "        with a standby is replaced at once; see docs/failure-model.md for what happens to the others.\n"
-      "plug robot: starts a robot process for the arm, as its primary (default; refused if the arm has one) or as\n"
-      "        a standby computing in shadow. Plugged into a paused module (arm braked), it releases the brake and\n"
-      "        the module resumes.\n"
-      "plug module: starts a module of the deployment file not yet running (autostart: false), or a new one\n"
-      "        with --scenario and --case (and --host, a host of the deployment's hosts:, in a multi-host\n"
-      "        deployment); the coordinator gives it tasks.\n"
-      "unplug robot: graceful. With another robot on the arm, it hands over at once (its writer is deleted\n"
-      "        first). Without, the module pauses (object brought to rest, the arm braked) until a robot is plugged.\n"
-      "unplug module: the module finishes its task, takes no new one, and its processes stop.\n"
-      "down, kill, plug and unplug wait for the launcher's answer and print it: exit 0 done, 1 refused or no\n"
-      "answer, 2 bad command line.\n",
+      "       tandem unplug <deploy.yaml> | --domain ID --name NAME  robot MODULE/ARM[@STRENGTH] | module NAME\n",
       f);
+  std::fputs(kRemoteHelp, f);
+  std::fputs("\n('tandem <command> --help': the options of one command)\n", f);
 }
 
 int status_command(const std::vector<std::string>& args) {
   Deployment d;
-  if (!parse_target("status", args, d)) return 2;
+  RemoteArgs a;
+  std::vector<std::string> rest;
+  if (const int code = parse_remote("status", args, a, d, rest); code >= 0) return code;
+  if (!rest.empty()) {
+    std::fprintf(stderr, "tandem status: unexpected '%s' (one deployment file, or --domain ID [--name NAME])\n",
+                 rest.front().c_str());
+    return 2;
+  }
   runtime::use_discovery(d);
   if (const std::string err = runtime::use_security(d, "cli"); !err.empty()) {
     std::fprintf(stderr, "tandem status: %s\n", err.c_str());
@@ -199,42 +247,32 @@ int send_request(const char* verb, const Deployment& d, msg::ControlRequest req)
   return 1;
 }
 
-// Splits args into the target options (a file, --domain, --name) and the rest.
-std::vector<std::string> take_target_args(std::vector<std::string>& args) {
-  std::vector<std::string> target, rest;
-  for (size_t i = 0; i < args.size(); ++i) {
-    if ((args[i] == "--domain" || args[i] == "--name") && i + 1 < args.size()) {
-      target.push_back(args[i]);
-      target.push_back(args[++i]);
-    } else if (target.empty() && rest.empty() && !args[i].empty() && args[i][0] != '-') {
-      target.push_back(args[i]);  // the deployment file comes first
-    } else {
-      rest.push_back(args[i]);
-    }
-  }
-  args = rest;
-  return target;
-}
 }  // namespace
 
 int down_command(const std::vector<std::string>& args) {
   Deployment d;
-  if (!parse_target("down", args, d)) return 2;
+  RemoteArgs a;
+  std::vector<std::string> rest;
+  if (const int code = parse_remote("down", args, a, d, rest); code >= 0) return code;
+  if (!rest.empty()) {
+    std::fprintf(stderr, "tandem down: unexpected '%s' (one deployment file, or --domain ID --name NAME)\n",
+                 rest.front().c_str());
+    return 2;
+  }
   msg::ControlRequest req;
   req.command(msg::CMD_DOWN);
   return send_request("down", d, req);
 }
 
 int kill_command(const std::vector<std::string>& args_in) {
-  std::vector<std::string> args = args_in;
-  const std::vector<std::string> target_args = take_target_args(args);
-  if (args.size() != 1 || args[0].empty() || args[0][0] == '-') {
+  Deployment d;
+  RemoteArgs a;
+  std::vector<std::string> args;
+  if (const int code = parse_remote("kill", args_in, a, d, args); code >= 0) return code;
+  if (args.size() != 1 || args[0].empty()) {
     std::fprintf(stderr, "tandem kill: name one process (e.g. m1/left, m1/left@50, m2/world, coordinator) or module\n");
-    remote_usage(stderr);
     return 2;
   }
-  Deployment d;
-  if (!parse_target("kill", target_args, d)) return 2;
   msg::ControlRequest req;
   req.command(msg::CMD_KILL);
   req.target_kind(args[0].find('/') == std::string::npos && args[0].rfind("coordinator", 0) != 0 ? msg::TARGET_MODULE
@@ -245,32 +283,28 @@ int kill_command(const std::vector<std::string>& args_in) {
 
 namespace {
 int plug_or_unplug(const char* verb, const std::vector<std::string>& args_in) {
-  std::vector<std::string> args = args_in;
-  const std::vector<std::string> target_args = take_target_args(args);
-  const bool plug = std::string(verb) == "plug";
+  Deployment d;
+  RemoteArgs a;
+  std::vector<std::string> args;
+  if (const int code = parse_remote(verb, args_in, a, d, args); code >= 0) return code;
   auto bad = [&](const std::string& why) {
-    std::fprintf(stderr, "tandem %s: %s\n", verb, why.c_str());
-    remote_usage(stderr);
+    std::fprintf(stderr, "tandem %s: %s; see 'tandem %s --help'\n", verb, why.c_str(), verb);
     return 2;
   };
   if (args.size() < 2 || (args[0] != "robot" && args[0] != "module")) return bad("expected 'robot <label>' or 'module <name>'");
+  if (args.size() > 2) return bad("unexpected '" + args[2] + "'");
+  const bool plug = std::string(verb) == "plug";
   const bool robot = args[0] == "robot";
   const std::string name = args[1];
-  std::string scenario, case_name, host;
-  bool standby = false;
-  for (size_t i = 2; i < args.size(); ++i) {
-    if (plug && robot && (args[i] == "--standby" || args[i] == "--primary")) {
-      standby = args[i] == "--standby";
-    } else if (plug && !robot && args[i] == "--scenario" && i + 1 < args.size()) {
-      scenario = args[++i];
-    } else if (plug && !robot && args[i] == "--case" && i + 1 < args.size()) {
-      case_name = args[++i];
-    } else if (plug && !robot && args[i] == "--host" && i + 1 < args.size()) {
-      host = args[++i];
-    } else {
-      return bad("unexpected '" + args[i] + "'");
-    }
+  std::string scenario = a.scenario;
+  const std::string& case_name = a.case_name;
+  const std::string& host = a.host;
+  const bool standby = a.standby;
+  if (a.standby && a.primary) return bad("--standby and --primary exclude each other");
+  if (robot && (!scenario.empty() || !case_name.empty() || !host.empty())) {
+    return bad("--scenario, --case and --host place a module, not a robot");
   }
+  if (!robot && (a.standby || a.primary)) return bad("--standby and --primary apply to a robot, not a module");
   if (robot) {
     // <module>/<robot>, with @<strength> for a standby (unplug only).
     const auto slash = name.find('/');
@@ -290,8 +324,6 @@ int plug_or_unplug(const char* verb, const std::vector<std::string>& args_in) {
       if (scenario.empty()) return bad("--host places a new module: give --scenario and --case too");
     }
   }
-  Deployment d;
-  if (!parse_target(verb, target_args, d)) return 2;
   msg::ControlRequest req;
   req.command(plug ? msg::CMD_PLUG : msg::CMD_UNPLUG);
   req.target_kind(!robot ? msg::TARGET_MODULE : plug ? msg::TARGET_ROBOT : msg::TARGET_PROCESS);

@@ -20,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "tandem/runtime/args.hpp"
 #include "up_run.hpp"
 
 namespace tandem::cli {
@@ -29,48 +30,9 @@ std::atomic<bool> g_stop{false};
 
 void on_signal(int) { g_stop = true; }
 
-/// The command line: false (said why, exit code in `code`) unless the run goes on.
-bool parse_up_args(const std::vector<std::string>& args, up::UpOptions& o, std::string& record_file, int& code) {
-  for (size_t i = 0; i < args.size(); ++i) {
-    if (args[i] == "--help" || args[i] == "-h") {
-      up_usage(stdout);
-      code = 0;
-      return false;
-    } else if (args[i] == "--check") {
-      o.check_only = true;
-    } else if (args[i] == "--summary" && i + 1 < args.size()) {
-      o.summary_file = args[++i];
-    } else if (args[i] == "--record" && i + 1 < args.size()) {
-      record_file = args[++i];
-    } else if (args[i] == "--view") {
-      o.with_view = true;
-    } else if (args[i] == "--view-port" && i + 1 < args.size()) {
-      o.with_view = true;
-      o.view_port = args[++i];
-    } else if (!args[i].empty() && args[i][0] == '-') {
-      std::fprintf(stderr, "tandem up: unknown option '%s' (see 'tandem help up')\n", args[i].c_str());
-      return false;
-    } else if (o.file.empty()) {
-      o.file = args[i];
-    } else {
-      std::fprintf(stderr, "tandem up: one deployment file expected, got '%s' too\n", args[i].c_str());
-      return false;
-    }
-  }
-  if (o.file.empty()) {
-    std::fprintf(stderr, "tandem up: missing the deployment file\n\n");
-    up_usage(stderr);
-    return false;
-  }
-  return true;
-}
-
-}  // namespace
-
-void up_usage(std::FILE* f) {
-  std::fputs(
-      "usage: tandem up <deploy.yaml> [--summary FILE] [--record FILE.mcap] [--view] [--view-port N] [--check]\n"
-      "\n"
+/// The command line, on CLI11 (runtime::parse_args): `tandem help up` prints the same text as --help.
+void describe(CLI::App& app, up::UpOptions& o, std::string& record_file) {
+  app.description(
       "Starts every module of the deployment as separate processes over Fast DDS: tandem-world,\n"
       "tandem-supervisor and one tandem-robot per arm (plus standbys), and the coordinator if the file has\n"
       "one, in lockstep or real-time timing. Prints progress while it runs and a summary at the end (RMS per\n"
@@ -79,29 +41,48 @@ void up_usage(std::FILE* f) {
       "Robots, supervisors and coordinators can have hot standbys and are restarted by the file's restart policy;\n"
       "with a coordinator, a module whose world (or supervisor, without a standby) fails is stopped and the others\n"
       "go on (docs/failure-model.md). In real-time timing the world, supervisors and robots run SCHED_FIFO at the\n"
-      "file's realtime_priority (default 20; a note says so if the system refuses it).\n"
-      "--summary FILE also writes the summary as key=value lines (full precision).\n"
-      "--record FILE.mcap records the run with `tandem record` (as the file's `record:` key does; see 'tandem\n"
-      "help record'); `tandem report FILE.mcap -o DIR` makes the plots.\n"
-      "--view starts `tandem view` beside the deployment (the page and Foxglove on http://127.0.0.1:8765/;\n"
-      "--view-port N for another port, 0 for any free one; see 'tandem help view').\n"
-      "--check validates the file and every scenario it names, prints the real-time capacity estimate (and a\n"
-      "warning when the deployment needs more cores than the machine has), and starts nothing. The estimate is\n"
-      "calibrated on this machine in about 0.3 s (a cross-process wake-up, a plant step, a law step).\n"
+      "file's realtime_priority (default 20; a note says so if the system refuses it).");
+  app.add_option("deploy", o.file, "the deployment file (docs/architecture.md)")->required()->type_name("DEPLOY.yaml");
+  app.add_option("--summary", o.summary_file, "also write the summary as key=value lines (full precision)")
+      ->type_name("FILE");
+  app.add_option("--record", record_file,
+                 "record the run with `tandem record` (as the file's `record:` key does; see 'tandem help record');\n"
+                 "`tandem report FILE.mcap -o DIR` makes the plots")
+      ->type_name("FILE.mcap");
+  app.add_flag("--view", o.with_view,
+               "start `tandem view` beside the deployment (the page and Foxglove on http://127.0.0.1:8765/)");
+  app.add_option("--view-port", o.view_port, "--view on another port (0: any free one; see 'tandem help view')")
+      ->check(CLI::Range(0, 65535))->type_name("N")->each([&o](const std::string&) { o.with_view = true; });
+  app.add_flag("--check", o.check_only,
+               "validate the file and every scenario it names, print the real-time capacity estimate (and a\n"
+               "warning when the deployment needs more cores than the machine has), and start nothing. The\n"
+               "estimate is calibrated on this machine in about 0.3 s (a cross-process wake-up, a plant step, a\n"
+               "law step)");
+  app.footer(
       "Real time with a coordinator: modules the estimate does not fit start parked, and a load that does not\n"
       "fit for 20 s parks the last modules of the file until the machine is calm (shed_modules: false: never).\n"
-      "Ctrl-C or SIGTERM stops every process cleanly. Schema: docs/architecture.md.\n"
+      "Ctrl-C or SIGTERM stops every process cleanly.\n"
       "\n"
       "Exit: 0 every process finished (or the coordinator did every task) and every module kept the safe\n"
-      "grasp; 1 a process failed or a grasp was lost; 2 bad arguments or configuration (nothing is started).\n",
-      f);
+      "grasp; 1 a process failed or a grasp was lost; 2 bad arguments or configuration (nothing is started).");
+}
+
+}  // namespace
+
+void up_usage(std::FILE* f) {
+  up::UpOptions o;
+  std::string record_file;
+  CLI::App app("", "tandem up");
+  describe(app, o, record_file);
+  std::fputs(app.help().c_str(), f);
 }
 
 int up_command(const std::vector<std::string>& args) {
   up::UpOptions o;
   std::string record_file;
-  int code = 2;
-  if (!parse_up_args(args, o, record_file, code)) return code;
+  CLI::App app("", "tandem up");
+  describe(app, o, record_file);
+  if (const int code = runtime::parse_args(app, args); code >= 0) return code;
   runtime::Deployment d;
   std::vector<launcher::ModuleSpec> specs;
   try {

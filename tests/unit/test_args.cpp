@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "tandem/coordinator/options.hpp"
+#include "tandem/runtime/args.hpp"
 #include "tandem/runtime/role.hpp"
 
 namespace {
@@ -192,4 +193,52 @@ TEST_CASE("one form: the launcher's command line of a role reads back as the sam
   CHECK(back.id == c.id);
   CHECK(back.standby);
   CHECK(back.resume);
+}
+
+TEST_CASE("subcommand arguments: checks for choices, durations and whole numbers, and a stray option said first", "[args]") {
+  namespace rt = tandem::runtime;
+  CHECK(rt::parse_duration("90") == 90.0);
+  CHECK(rt::parse_duration("90s") == 90.0);
+  CHECK(rt::parse_duration("1.5m") == 90.0);
+  CHECK(rt::parse_duration("1h") == 3600.0);
+  for (const char* bad : {"", "0", "-5", "10x", "h", "nan", "1e999"}) {
+    INFO(bad);
+    CHECK(rt::parse_duration(bad) < 0.0);
+  }
+  std::string timing = "realtime", duration = "10m", seed = "1", out, file;
+  CLI::App app("", "tandem test");
+  app.add_option("file", file)->required();
+  app.add_option("--timing", timing)->check(rt::one_of({"realtime", "lockstep"}));
+  app.add_option("--duration", duration)->check(rt::duration());
+  app.add_option("--seed", seed)->check(rt::whole_number());
+  app.add_option("-o,--out", out)->required();
+  auto run = [&app](std::vector<std::string> args, std::string& err) { return rt::parse_args(app, args, &err); };
+  std::string err;
+  CHECK(run({"f.yaml", "--timing", "lockstep", "--duration", "2m", "--seed", "42", "-o", "x"}, err) == -1);
+  CHECK(timing == "lockstep");
+  CHECK(seed == "42");
+  CHECK(file == "f.yaml");
+  const std::vector<std::pair<std::vector<std::string>, std::string>> bad{
+      {{"f.yaml", "-o", "x", "--timing", "fast"}, "--timing: 'fast' is not accepted; accepted: realtime, lockstep"},
+      {{"f.yaml", "-o", "x", "--duration", "0"}, "--duration: '0': expected a time above 0"},
+      {{"f.yaml", "-o", "x", "--seed", "1.5"}, "--seed: '1.5': expected a whole number >= 0"},
+      {{"f.yaml", "-o", "x", "--seed", "-3"}, "expected a whole number >= 0"},
+      {{"f.yaml"}, "--out is required"},
+      // a misspelt required option: the stray word is said, not the missing option
+      {{"f.yaml", "--uot", "x"}, "unknown option or extra argument '--uot'"},
+  };
+  for (const auto& [args, want] : bad) {
+    INFO(want);
+    CLI::App again("", "tandem test");
+    std::string f2, t2 = "realtime", d2 = "1", s2 = "1", o2;
+    again.add_option("file", f2)->required();
+    again.add_option("--timing", t2)->check(rt::one_of({"realtime", "lockstep"}));
+    again.add_option("--duration", d2)->check(rt::duration());
+    again.add_option("--seed", s2)->check(rt::whole_number());
+    again.add_option("-o,--out", o2)->required();
+    std::string e;
+    CHECK(rt::parse_args(again, args, &e) == 2);
+    CHECK(e.rfind("tandem test: ", 0) == 0);
+    CHECK(e.find(want) != std::string::npos);
+  }
 }

@@ -20,7 +20,9 @@ int parse_with(CLI::App& app, std::string* err, Parse&& parse) {
     return launcher::exit_code::kDone;
   } catch (const CLI::ParseError& e) {
     std::string what = e.what();
-    if (dynamic_cast<const CLI::ExtrasError*>(&e) != nullptr) {
+    // An argument no option takes is said first, whatever else failed: it is most often a misspelt option,
+    // and a "--out is required" beside "--uot" would send the user looking in the wrong place.
+    if (dynamic_cast<const CLI::ExtrasError*>(&e) != nullptr || !app.remaining().empty()) {
       std::string extras;
       for (const std::string& x : app.remaining()) extras += (extras.empty() ? "'" : ", '") + x + "'";
       what = "unknown option or extra argument " + extras;

@@ -1,4 +1,5 @@
-# Shared by the benchmarks that run `tandem up` and read its figures (bench/record.sh, bench/view.sh). Source it.
+# Shared by the benchmarks that run `tandem up` and read its figures (bench/record.sh, view.sh, scale.sh, security.sh).
+# Source it.
 
 # cpu_snap PID...: "pid user+system-ticks" for each live PID (from /proc).
 cpu_snap() { for p in "$@"; do [ -r "/proc/$p/stat" ] && echo "$p $(awk '{print $14 + $15}' "/proc/$p/stat" 2>/dev/null)"; done; return 0; }
@@ -22,3 +23,11 @@ summary_figures() {
     /^m[0-9]+\.slip_events=/ {slips += $2}
     END {printf "%d %d %.0f %.0f %d\n", late, ticks, c50 ? p50 / c50 : 0, p99, slips}' "$1" 2>/dev/null || echo "0 0 0 0 0"
 }
+
+# startup_s LOG START: seconds from START (date +%s.%N) to the last module's "first tick at wall T" in a `tandem up` log.
+startup_s() {
+  (grep -o "first tick at wall [0-9.]*" "$1" || true) | awk -v s="$2" '{v = $5 - s; if (v > m) m = v} END {printf "%.2f", m}'
+}
+
+# late_pct LATE TICKS: late arm-ticks in percent of the arm-ticks (two arms per module tick); nan without ticks.
+late_pct() { awk -v l="$1" -v t="$2" 'BEGIN {if (t > 0) printf "%.2f", 100 * l / (2 * t); else print "nan"}'; }

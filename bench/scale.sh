@@ -29,7 +29,7 @@ transport="${TRANSPORT:-shm}"
 discovery="${DISCOVERY:-server}"
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
-hz=$(getconf CLK_TCK)
+. bench/lib.sh
 echo "machine: $(nproc) cores, $(lscpu | sed -n 's/^Model name: *//p'), kernel $(uname -r)"
 echo "command: bash bench/scale.sh ${ns[*]}  (duration ${dur} s, realtime_priority $prio, transport $transport, discovery $discovery, commit $(git rev-parse --short HEAD 2>/dev/null || echo '?'))"
 sed "s/^  duration: .*/  duration: $dur/" config/scenarios/paper.yaml > "$work/scenario.yaml"
@@ -75,19 +75,19 @@ for n in "${ns[@]}"; do
     sleep 1
     # The role processes (the discovery server is not one of them), counted only if alive at both samples.
     pids=$( (pgrep -P "$up" -f "tandem-(world|robot|supervisor)" || true) | tr '\n' ' ')
-    snap() { for p in $pids; do [ -r /proc/$p/stat ] && echo "$p $(awk '{print $14 + $15}' /proc/$p/stat 2>/dev/null)"; done; return 0; }
-    snap > "$work/t0"; w0=$(date +%s.%N)
+    # shellcheck disable=SC2086
+    cpu_snap $pids > "$work/t0"; w0=$(date +%s.%N)
     sleep 3
-    snap > "$work/t1"; w1=$(date +%s.%N)
-    t0=0; t1=$(awk 'NR == FNR {a[$1] = $2; next} ($1 in a) {s += $2 - a[$1]} END {print s + 0}' "$work/t0" "$work/t1")
+    # shellcheck disable=SC2086
+    cpu_snap $pids > "$work/t1"; w1=$(date +%s.%N)
     rss=$(for p in $pids; do awk '/VmRSS/ {print $2}' /proc/$p/status 2>/dev/null; done | awk '{s += $1; c++} END {if (c) printf "%.1f", s / c / 1024; else print "nan"}')
-    cpu=$(awk -v a="$t0" -v b="$t1" -v hz="$hz" -v w0="$w0" -v w1="$w1" -v n="$n" 'BEGIN {printf "%.3f", (b - a) / hz / (w1 - w0) / n}')
+    cpu=$(cpu_cores "$work/t0" "$work/t1" "$w0" "$w1" "$n" "")
   fi
   rc=0; wait "$up" || rc=$?
   kill "$timer" 2>/dev/null || true; wait "$timer" 2>/dev/null || true
   # The timer loop was cut short: run a fresh one only if it printed nothing.
   sum="$work/sum$n.txt"
-  startup=$(grep -o "first tick at wall [0-9.]*" "$log" | awk -v s="$start" '{v = $5 - s; if (v > m) m = v} END {printf "%.2f", m}')
+  startup=$(startup_s "$log" "$start")
   read -r late ticks p50 p99 slips drops pauses paused_s < <(awk -F= -v n="$n" '
     /^m[0-9]+\.late_commands=/ {late += $2}
     /^m[0-9]+\.ticks=/ {ticks += $2}
@@ -98,7 +98,7 @@ for n in "${ns[@]}"; do
     /^m[0-9]+\.load_pauses=/ {pauses += $2}
     /^m[0-9]+\.load_paused_ticks=/ {paused += $2}
     END {printf "%d %d %.0f %.0f %d %d %d %.1f\n", late, ticks, c50 ? p50 / c50 : 0, p99, slips, drops, pauses, paused / 1000}' "$sum" 2>/dev/null || echo "0 0 0 0 0 0 0 0")
-  pct=$(awk -v l="$late" -v t="$ticks" 'BEGIN {if (t > 0) printf "%.2f", 100 * l / (2 * t); else print "nan"}')
+  pct=$(late_pct "$late" "$ticks")
   tl=$(sed -n 's/^timer_late_fraction=//p' "$work/timer$n.txt" 2>/dev/null | awk '{printf "%.2f", 100 * $1}')
   result=$([ "$rc" -eq 0 ] && echo PASS || echo "FAIL($rc)")
   # The floor with the same number of modules, at the same priority, right after.

@@ -23,7 +23,7 @@ dur="${SECONDS_RUN:-10}"
 prio="${PRIO:-20}"
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
-hz=$(getconf CLK_TCK)
+. bench/lib.sh
 echo "machine: $(nproc) cores, $(lscpu | sed -n 's/^Model name: *//p'), kernel $(uname -r)"
 echo "command: bash bench/security.sh ${ns[*]}  (REPS=$reps, duration ${dur} s, realtime_priority $prio, commit $(git rev-parse --short HEAD 2>/dev/null || echo '?'))"
 sed "s/^  duration: .*/  duration: $dur/" config/scenarios/paper.yaml > "$work/scenario.yaml"
@@ -59,26 +59,21 @@ for n in "${ns[@]}"; do
         sleep 0.05
       done
       cpu=nan
-      startup=$( (grep -o "first tick at wall [0-9.]*" "$log" || true) | awk -v s="$start" '{v = $5 - s; if (v > m) m = v} END {printf "%.2f", m}')
+      startup=$(startup_s "$log" "$start")
       if [ -n "$first" ]; then
         sleep 1
         pids=$( (pgrep -P "$up" -f "tandem-(world|robot|supervisor)" || true) | tr '\n' ' ')
-        # A process gone meanwhile is left out (and must not end the bench under set -e).
-        snap() { for p in $pids; do [ -r /proc/$p/stat ] && echo "$p $(awk '{print $14 + $15}' /proc/$p/stat 2>/dev/null)"; done; return 0; }
-        snap > "$work/t0"; w0=$(date +%s.%N)
+        # A process gone meanwhile is left out (cpu_snap skips it and never fails under set -e).
+        # shellcheck disable=SC2086
+        cpu_snap $pids > "$work/t0"; w0=$(date +%s.%N)
         sleep 3
-        snap > "$work/t1"; w1=$(date +%s.%N)
-        d=$(awk 'NR == FNR {a[$1] = $2; next} ($1 in a) {s += $2 - a[$1]} END {print s + 0}' "$work/t0" "$work/t1")
-        cpu=$(awk -v d="$d" -v hz="$hz" -v w0="$w0" -v w1="$w1" -v n="$n" 'BEGIN {printf "%.3f", d / hz / (w1 - w0) / n}')
+        # shellcheck disable=SC2086
+        cpu_snap $pids > "$work/t1"; w1=$(date +%s.%N)
+        cpu=$(cpu_cores "$work/t0" "$work/t1" "$w0" "$w1" "$n" "")
       fi
       rc=0; wait "$up" || rc=$?
-      read -r late ticks p50 p99 < <(awk -F= '
-        /^m[0-9]+\.late_commands=/ {late += $2}
-        /^m[0-9]+\.ticks=/ {ticks += $2}
-        /^m[0-9]+\.latency_p50_us=/ {p50 += $2; c50++}
-        /^m[0-9]+\.latency_p99_us=/ {if ($2 > p99) p99 = $2}
-        END {printf "%d %d %.0f %.0f\n", late, ticks, c50 ? p50 / c50 : 0, p99}' "$sum" 2>/dev/null || echo "0 0 0 0")
-      pct=$(awk -v l="$late" -v t="$ticks" 'BEGIN {if (t > 0) printf "%.2f", 100 * l / (2 * t); else print "nan"}')
+      read -r late ticks p50 p99 _slips < <(summary_figures "$sum")
+      pct=$(late_pct "$late" "$ticks")
       result=$([ "$rc" -eq 0 ] && echo PASS || echo "FAIL($rc)")
       # Why a run failed, in a line: the first process that exited with an error, or the launcher's own error.
       [ "$rc" -eq 0 ] || echo "    $(grep -m1 'exited with code\|peers not found\|tandem up: ' "$log" | cut -c1-150)"

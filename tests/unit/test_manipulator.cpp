@@ -365,3 +365,108 @@ TEST_CASE("arm kind names round-trip and an unknown name is refused", "[manipula
   CHECK_FALSE(tm::parse_arm_kind("scara", out));
   CHECK(out == tm::ArmKind::CartesianPPR);
 }
+
+// ----- the hybrid controller through the interface ------------------------------------------------------
+
+#include "tandem/model/controller.hpp"
+
+namespace {
+
+/// A free-space reference: a circle of radius 5 cm at 1 rad/s around c, orientation swinging by 0.1 rad.
+tm::ArmReference circle(const Vec3& c, double t) {
+  tm::ArmReference r;
+  r.x = c + Vec3(0.05 * std::sin(t), 0.05 * (1.0 - std::cos(t)), 0.1 * std::sin(t));
+  r.xd = Vec3(0.05 * std::cos(t), 0.05 * std::sin(t), 0.1 * std::cos(t));
+  r.xdd = Vec3(-0.05 * std::sin(t), 0.05 * std::cos(t), -0.1 * std::sin(t));
+  return r;
+}
+
+std::shared_ptr<const tm::Manipulator> shared_model(const std::string& name) {
+  tm::ArmParams smart = tm::smart3s2();
+  if (name == "planar_3r") return std::make_shared<const tm::Planar3R>(smart);
+  return std::make_shared<const tm::PlanarChain>(name == "cartesian_ppr" ? tm::cartesian_ppr() : tm::planar_4r());
+}
+
+/// A start pose of each type inside its workspace, away from singularities.
+JointVec start_pose(const tm::Manipulator& m) {
+  JointVec q(m.dof());
+  if (m.kind() == tm::ArmKind::Planar3R) q << 0.5, 1.0, 0.4;
+  if (m.kind() == tm::ArmKind::CartesianPPR) q << 0.4, 0.8, 1.2;
+  if (m.kind() == tm::ArmKind::Planar4R) q << 0.4, 0.7, 0.6, 0.3;
+  return q;
+}
+
+}  // namespace
+
+TEST_CASE("every type tracks a free-space reference with the sliding-mode and PD laws through the interface", "[manipulator][controller]") {
+  // Position control on all three axes (Sigma_p = I), the plant the same model with its friction; 4 s at 1 kHz,
+  // the plant integrated with RK4 at 0.1 ms (the smoothed Coulomb term of a light distal link is stiff: its
+  // time constant, the link's inertia over Fs / band, is about 0.2 ms). The error after the reaching phase stays within a few mm / mrad.
+  for (const char* name : {"planar_3r", "cartesian_ppr", "planar_4r"}) {
+    for (tm::LawType law : {tm::LawType::SlidingMode, tm::LawType::PD, tm::LawType::SuperTwisting}) {
+      INFO(name << " law " << static_cast<int>(law));
+      const auto model = shared_model(name);
+      tm::HybridParams hp;
+      hp.selection_p = Vec3::Ones();
+      hp.law.type = law;
+      hp.feedforward_position = true;
+      tm::HybridController ctl(model, hp);
+      State s{start_pose(*model), JointVec::Zero(model->dof())};
+      const Vec3 c = model->forward_kinematics(s.q) + Vec3(0.01, -0.01, 0.02);  // a small initial error
+      double max_err = 0.0, max_qd = 0.0;
+      JointVec tau = JointVec::Zero(model->dof());
+      const auto accel = [&model, &tau](const JointVec& q, const JointVec& qd) {
+        return model->forward_dynamics(q, qd, tau, Vec3::Zero());
+      };
+      for (int k = 0; k < 4000; ++k) {
+        const double t = 1e-3 * k;
+        tm::ArmSensors in;
+        in.q = s.q;
+        in.qd = s.qd;
+        const tm::ArmReference ref = circle(c, t);
+        const tm::ControlOutput out = ctl.step(in, ref);
+        REQUIRE(out.tau.size() == model->dof());
+        REQUIRE(out.tau.allFinite());
+        tau = out.tau;
+        for (int i = 0; i < 10; ++i) s = rk4(s, 1e-4, accel);  // the module plant's 10 substeps
+        if (t > 1.5) {
+          const Vec3 e = circle(c, t + 1e-3).x - model->forward_kinematics(s.q);
+          max_err = std::max({max_err, e.head<2>().norm(), std::abs(e(2))});
+        }
+        max_qd = std::max(max_qd, s.qd.cwiseAbs().maxCoeff());
+      }
+      CHECK(max_err < 5e-3);
+      CHECK(max_qd < 2.0);  // bounded joint rates, the 4R's self-motion included
+    }
+  }
+}
+
+TEST_CASE("4R: the null-space task changes the joints' motion but not the end-effector's acceleration", "[manipulator][controller]") {
+  // Two controllers that differ only in the null-space gains, at the same state: the task acceleration each one
+  // commands, x'' = J B^-1 (tau - n) + J' q' on the matched model, is the same; the joint accelerations differ.
+  const auto model = shared_model("planar_4r");
+  tandem::test::Lcg rng(23);
+  for (int trial = 0; trial < 20; ++trial) {
+    tm::HybridParams a, b;
+    a.selection_p = b.selection_p = Vec3::Ones();
+    a.null_space.k_posture = 0.0;
+    a.null_space.k_damping = 0.0;
+    b.null_space.k_posture = 40.0;
+    b.null_space.k_damping = 15.0;
+    JointVec rest(4);
+    rest << 0.1, 0.2, 0.3, 0.4;
+    a.null_space.q_rest = b.null_space.q_rest = rest;
+    tm::HybridController ca(model, a), cb(model, b);
+    tm::ArmSensors in;
+    in.q = start_pose(*model) + random_joints(*model, rng, 0.1);
+    in.qd = random_joints(*model, rng, 0.3);
+    const tm::ArmReference ref = circle(model->forward_kinematics(in.q), 0.3 * trial);
+    const JointVec ta = ca.step(in, ref).tau, tb = cb.step(in, ref).tau;
+    const JointVec n = model->nonlinear_terms(in.q, in.qd);
+    const Eigen::MatrixXd B = model->inertia(in.q);
+    const Eigen::VectorXd qdd_a = B.ldlt().solve(Eigen::VectorXd(ta - n)), qdd_b = B.ldlt().solve(Eigen::VectorXd(tb - n));
+    const Eigen::MatrixXd J = model->jacobian(in.q);
+    CHECK((J * (qdd_a - qdd_b)).norm() < 1e-9 * (1.0 + qdd_a.norm()));
+    CHECK((qdd_a - qdd_b).norm() > 1e-3);  // the null-space task did act
+  }
+}

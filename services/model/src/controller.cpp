@@ -21,10 +21,14 @@ Mat3 contact_frame(double phi) noexcept {
 }
 
 HybridController::HybridController(const ArmParams& arm, const HybridParams& params)
-    : arm_(arm), params_(params) {}
+    : HybridController(std::make_shared<const Planar3R>(arm), params) {}
 
-void HybridController::track(const Vec3& delta_tau) noexcept {
-  if (params_.law.type != LawType::SuperTwisting || !delta_tau.allFinite()) return;
+HybridController::HybridController(std::shared_ptr<const Manipulator> arm, const HybridParams& params)
+    : arm_(std::move(arm)), params_(params), tau_to_u_(TaskJacobian::Zero(3, arm_->dof())),
+      q_rest_(params.null_space.q_rest) {}
+
+void HybridController::track(const JointVec& delta_tau) noexcept {
+  if (params_.law.type != LawType::SuperTwisting || delta_tau.size() != arm_->dof() || !delta_tau.allFinite()) return;
   twisting_v_ += tau_to_u_ * delta_tau;
 }
 
@@ -34,13 +38,31 @@ void HybridController::reset() noexcept {
   twisting_v_.setZero();
 }
 
+JointVec HybridController::joint_acceleration(const TaskJacobian& J, const Vec3& task, const ArmSensors& in) noexcept {
+  const int n = arm_->dof();
+  if (n == 3) {
+    const Mat3 Js = J;
+    const Vec3 y = Js.partialPivLu().solve(task);  // eq. (21)
+    return JointVec(y);
+  }
+  // Redundant: minimum-norm task solution plus the null-space task (NullSpace).
+  const Mat3 JJt = J * J.transpose();
+  const TaskJacobian::PlainObject W = JJt.ldlt().solve(J);  // (J J^T)^-1 J, 3 x n
+  const JointMat pinv_J = W.transpose() * J;                // J^+ J
+  if (q_rest_.size() != n) q_rest_ = in.q;
+  const NullSpace& ns = params_.null_space;
+  const JointVec z = -ns.k_damping * in.qd - ns.k_posture * (in.q - q_rest_);
+  return W.transpose() * task + (JointMat::Identity(n, n) - pinv_J) * z;
+}
+
 ControlOutput HybridController::step(const ArmSensors& in, const ArmReference& ref) noexcept {
   ControlOutput out;
   const HybridParams& p = params_;
   const double T = p.period;
-  const Vec3 x = forward_kinematics(arm_, in.q);
-  const Mat3 J = jacobian(arm_, in.q);
-  const Mat3 Jd = jacobian_dot(arm_, in.q, in.qd);
+  const Manipulator& arm = *arm_;
+  const Vec3 x = arm.forward_kinematics(in.q);
+  const TaskJacobian J = arm.jacobian(in.q);
+  const TaskJacobian Jd = arm.jacobian_dot(in.q, in.qd);
   const Vec3 xdot = J * in.qd;
 
   const Mat3 R = contact_frame(ref.x(2));
@@ -104,20 +126,24 @@ ControlOutput HybridController::step(const ArmSensors& in, const ArmReference& r
   if (p.feedforward_force) ff += sel_h.cwiseProduct(xdd_c);
 
   const Vec3 y_tilde = R * (u + ff);                              // eq. (20), back in the world frame
-  const Vec3 y = J.partialPivLu().solve(y_tilde - Jd * in.qd);    // eq. (21)
+  const Vec3 qd_term = Jd * in.qd;
+  const JointVec y = joint_acceleration(J, y_tilde - qd_term, in);  // eq. (21)
 
   // eq. (22): tau = B y + n^ + J^T h
   const Compensation& c = p.comp;
-  Vec3 n_hat = Vec3::Zero();
-  if (c.coriolis) n_hat += coriolis(arm_, in.q, in.qd) * in.qd;
-  if (c.gravity) n_hat += gravity(arm_, in.q);
-  for (int i = 0; i < 3; ++i) {
-    if (c.viscous) n_hat(i) += arm_.viscous(i) * in.qd(i);
+  const int n = arm.dof();
+  JointVec n_hat = JointVec::Zero(n);
+  if (c.coriolis) n_hat += arm.coriolis(in.q, in.qd) * in.qd;
+  if (c.gravity) n_hat += arm.gravity(in.q);
+  const JointSpace& js = arm.joints();
+  for (int i = 0; i < n; ++i) {
+    const auto ui = static_cast<size_t>(i);
+    if (c.viscous) n_hat(i) += js.viscous[ui] * in.qd(i);
     if (c.coulomb) {
-      n_hat(i) += arm_.coulomb(i) * (c.coulomb_band > 0.0 ? std::tanh(in.qd(i) / c.coulomb_band) : sgn(in.qd(i)));
+      n_hat(i) += js.coulomb[ui] * (c.coulomb_band > 0.0 ? std::tanh(in.qd(i) / c.coulomb_band) : sgn(in.qd(i)));
     }
   }
-  const Mat3 B = inertia(arm_, in.q);
+  const JointMat B = arm.inertia(in.q);
   out.tau = B * y + n_hat;
   if (g.type == LawType::SuperTwisting) tau_to_u_ = R.transpose() * J * B.inverse();
   if (c.contact_force) out.tau += J.transpose() * Vec3(in.h(0), in.h(1), 0.0);

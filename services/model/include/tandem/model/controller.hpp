@@ -5,7 +5,10 @@
 // The step is noexcept and allocation-free; the law is sampled once per control period and held.
 #pragma once
 
+#include <memory>
+
 #include "tandem/model/arm.hpp"
+#include "tandem/model/manipulator.hpp"
 #include "tandem/model/reference.hpp"
 #include "tandem/model/types.hpp"
 
@@ -52,6 +55,18 @@ struct Compensation {
   bool contact_force = true;   ///< the J^T h term of eq. (22), from the force sensor
 };
 
+/// Redundancy resolution of an arm with more joints than task coordinates (the planar 4R): the joint
+/// acceleration y = J^+ (y~ - J' q') + (I - J^+ J) z of eq. (21) with the minimum-norm inverse J^+ = J^T (J J^T)^-1,
+/// and in the null space a damped pull to a rest posture, z = -k_damping q' - k_posture (q - q_rest). J y is the
+/// same as without z, so the task-space loop of eq. (25)-(28) is untouched; z only damps the self-motion that the
+/// task leaves free and holds the arm near its posture (docs/controller.md, "Redundant arms").
+struct NullSpace {
+  double k_posture = 16.0;  ///< [1/s^2]
+  double k_damping = 8.0;   ///< [1/s]
+  /// The rest posture; empty (size 0): the first step's q.
+  JointVec q_rest = JointVec::Zero(0);
+};
+
 struct HybridParams {
   Vec3 selection_p{1.0, 0.0, 1.0};  ///< diagonal of Sigma_p (eq. 17); Sigma_h = I - Sigma_p
   double contact_stiffness = 1.0e4; ///< K_S of eq. (19) used to scale the force error [N/m]
@@ -60,18 +75,19 @@ struct HybridParams {
   LawGains law{};
   Compensation comp{};
   double period = 1.0e-3;           ///< control period T [s]
+  NullSpace null_space{};           ///< used only by arms with more than 3 joints
 };
 
-/// What the robot reads from its arm each period.
+/// What the robot reads from its arm each period (joint space of the arm's type: 3 joints by default).
 struct ArmSensors {
-  Vec3 q = Vec3::Zero();
-  Vec3 qd = Vec3::Zero();
+  JointVec q = JointVec::Zero(3);
+  JointVec qd = JointVec::Zero(3);
   Vec2 h = Vec2::Zero();  ///< force the end-effector exerts on the object (force sensor) [N]
 };
 
 /// Diagnostics of one step (all in the world frame unless said otherwise).
 struct ControlOutput {
-  Vec3 tau = Vec3::Zero();
+  JointVec tau = JointVec::Zero(3);  ///< joint torques [N m] or forces [N]
   Vec3 e_p = Vec3::Zero();        ///< x_d - x (the paper's e_p, unselected)
   Vec3 e_c = Vec3::Zero();        ///< combined error in the contact frame (Sigma_p e_p + Sigma_h K_S^-1 e_h)
   Vec3 s = Vec3::Zero();          ///< sliding variables in the contact frame (eq. 25-26)
@@ -81,7 +97,10 @@ struct ControlOutput {
 
 class HybridController {
  public:
+  /// The identified 3R (or any ArmParams arm).
   HybridController(const ArmParams& arm, const HybridParams& params);
+  /// Any manipulator type (manipulator.hpp); shared, immutable.
+  HybridController(std::shared_ptr<const Manipulator> arm, const HybridParams& params);
   /// Clears the law's memory (force history, super-twisting integrator).
   void reset() noexcept;
   /// One control period: sensors at t_k and the reference for t_k in, torque for [t_k, t_k+1) out.
@@ -91,16 +110,22 @@ class HybridController {
   /// the matching law output (u = R^T J B^-1 tau, eq. 20-22), so that this controller's next outputs continue
   /// from what the arm actually got: a standby that joined late (or a primary back from a stall) then takes
   /// over without a torque step. The other laws have no memory: nothing to shift.
-  void track(const Vec3& delta_tau) noexcept;
+  void track(const JointVec& delta_tau) noexcept;
   const HybridParams& params() const noexcept { return params_; }
+  const Manipulator& arm() const noexcept { return *arm_; }
 
  private:
-  ArmParams arm_;
+  /// y of eq. (21): J^-1 (y~ - J' q') for a square J; for a redundant arm the minimum-norm solution plus the
+  /// null-space task (NullSpace).
+  JointVec joint_acceleration(const TaskJacobian& J, const Vec3& task, const ArmSensors& in) noexcept;
+
+  std::shared_ptr<const Manipulator> arm_;
   HybridParams params_;
   double prev_normal_force_ = 0.0;
   bool has_prev_ = false;
   Vec3 twisting_v_ = Vec3::Zero();
-  Mat3 tau_to_u_ = Mat3::Zero();  ///< R^T J B^-1 of the last step (law output per torque)
+  TaskJacobian tau_to_u_ = TaskJacobian::Zero(3, 3);  ///< R^T J B^-1 of the last step (law output per torque)
+  JointVec q_rest_ = JointVec::Zero(0);
 };
 
 /// Gains that satisfy the reaching conditions (eq. 33-34) for one arm, per contact-frame axis:

@@ -1,6 +1,8 @@
 // tandem view's page in headless Chromium (playwright-core, Debian's chromium): the process table fills, the plots
-// receive new points over time, an event about SUBJECT appears after this checker prints READY (the test then
-// kills a robot), and the console shows no errors. Takes a screenshot. No tandem code.
+// receive new points over time; after this checker prints READY and then reads GO on its standard input (the test
+// has tried bad requests meanwhile), it clicks SUBJECT's kill button, accepts the page's confirmation, and waits
+// for the viewer's answer in the header and a new event about SUBJECT; the console shows no errors. Takes a
+// screenshot. No tandem code.
 // usage: node check_view_page.mjs URL SUBJECT SCREENSHOT.png [CHROMIUM]
 import { chromium } from "playwright-core";
 
@@ -47,6 +49,22 @@ const about = (s) => [...document.querySelectorAll("#events div")].filter((d) =>
                                                                            && /failover|lifecycle|brake/.test(d.textContent)).length;
 const before = await page.evaluate(`(${about.toString()})(${JSON.stringify(subject)})`);
 console.log(`READY: ${rows} processes, plot batches ${p1} -> ${p2}, ${before} event(s) about ${subject}`);
+// Wait for the test's go-ahead (a line on stdin), then kill SUBJECT as a user would: its button, then OK.
+await new Promise((resolve) => { process.stdin.once("data", resolve); process.stdin.once("end", resolve); });
+let asked = "";
+page.once("dialog", async (d) => { asked = d.message(); await d.accept(); });
+await page.evaluate((s) => {
+  const row = [...document.querySelectorAll("#procs tbody tr")].find((r) => r.cells[0].textContent === s);
+  [...row.querySelectorAll("button")].find((x) => x.textContent === "kill").click();
+}, subject);
+try {
+  await page.waitForFunction(() => document.getElementById("answer").className === "ok", null, { timeout: 15000 });
+} catch {
+  await fail(`the kill button got no ok answer within 15 s: "${await page.$eval("#answer", (a) => a.textContent)}"`, browser);
+}
+if (!asked.includes(subject)) await fail(`the kill was not confirmed first (dialog: "${asked}")`, browser);
+const answer = await page.$eval("#answer", (a) => a.textContent);
+console.log(`clicked kill ${subject}: confirmation "${asked}", answer "${answer}"`);
 try {
   await page.waitForFunction(([s, n]) => [...document.querySelectorAll("#events div")].filter((d) => d.textContent.includes(s)
                                            && /failover|lifecycle|brake/.test(d.textContent)).length > n,

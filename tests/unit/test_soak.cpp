@@ -338,7 +338,8 @@ TEST_CASE("soak checker: in lockstep an arm's failover is judged in module time 
   REQUIRE(x != nullptr);
   CHECK_THAT(x->text, Catch::Contains("within 0.2 s") && Catch::Contains("after 0.4 s"));
   // Real time, the same recording: the wall clock counts, 0.9 s, a violation.
-  const Violation* y = find(run(true, 20050), "recovery");
+  const Verdict real = run(true, 20050);  // kept: find() points into it
+  const Violation* y = find(real, "recovery");
   REQUIRE(y != nullptr);
   CHECK_THAT(y->text, Catch::Contains("after 0.9 s"));
 }

@@ -391,10 +391,13 @@ TEST_CASE("no task is counted twice with lost modules, late reports and a takeov
     for (int step = 0; step < 4000 && !q->complete(); ++step, t += 0.1) {
       for (auto& [name, sim] : sims) {
         if (t < sim.silent_until) continue;
-        if (auto it = inbox.find(name); it != inbox.end() && it->second.id > sim.task_id && !sim.running) {
-          sim.task_id = it->second.id;
-          sim.running = true;
-          sim.steps_left = static_cast<int>(rng.uniform(2.0, 12.0));
+        if (auto it = inbox.find(name); it != inbox.end() && it->second.id > sim.task_id) {
+          if (!sim.running) {
+            sim.task_id = it->second.id;
+            sim.running = true;
+            sim.steps_left = static_cast<int>(rng.uniform(2.0, 12.0));
+          }
+          inbox.erase(it);  // taken from the reader: a supervisor busy with a task drops an assignment
         }
         if (sim.running && --sim.steps_left <= 0) sim.running = false;
         if (rng.uniform(0.0, 1.0) < 0.01) sim.silent_until = t + rng.uniform(0.5, 3.0);  // may be lost
@@ -414,13 +417,69 @@ TEST_CASE("no task is counted twice with lost modules, late reports and a takeov
         last = q->snapshot();  // published before the assignment
         inbox[a->module] = *a;
       }
+      for (const auto& a : q->untaken(t)) inbox[a.module] = a;  // as CoordinatorCore::update does
       last = q->snapshot();
     }
     CHECK(taken_over);
+    CHECK(q->complete());  // no module left idle with a task in flight that it never took
     check_done_once(*q);
   }
   CHECK(lost > 0);  // the runs did exercise lost modules and their late reports
   CHECK(late_done_ignored > 0);
+}
+
+TEST_CASE("a module heard again with the task taken from it keeps it, and an assignment it dropped is sent again", "[coordinator]") {
+  // The soak-small hour: m2's world restarted, its supervisor was silent for 1.5 s and m2 was lost; heard again,
+  // it got its own task back under a new id, which its supervisor (still running the old id) dropped; its "done"
+  // of the old id was ignored, and m2 stood idle with a task in flight for 30 s.
+  TaskQueue q(task_names(3), Balance::Wear);
+  q.report({"m1", 0, kIdle}, 0.0);
+  q.report({"m2", 0, kIdle}, 0.0);
+  const auto a1 = q.assign_next(no_wear);  // t0 -> m1
+  const auto a2 = q.assign_next(no_wear);  // t1 -> m2
+  REQUIRE(a1);
+  REQUIRE(a2);
+  q.report({"m1", a1->id, kRunning}, 1.0);
+  q.report({"m2", a2->id, kRunning}, 0.5);
+  const auto lost = q.expire(2.1);  // m2 silent for 1.6 s
+  REQUIRE(lost.size() == 1);
+  CHECK(q.pending() == std::vector<std::string>{"t1", "t2"});
+  // Heard again saying "idle" with t1's id: not given back (it may never have run it), and not credited.
+  auto events = q.report({"m2", a2->id, kIdle}, 2.15);
+  CHECK(has(events, EventKind::Rejoined));
+  CHECK_FALSE(has(events, EventKind::Reclaimed));
+  CHECK_FALSE(has(events, EventKind::Finished));
+  // Then running t1: it stays with m2, and t1 is not handed to anyone else.
+  events = q.report({"m2", a2->id, kRunning}, 2.2);
+  CHECK(has(events, EventKind::Reclaimed));
+  CHECK(q.pending() == std::vector<std::string>{"t2"});
+  CHECK_FALSE(q.assign_next(no_wear));  // both busy
+  events = q.report({"m2", a2->id, kDone}, 3.0);
+  CHECK(has(events, EventKind::Finished));
+  CHECK(q.done_count() == 1);
+  // An assignment that m2 drops: it keeps reporting the older id finished; after kUntakenS it is sent again, once
+  // per kUntakenS, with the same id; none while it reports the new id.
+  const auto a3 = q.assign_next(no_wear);  // t2 -> m2
+  REQUIRE(a3);
+  CHECK(a3->module == "m2");
+  q.report({"m2", a2->id, kDone}, 3.1);
+  CHECK(q.untaken(3.5).empty());
+  q.report({"m2", a2->id, kDone}, 4.0);
+  const auto again = q.untaken(4.2);
+  REQUIRE(again.size() == 1);
+  CHECK(again[0].id == a3->id);
+  CHECK(again[0].module == "m2");
+  CHECK(q.untaken(4.5).empty());
+  q.report({"m2", a3->id, kRunning}, 4.6);
+  CHECK(q.untaken(9.0).empty());
+  // A task taken from a module that dropped its object is never reclaimed by it.
+  TaskQueue f(task_names(2), Balance::Wear);
+  f.report({"m1", 0, kIdle}, 0.0);
+  const auto b = f.assign_next(no_wear);
+  REQUIRE(b);
+  f.report({"m1", b->id, kFailed}, 0.5);
+  CHECK_FALSE(has(f.report({"m1", b->id, kRunning}, 0.6), EventKind::Reclaimed));
+  CHECK(f.pending() == std::vector<std::string>{"t0", "t1"});
 }
 
 TEST_CASE("a module that drops its object fails: its task goes back to the front and is never counted done there", "[coordinator]") {

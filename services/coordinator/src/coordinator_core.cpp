@@ -130,6 +130,11 @@ void CoordinatorCore::update(double now) {
     log("task " + queue_.task_name(a->task) + " -> " + a->module + " (id " + std::to_string(a->id) + ", wear " +
         fixed(a->wear, 3) + " rad)");
   }
+  for (const auto& a : queue_.untaken(now)) {
+    assign(a);
+    log("sending task " + queue_.task_name(a.task) + " to " + a.module + " again (id " + std::to_string(a.id) +
+        "): it reports an older task finished, so it never took this one");
+  }
   if (queue_.revision() != published_ || now - last_beat_ >= kHeartbeatS) publish(now);
   if (queue_.done_count() != progress_mark_) {
     progress_mark_ = queue_.done_count();

@@ -70,6 +70,9 @@ void TaskQueue::finish(const std::string& name, Module& m, std::vector<Event>& e
     ++done_of_[name];
   }
   events.push_back({EventKind::Finished, name, names_[m.running_task], m.running_id, done_count()});
+  for (auto a = abandoned_.begin(); a != abandoned_.end();) {  // done: nothing left to reclaim of it
+    a = a->second.task == m.running_task ? abandoned_.erase(a) : std::next(a);
+  }
   m.running_id = 0;
   ++revision_;
 }
@@ -118,6 +121,29 @@ std::vector<Event> TaskQueue::report(const ModuleReport& r, double now) {
   }
   m.heard = true;
   m.last_heard = now;
+  // A module lost for a while (its supervisor silent while its world restarted: a soak-small hour, twice in one
+  // minute) may still run, or have finished, the task taken from it. If that task was not handed to anyone since, it
+  // stays where it is: handed again to the same module under a new id, the supervisor (still busy with the old id)
+  // dropped the new one, its "done" of the old one was ignored, and the module stood idle with a task in flight
+  // for 30 s.
+  // Only a module that says it is busy with it (running, paused, draining) gets it back: one that reports the old
+  // id idle or done may not have run it at all (a supervisor whose world restarted said "idle" with the task in
+  // hand, not started yet), and is never credited with it unseen; an assignment it drops is sent again (untaken()).
+  const bool busy = r.state == static_cast<uint8_t>(ModuleState::Running) ||
+                    r.state == static_cast<uint8_t>(ModuleState::Paused) ||
+                    r.state == static_cast<uint8_t>(ModuleState::Draining);
+  if (m.running_id == 0 && busy) {
+    if (const auto a = abandoned_.find(r.task_id); a != abandoned_.end() && a->second.module == r.module && a->second.lost) {
+      if (const auto pos = std::find(pending_.begin(), pending_.end(), a->second.task); pos != pending_.end()) {
+        pending_.erase(pos);
+        m.running_id = r.task_id;
+        m.running_task = a->second.task;
+        events.push_back({EventKind::Reclaimed, r.module, names_[a->second.task], r.task_id, 0});
+        abandoned_.erase(a);
+        ++revision_;
+      }
+    }
+  }
   const bool newly_failed = r.state == static_cast<uint8_t>(ModuleState::Failed) && m.state != r.state;
   m.state = r.state;
   m.reported = r.task_id;
@@ -128,7 +154,7 @@ std::vector<Event> TaskQueue::report(const ModuleReport& r, double now) {
     if (m.running_id != 0) {
       e.task = names_[m.running_task];
       e.id = m.running_id;
-      abandoned_[m.running_id] = {m.running_task, r.module};
+      abandoned_[m.running_id] = Abandoned{m.running_task, r.module, false};
       requeue(m);
     }
     events.push_back(e);
@@ -143,13 +169,21 @@ std::vector<Event> TaskQueue::report(const ModuleReport& r, double now) {
     events.push_back({EventKind::Requeued, r.module, names_[m.running_task], m.running_id, 0});
     requeue(m);
   }
+  const bool untaken = m.running_id != 0 && r.task_id < m.running_id && finished_state(r.state) &&
+                       r.state != static_cast<uint8_t>(ModuleState::Left);
+  if (!untaken) {
+    m.untaken_since = -1.0;
+  } else if (m.untaken_since < 0.0) {
+    m.untaken_since = now;
+  }
   if (!finished_state(r.state)) return events;
   if (m.running_id != 0 && r.task_id == m.running_id) {
     finish(r.module, m, events);
   } else if (const auto a = abandoned_.find(r.task_id);
-             a != abandoned_.end() && a->second.second == r.module) {
-    events.push_back({EventKind::LateDoneIgnored, r.module, names_[a->second.first], r.task_id, 0});
-    abandoned_.erase(a);  // say it once
+             a != abandoned_.end() && a->second.module == r.module && !a->second.said) {
+    events.push_back({EventKind::LateDoneIgnored, r.module, names_[a->second.task], r.task_id, 0});
+    a->second.said = true;  // said once; kept for a lost module, which may still turn out to run it (reclaim)
+    if (!a->second.lost) abandoned_.erase(a);
   }
   return events;
 }
@@ -169,7 +203,7 @@ std::vector<Event> TaskQueue::expire(double now) {
     if (m.running_id != 0) {
       e.task = names_[m.running_task];
       e.id = m.running_id;
-      abandoned_[m.running_id] = {m.running_task, name};
+      abandoned_[m.running_id] = Abandoned{m.running_task, name, true};
       requeue(m);
     }
     events.push_back(e);
@@ -205,6 +239,16 @@ std::optional<Assignment> TaskQueue::assign_next(const std::function<double(cons
   m.running_id = next_id_++;
   ++revision_;
   return Assignment{*best, m.running_id, m.running_task, best_wear};
+}
+
+std::vector<Assignment> TaskQueue::untaken(double now) {
+  std::vector<Assignment> out;
+  for (auto& [name, m] : modules_) {
+    if (m.running_id == 0 || m.lost || !m.heard || m.untaken_since < 0.0 || now - m.untaken_since < kUntakenS) continue;
+    out.push_back({name, m.running_id, m.running_task, 0.0});
+    m.untaken_since = now;  // again in kUntakenS if it still does not take it
+  }
+  return out;
 }
 
 void TaskQueue::restore(const Snapshot& s, double now) {
@@ -313,8 +357,10 @@ std::string TaskQueue::describe(const Event& e) const {
       return e.module + " finished " + task + "; " + std::to_string(e.done) + "/" +
              std::to_string(names_.size()) + " done";
     case EventKind::LateDoneIgnored:
-      return e.module + " reports " + task + " done, but it was re-assigned when " + e.module +
-             " was lost: ignored";
+      return e.module + " reports " + task + " done, but it was taken from " + e.module +
+             " (lost, or its object dropped) and handed on: ignored";
+    case EventKind::Reclaimed:
+      return e.module + " is heard again with " + task + ", which was not handed on: it stays with " + e.module;
     case EventKind::Lost:
       return e.module + " lost (not heard for " + lost_after + ")" + back;
     case EventKind::Left:

@@ -68,7 +68,8 @@ enum class EventKind {
   Joined,           ///< a module reports for the first time
   Rejoined,         ///< a lost module is heard again (it takes new tasks only)
   Finished,         ///< a module finished its task: counted done
-  LateDoneIgnored,  ///< a module reports done a task taken from it when it was lost
+  LateDoneIgnored,  ///< a module reports done a task taken from it when it dropped its object (or re-assigned)
+  Reclaimed,        ///< a module heard again still has the task taken from it when it was lost: it stays there
   Lost,             ///< not heard for kModuleLostS (task: the one put back at the front of the queue)
   Left,             ///< reported "left": removed (task: the one put back at the front of the queue)
   Requeued,         ///< the module no longer runs the task recorded for it (a takeover, or it took a newer id)
@@ -109,6 +110,11 @@ class TaskQueue {
   /// Hands the first pending task to the best free module (not lost, state idle or done, nothing in flight),
   /// by the balance rule on `wear(module)`; nullopt if no task or no module is free.
   std::optional<Assignment> assign_next(const std::function<double(const std::string&)>& wear);
+  /// Tasks in flight on a module that is heard and reports a finished state with an older id for at least
+  /// kUntakenS: it never took the assignment (a supervisor still busy with an earlier task drops one). Write them
+  /// again (the same id: a supervisor takes an id once). Each is returned at most once per kUntakenS.
+  std::vector<Assignment> untaken(double now);
+  static constexpr double kUntakenS = 1.0;
 
   // --- Takeover --------------------------------------------------------------------------------------------
   /// Replaces the queue by the primary's last state: done and running from it, pending = every task (file
@@ -156,6 +162,7 @@ class TaskQueue {
     bool lost = false;
     uint64_t running_id = 0;  // task id in flight (0: none)
     size_t running_task = 0;
+    double untaken_since = -1.0;  // reports a finished state with an id older than running_id since then
   };
   static bool finished_state(uint8_t state);
   std::optional<size_t> find_task(const std::string& name) const;
@@ -167,8 +174,13 @@ class TaskQueue {
   Balance balance_;
   std::map<std::string, Module> modules_;
   std::map<std::string, uint64_t> left_;  // modules that left -> the last task id they reported
-  std::map<uint64_t, std::pair<size_t, std::string>>
-      abandoned_;  // id taken from a lost module -> task, module
+  struct Abandoned {
+    size_t task = 0;
+    std::string module;
+    bool lost = false;  // taken because the module was lost (true) or dropped its object (false)
+    bool said = false;  // its late "done" was said ignored (kept while lost: the module may still reclaim it)
+  };
+  std::map<uint64_t, Abandoned> abandoned_;  // id taken from a module -> what and why
   std::deque<size_t> pending_;
   std::vector<uint8_t> done_by_;              // per task: 0 not done, i: done by module_names_[i - 1]
   std::vector<std::string> module_names_;     // modules that did tasks (index + 1 in done_by_)

@@ -19,7 +19,7 @@ export TSAN_OPTIONS="log_path=$PWD/build-tsan/tsan suppressions=$PWD/scripts/tsa
 rc=0
 (cd build-tsan/tests && ./tandem_unit_tests) || rc=1
 (cd build-tsan/tests && ./tandem_distributed_tests "$test_name") || rc=1
-reports=$(ls build-tsan/tsan.* 2>/dev/null | wc -l)
+reports=$(find build-tsan -maxdepth 1 -name "tsan.*" | wc -l)  # ls would fail (set -e, pipefail) with none
 echo "tsan: $reports report file(s)"
 if [ "$reports" -gt 0 ]; then
   grep -h "^WARNING: ThreadSanitizer" build-tsan/tsan.* | sort | uniq -c

@@ -67,6 +67,8 @@ echo "viewer RSS ${rss0} kB before, ${rss1} kB after 15 s of a client that read 
 # client here and far below what an unbounded queue of 15 s of every channel would take.
 [ $(( rss1 - rss0 )) -lt 40960 ] || fail "the viewer grew $(( rss1 - rss0 )) kB with one stalled client"
 node "$node/foxglove_client.mjs" "ws://127.0.0.1:$port" tandem/torque_commands/m1/right 200 || fail "a client after the stalled one"
+# The stalled client's queues dropped their oldest frames, and the server counted them: the page's state says so.
+node "$node/foxglove_client.mjs" "ws://127.0.0.1:$port" tandem/view/state 50 --drops || fail "no drop counted for the stalled client"
 
 echo "== 4. the page in headless Chromium"
 # The checker clicks m1/left's kill button once it reads a line on its stdin (a fifo held open here).

@@ -1,8 +1,10 @@
 // An independent Foxglove WebSocket protocol client (foxglove/ws-protocol spec; no tandem code): it connects to
 // tandem view, reads serverInfo and advertise, subscribes to one per-tick protobuf channel, decodes each message
 // with protobufjs from the advertised FileDescriptorSet alone, and checks that the ticks come consecutively.
-// usage: node foxglove_client.mjs ws://HOST:PORT TOPIC N [--stall SECONDS]
+// usage: node foxglove_client.mjs ws://HOST:PORT TOPIC N [--stall SECONDS | --drops]
 //   --stall S: subscribe to every channel, then read nothing for S seconds (a client that never reads), then close.
+//   --drops: TOPIC is the page's JSON state channel (tandem/view/state): pass when, within N messages, it counts
+//            frames dropped for some topic (the server's bounded queues did drop for a stalled client).
 import WebSocket from "ws";
 import protobuf from "protobufjs";
 import "protobufjs/ext/descriptor/index.js";
@@ -14,6 +16,7 @@ if (!url || !topic || !wantArg) {
 }
 const want = Number(wantArg);
 const stall = flag === "--stall" ? Number(stallArg) : 0;
+const drops = flag === "--drops";
 const fail = (why) => {
   console.error(`foxglove_client: FAIL: ${why}`);
   process.exit(1);
@@ -37,6 +40,12 @@ ws.on("message", (data, isBinary) => {
       if (!info) fail("advertise before serverInfo");
       const ch = msg.channels.find((c) => c.topic === topic);
       if (!ch) fail(`no channel ${topic} among ${msg.channels.length}`);
+      if (drops) {
+        if (ch.encoding !== "json") fail(`channel ${topic} is ${ch.encoding}, not json`);
+        subId = 7;
+        ws.send(JSON.stringify({op: "subscribe", subscriptions: [{id: subId, channelId: ch.id}]}));
+        return;
+      }
       if (ch.encoding !== "protobuf" || ch.schemaEncoding !== "protobuf") fail(`channel ${topic} is ${ch.encoding}`);
       const root = protobuf.Root.fromDescriptor(Buffer.from(ch.schema, "base64"));
       type = root.lookupType(ch.schemaName);
@@ -60,6 +69,19 @@ ws.on("message", (data, isBinary) => {
   if (buf[0] === 0x02) return;  // time
   if (buf[0] !== 0x01) fail(`unknown binary op ${buf[0]}`);
   if (buf.readUInt32LE(1) !== subId) fail(`message for subscription ${buf.readUInt32LE(1)}, not ${subId}`);
+  if (drops) {
+    const state = JSON.parse(buf.subarray(13).toString());
+    const counted = Object.entries(state.drops || {}).filter(([, n]) => n > 0);
+    got.push(state);
+    if (counted.length > 0) {
+      const total = counted.reduce((a, [, n]) => a + n, 0);
+      console.log(`foxglove_client: PASS: ${total} frames dropped on ${counted.length} channel(s), e.g. ${counted[0][0]}: ${counted[0][1]}`);
+      ws.close();
+      process.exit(0);
+    }
+    if (got.length === want) fail(`no drop counted in ${want} state messages: ${JSON.stringify(state.drops)}`);
+    return;
+  }
   const m = type.toObject(type.decode(buf.subarray(13)), {longs: Number, defaults: true});
   got.push(m);
   if (got.length === want) {

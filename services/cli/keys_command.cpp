@@ -78,7 +78,7 @@ void describe(CLI::App& app, KeysArgs& o) {
   app.add_option("deploy", o.file, "the deployment file")->required()->type_name("DEPLOY.yaml");
   app.add_option("--dir", o.dir, "where the files go (default: the deployment's security.keys)")->type_name("DIR");
   app.add_option("--days", o.days, "validity of the certificates and grants, in days")
-      ->check(CLI::Range(1, 3650))->capture_default_str()->type_name("N");
+      ->check(runtime::decimal())->check(CLI::Range(1, 3650))->capture_default_str()->type_name("N");
   app.add_flag("--new-ca", o.new_ca, "replace the deployment's CA (every identity gets new keys)");
   app.footer(
       "Keys are 0600 in a 0700 directory; never commit them. `tandem up` refuses to start with a missing or\n"

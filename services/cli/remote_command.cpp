@@ -64,7 +64,7 @@ void describe(CLI::App& app, RemoteArgs& a, const std::string& verb) {
   app.add_option("words", a.words, "the deployment file (none with --domain), then what the command acts on")
       ->type_name(words);
   app.add_option("--domain", a.domain, "the DDS domain of a deployment given without its file")
-      ->check(CLI::Range(0, 232))->type_name("ID");
+      ->check(runtime::decimal())->check(CLI::Range(0, 232))->type_name("ID");
   app.add_option("--name", a.name, "the deployment's name (with --domain)")->type_name("NAME");
   if (plug) {
     app.add_flag("--standby", a.standby, "plug robot: as a standby computing in shadow");
@@ -80,9 +80,12 @@ void describe(CLI::App& app, RemoteArgs& a, const std::string& verb) {
 /// if there is none or the file is bad.
 bool resolve_target(const char* cmd, const RemoteArgs& a, Deployment& d, std::vector<std::string>& rest) {
   rest = a.words;
-  if (a.domain >= 0) {
-    d.domain_id = a.domain;
-  } else if (!rest.empty()) {
+  // The first word is the deployment file unless --domain names the target; a .yaml/.yml file with --domain is
+  // still loaded, and --domain and --name override what it says.
+  const auto yaml = [](const std::string& w) {
+    return (w.size() > 5 && w.compare(w.size() - 5, 5, ".yaml") == 0) || (w.size() > 4 && w.compare(w.size() - 4, 4, ".yml") == 0);
+  };
+  if (!rest.empty() && (a.domain < 0 || yaml(rest.front()))) {
     try {
       d = load_deployment(rest.front());
     } catch (const std::exception& e) {
@@ -90,10 +93,11 @@ bool resolve_target(const char* cmd, const RemoteArgs& a, Deployment& d, std::ve
       return false;
     }
     rest.erase(rest.begin());
-  } else {
+  } else if (a.domain < 0) {
     std::fprintf(stderr, "tandem %s: give a deployment file, or --domain ID [--name NAME]\n", cmd);
     return false;
   }
+  if (a.domain >= 0) d.domain_id = a.domain;
   if (!a.name.empty()) d.name = a.name;
   return true;
 }

@@ -52,7 +52,7 @@ void describe(CLI::App& app, up::UpOptions& o, std::string& record_file) {
   app.add_flag("--view", o.with_view,
                "start `tandem view` beside the deployment (the page and Foxglove on http://127.0.0.1:8765/)");
   app.add_option("--view-port", o.view_port, "--view on another port (0: any free one; see 'tandem help view')")
-      ->check(CLI::Range(0, 65535))->type_name("N")->each([&o](const std::string&) { o.with_view = true; });
+      ->check(runtime::decimal())->check(CLI::Range(0, 65535))->type_name("N")->each([&o](const std::string&) { o.with_view = true; });
   app.add_flag("--check", o.check_only,
                "validate the file and every scenario it names, print the real-time capacity estimate (and a\n"
                "warning when the deployment needs more cores than the machine has), and start nothing. The\n"

@@ -119,7 +119,7 @@ void describe_args(CLI::App& app, ViewArgs& a) {
           [](std::string& v) {
             char* end = nullptr;
             const long p = std::strtol(v.c_str(), &end, 10);
-            return v.empty() || *end != '\0' || p < 0 || p > 65535
+            return v.empty() || *end != '\0' || p < 0 || p > 65535 || (v.size() > 1 && v[0] == '0')
                        ? "'" + v + "' is not a port number 0-65535 (0: any free port)"
                        : std::string();
           },

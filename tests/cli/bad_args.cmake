@@ -24,6 +24,8 @@ set(cases
   "plug|${deploy},module,m2,--scenario,x.yaml|give both --scenario FILE and --case NAME"
   "unplug|${deploy},module,a/b|a module name has no '/'"
   "status|--domain,300|--domain: Value 300 not in range 0 to 232"
+  "status|${deploy},--domain,010|not a whole number in decimal"
+  "view|${deploy},--port,080|not a port number"
   "down|${deploy},extra|unexpected 'extra'"
   "up|-|deploy is required"
   "agent|${deploy}|--host is required"

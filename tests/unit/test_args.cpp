@@ -242,3 +242,16 @@ TEST_CASE("subcommand arguments: checks for choices, durations and whole numbers
     CHECK(e.find(want) != std::string::npos);
   }
 }
+
+TEST_CASE("integer options are decimal: CLI11 alone would read 010 as 8", "[args]") {
+  int domain = -1;
+  CLI::App app("", "tandem test");
+  tandem::runtime::add_domain(app, domain);
+  std::string err;
+  CHECK(tandem::runtime::parse_args(app, std::vector<std::string>{"--domain", "010"}, &err) == 2);
+  CHECK(err.find("'010' is not a whole number in decimal") != std::string::npos);
+  CLI::App ok("", "tandem test");
+  tandem::runtime::add_domain(ok, domain);
+  CHECK(tandem::runtime::parse_args(ok, std::vector<std::string>{"--domain", "10"}, &err) == -1);
+  CHECK(domain == 10);
+}

@@ -438,8 +438,28 @@ TEST_CASE("every manipulator type's model evaluations do not allocate", "[contro
   models.push_back(tm::make_manipulator(tm::cartesian_ppr()));
   models.push_back(tm::make_manipulator(tm::planar_4r()));
   double sink = 0.0;
+  // The controller's step over each type too (the 4R's minimum-norm solve and null-space projection included).
+  std::vector<tm::HybridController> laws;
+  tm::HybridParams hp;
+  hp.law.type = tm::LawType::SuperTwisting;
+  laws.emplace_back(std::make_shared<const tm::Planar3R>(tm::smart3s2()), hp);
+  laws.emplace_back(std::make_shared<const tm::PlanarChain>(tm::cartesian_ppr()), hp);
+  laws.emplace_back(std::make_shared<const tm::PlanarChain>(tm::planar_4r()), hp);
+  std::vector<tm::ArmSensors> sensors(3);
+  for (size_t i = 0; i < 3; ++i) {
+    const int n = laws[i].arm().dof();
+    sensors[i].q = tm::JointVec::Constant(n, 0.4);
+    sensors[i].qd = tm::JointVec::Constant(n, 0.1);
+    sensors[i].h = tm::Vec2(5.0, -1.0);
+  }
+  tm::ArmReference ref;
+  ref.x = Vec3(0.2, 0.9, 0.3);
+  ref.force = 10.0;
   g_allocations = 0;
   g_count_allocations = true;
+  for (int k = 0; k < 100; ++k) {
+    for (size_t i = 0; i < 3; ++i) sink += laws[i].step(sensors[i], ref).tau.sum();
+  }
   for (const auto& m : models) {
     tm::JointVec q = tm::JointVec::Constant(m->dof(), 0.3), qd = tm::JointVec::Constant(m->dof(), -0.2);
     for (int k = 0; k < 200; ++k) {

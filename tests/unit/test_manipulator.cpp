@@ -470,3 +470,21 @@ TEST_CASE("4R: the null-space task changes the joints' motion but not the end-ef
     CHECK((qdd_a - qdd_b).norm() > 1e-3);  // the null-space task did act
   }
 }
+
+TEST_CASE("the controller refuses arms and postures it cannot serve, and sensors of the wrong size get no torque", "[manipulator][controller]") {
+  tm::HybridParams hp;
+  JointVec three(3);
+  three << 0.1, 0.2, 0.3;
+  hp.null_space.q_rest = three;
+  CHECK_THROWS_WITH(tm::HybridController(shared_model("planar_4r"), hp),
+                    Catch::Contains("q_rest has 3 entries for an arm of 4 joints"));
+  tm::ChainParams two = tm::planar_4r();
+  two.joints.dof = 2;
+  CHECK_THROWS_WITH(tm::HybridController(std::make_shared<const tm::PlanarChain>(two), tm::HybridParams{}),
+                    Catch::Contains("at least 3 joints"));
+  tm::HybridController ctl(shared_model("planar_4r"), tm::HybridParams{});
+  tm::ArmSensors in;  // 3 joints by default
+  const tm::ControlOutput out = ctl.step(in, tm::ArmReference{});
+  REQUIRE(out.tau.size() == 4);
+  CHECK_FALSE(out.tau.allFinite());
+}

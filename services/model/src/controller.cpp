@@ -1,6 +1,9 @@
 #include "tandem/model/controller.hpp"
 
 #include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
 
 namespace tandem::model {
 namespace {
@@ -25,7 +28,14 @@ HybridController::HybridController(const ArmParams& arm, const HybridParams& par
 
 HybridController::HybridController(std::shared_ptr<const Manipulator> arm, const HybridParams& params)
     : arm_(std::move(arm)), params_(params), tau_to_u_(TaskJacobian::Zero(3, arm_->dof())),
-      q_rest_(params.null_space.q_rest) {}
+      q_rest_(params.null_space.q_rest) {
+  // Three task coordinates: an arm needs at least three joints (fewer cannot follow [px, py, phi]).
+  if (arm_->dof() < 3) throw std::invalid_argument("HybridController: an arm needs at least 3 joints");
+  if (q_rest_.size() != 0 && q_rest_.size() != arm_->dof()) {
+    throw std::invalid_argument("HybridController: null_space.q_rest has " + std::to_string(q_rest_.size()) +
+                                " entries for an arm of " + std::to_string(arm_->dof()) + " joints");
+  }
+}
 
 void HybridController::track(const JointVec& delta_tau) noexcept {
   if (params_.law.type != LawType::SuperTwisting || delta_tau.size() != arm_->dof() || !delta_tau.allFinite()) return;
@@ -60,6 +70,12 @@ ControlOutput HybridController::step(const ArmSensors& in, const ArmReference& r
   const HybridParams& p = params_;
   const double T = p.period;
   const Manipulator& arm = *arm_;
+  if (in.q.size() != arm.dof() || in.qd.size() != arm.dof()) {
+    // Sensors of another joint count (a wiring error): no torque is better than one computed from garbage. A NaN
+    // torque is refused by every consumer (RobotCore, the world).
+    out.tau = JointVec::Constant(arm.dof(), std::numeric_limits<double>::quiet_NaN());
+    return out;
+  }
   const Vec3 x = arm.forward_kinematics(in.q);
   const TaskJacobian J = arm.jacobian(in.q);
   const TaskJacobian Jd = arm.jacobian_dot(in.q, in.qd);

@@ -22,7 +22,7 @@ int parse_with(CLI::App& app, std::string* err, Parse&& parse) {
     std::string what = e.what();
     // An argument no option takes is said first, whatever else failed: it is most often a misspelt option,
     // and a "--out is required" beside "--uot" would send the user looking in the wrong place.
-    if (dynamic_cast<const CLI::ExtrasError*>(&e) != nullptr || !app.remaining().empty()) {
+    if (!app.remaining().empty()) {
       std::string extras;
       for (const std::string& x : app.remaining()) extras += (extras.empty() ? "'" : ", '") + x + "'";
       what = "unknown option or extra argument " + extras;
@@ -91,8 +91,19 @@ CLI::Validator whole_number() {
       "");
 }
 
+CLI::Validator decimal() {
+  return CLI::Validator(
+      [](std::string& v) {
+        const bool digits = !v.empty() && v.find_first_not_of("0123456789") == std::string::npos;
+        // CLI11 reads integers in base 0 (strtoll): "010" would be 8. Only plain decimal numbers are accepted.
+        return digits && (v.size() == 1 || v[0] != '0') ? std::string()
+                                                        : "'" + v + "' is not a whole number in decimal (no sign, no leading 0)";
+      },
+      "");
+}
+
 CLI::Option* add_domain(CLI::App& app, int& domain) {
-  return app.add_option("--domain", domain, "DDS domain id")->check(CLI::Range(0, 232))->type_name("ID");
+  return app.add_option("--domain", domain, "DDS domain id")->check(decimal())->check(CLI::Range(0, 232))->type_name("ID");
 }
 
 CLI::Validator seconds_up_to(double max_s) {

@@ -14,6 +14,7 @@ if (!url || !subject || !shot) {
 const fail = async (why, browser) => {
   console.error(`check_view_page: FAIL: ${why}`);
   if (browser) await browser.close();
+process.exit(0);
   process.exit(1);
 };
 const browser = await chromium.launch({ executablePath: exe, args: ["--no-sandbox", "--disable-gpu"] });
@@ -50,13 +51,21 @@ const about = (s) => [...document.querySelectorAll("#events div")].filter((d) =>
 const before = await page.evaluate(`(${about.toString()})(${JSON.stringify(subject)})`);
 console.log(`READY: ${rows} processes, plot batches ${p1} -> ${p2}, ${before} event(s) about ${subject}`);
 // Wait for the test's go-ahead (a line on stdin), then kill SUBJECT as a user would: its button, then OK.
-await new Promise((resolve) => { process.stdin.once("data", resolve); process.stdin.once("end", resolve); });
+const go = await new Promise((resolve) => {
+  process.stdin.once("data", () => resolve(true));
+  process.stdin.once("end", () => resolve(false));
+});
+process.stdin.destroy();
+if (!go) await fail("no GO on stdin (the test ended first)", browser);
 let asked = "";
 page.once("dialog", async (d) => { asked = d.message(); await d.accept(); });
-await page.evaluate((s) => {
+const clicked = await page.evaluate((s) => {
   const row = [...document.querySelectorAll("#procs tbody tr")].find((r) => r.cells[0].textContent === s);
-  [...row.querySelectorAll("button")].find((x) => x.textContent === "kill").click();
+  const b = row && [...row.querySelectorAll("button")].find((x) => x.textContent === "kill");
+  if (b) b.click();
+  return Boolean(b);
 }, subject);
+if (!clicked) await fail(`no kill button of ${subject} to click`, browser);
 try {
   await page.waitForFunction(() => document.getElementById("answer").className === "ok", null, { timeout: 15000 });
 } catch {
@@ -69,9 +78,10 @@ try {
   await page.waitForFunction(([s, n]) => [...document.querySelectorAll("#events div")].filter((d) => d.textContent.includes(s)
                                            && /failover|lifecycle|brake/.test(d.textContent)).length > n,
                              [subject, before], { timeout: 30000 });
-} catch { await fail(`no new event about ${subject} within 30 s of READY (${before} before)`, browser); }
+} catch { await fail(`no new event about ${subject} within 30 s of the click (${before} before)`, browser); }
 const event = await page.$$eval("#events div", (ds, s) => ds.map((d) => d.textContent).find((t) => t.includes(s)), subject);
 await page.screenshot({ path: shot, fullPage: true });
 if (problems.length) await fail(problems.join("; "), browser);
 console.log(`check_view_page: PASS: ${rows} processes, plots growing, event "${event}", no console errors; ${shot}`);
 await browser.close();
+process.exit(0);

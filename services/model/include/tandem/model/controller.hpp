@@ -63,7 +63,10 @@ struct Compensation {
 struct NullSpace {
   double k_posture = 16.0;  ///< [1/s^2]
   double k_damping = 8.0;   ///< [1/s]
-  /// The rest posture; empty (size 0): the first step's q.
+  /// The rest posture; empty (size 0): the first step's q. Set it (from the scenario) wherever controllers hand
+  /// over: with the default, a standby or a restarted robot latches its own first q, and its null-space term starts
+  /// from another posture than the one it takes over from (a torque step in the self-motion only; the end-effector
+  /// is not disturbed). reset() keeps it.
   JointVec q_rest = JointVec::Zero(0);
 };
 
@@ -99,7 +102,8 @@ class HybridController {
  public:
   /// The identified 3R (or any ArmParams arm).
   HybridController(const ArmParams& arm, const HybridParams& params);
-  /// Any manipulator type (manipulator.hpp); shared, immutable.
+  /// Any manipulator type (manipulator.hpp); shared, immutable. std::invalid_argument for an arm of fewer than 3
+  /// joints or a null_space.q_rest of the wrong size. step() with sensors of another size gives a NaN torque.
   HybridController(std::shared_ptr<const Manipulator> arm, const HybridParams& params);
   /// Clears the law's memory (force history, super-twisting integrator).
   void reset() noexcept;

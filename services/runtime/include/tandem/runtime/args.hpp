@@ -30,6 +30,9 @@ CLI::Validator duration();
 /// A check for a whole number >= 0 (no sign, no fraction).
 CLI::Validator whole_number();
 
+/// A check for a plain decimal whole number (CLI11 itself reads "010" as 8).
+CLI::Validator decimal();
+
 /// A DDS domain id option: an integer in [0, 232].
 CLI::Option* add_domain(CLI::App& app, int& domain);
 

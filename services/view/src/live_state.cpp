@@ -175,7 +175,10 @@ std::string LiveState::state(uint64_t now_ns, const std::map<std::string, uint64
          {"tick", m.report.tick()},
          {"h_sg", h_sg},
          {"normal_min", num(m.report.normal_min())},
-         {"grasp_margin", m.reported && h_sg > 0.0 ? num(m.report.normal_min() - h_sg) : json(nullptr)},
+         // No margin before the world has measured a normal force (its minimum is then a huge sentinel, which the
+         // page showed as "1e+300 N").
+         {"grasp_margin", m.reported && h_sg > 0.0 && m.report.normal_min() < 1e100 ? num(m.report.normal_min() - h_sg)
+                                                                                 : json(nullptr)},
          {"braked", braked},
          {"load_paused", m.report.load_paused()},
          {"failed", m.report.failed()},

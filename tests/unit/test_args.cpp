@@ -212,7 +212,7 @@ TEST_CASE("subcommand arguments: checks for choices, durations and whole numbers
   app.add_option("--duration", duration)->check(rt::duration());
   app.add_option("--seed", seed)->check(rt::whole_number());
   app.add_option("-o,--out", out)->required();
-  auto run = [&app](std::vector<std::string> args, std::string& err) { return rt::parse_args(app, args, &err); };
+  auto run = [&app](const std::vector<std::string>& args, std::string& err) { return rt::parse_args(app, args, &err); };
   std::string err;
   CHECK(run({"f.yaml", "--timing", "lockstep", "--duration", "2m", "--seed", "42", "-o", "x"}, err) == -1);
   CHECK(timing == "lockstep");

@@ -95,7 +95,7 @@ using tandem::model::kPi;
 using tandem::model::Mat3;
 using tandem::model::Vec2;
 using tandem::model::Vec3;
-namespace tm = tandem::model;
+namespace mdl = tandem::model;
 
 using tandem::test::Lcg;
 
@@ -114,7 +114,7 @@ Mat3 frame_by_hand(double phi) {
 /// End-effector velocity by central differences of forward kinematics along q' (independent of jacobian()).
 Vec3 fd_velocity(const ArmParams& p, const Vec3& q, const Vec3& qd) {
   const double h = 1e-7;
-  return (tm::forward_kinematics(p, q + h * qd) - tm::forward_kinematics(p, q - h * qd)) / (2.0 * h);
+  return (mdl::forward_kinematics(p, q + h * qd) - mdl::forward_kinematics(p, q - h * qd)) / (2.0 * h);
 }
 
 using tandem::test::ArmState;
@@ -130,21 +130,21 @@ struct Run {
 };
 
 /// Free arm holding a fixed reference, sampled-data loop: controller every T, 10 RK4 substeps of T/10.
-Run closed_loop(const ArmParams& arm, const tm::HybridParams& hp, const tm::ArmReference& ref, ArmState st,
+Run closed_loop(const ArmParams& arm, const mdl::HybridParams& hp, const mdl::ArmReference& ref, ArmState st,
                 double duration) {
-  tm::HybridController ctl(arm, hp);
+  mdl::HybridController ctl(arm, hp);
   const double T = hp.period;
   const Mat3 R = frame_by_hand(ref.x(2));
   const Vec3 m = hp.law.m_p;  // all axes are position axes here
   const long steps = std::lround(duration / T);
   Run run;
   for (long k = 0; k <= steps; ++k) {
-    const Vec3 e = R.transpose() * (ref.x - tm::forward_kinematics(arm, st.q));
+    const Vec3 e = R.transpose() * (ref.x - mdl::forward_kinematics(arm, st.q));
     const Vec3 ed = R.transpose() * (ref.xd - fd_velocity(arm, st.q, st.qd));
-    tm::ArmSensors in;
+    mdl::ArmSensors in;
     in.q = st.q;
     in.qd = st.qd;
-    const tm::ControlOutput out = ctl.step(in, ref);
+    const mdl::ControlOutput out = ctl.step(in, ref);
     run.t.push_back(T * static_cast<double>(k));
     run.e.push_back(e);
     run.s.push_back(m.cwiseProduct(e) + ed);
@@ -156,20 +156,20 @@ Run closed_loop(const ArmParams& arm, const tm::HybridParams& hp, const tm::ArmR
 
 /// Reference at rest at a pose, and the arm started 2 cm (world x) short of it.
 struct Setup {
-  ArmParams arm = tm::smart3s2();
-  tm::ArmReference ref;
+  ArmParams arm = mdl::smart3s2();
+  mdl::ArmReference ref;
   ArmState start;
 };
 
 Setup offset_start(const Vec3& error) {
   Setup su;
   su.ref.x = Vec3(0.3, 1.0, 0.0);  // tool up: the contact frame is the world frame
-  REQUIRE(tm::inverse_kinematics(su.arm, su.ref.x - error, -1.0, su.start.q));
+  REQUIRE(mdl::inverse_kinematics(su.arm, su.ref.x - error, -1.0, su.start.q));
   return su;
 }
 
-tm::HybridParams free_space_params(tm::LawType type) {
-  tm::HybridParams hp;
+mdl::HybridParams free_space_params(mdl::LawType type) {
+  mdl::HybridParams hp;
   hp.selection_p = Vec3(1.0, 1.0, 1.0);
   hp.law.type = type;
   hp.law.K_p = Vec3::Constant(10.0);
@@ -180,9 +180,9 @@ tm::HybridParams free_space_params(tm::LawType type) {
 
 /// Module state built like the embedded simulation's initial state (sim/src/embedded.cpp).
 struct Module {
-  tm::ModuleParams params;
-  tm::ModuleState state;
-  tm::GraspGeometry geometry;
+  mdl::ModuleParams params;
+  mdl::ModuleState state;
+  mdl::GraspGeometry geometry;
   double h_ref = 29.43;
 };
 
@@ -192,12 +192,12 @@ Module make_module(const Vec3& object_pose) {
   md.params.arms[1].base = Vec2(1.0, 0.0);
   md.geometry.stick_length[0] = md.geometry.stick_length[1] = md.params.object.half_width;
   md.geometry.preload = md.h_ref / md.params.contact.k_normal;
-  tm::PoseSample p0;
+  mdl::PoseSample p0;
   p0.pose = object_pose;
   const double elbow[2] = {-1.0, 1.0};
   for (size_t j = 0; j < 2; ++j) {
-    const tm::ArmReference r = tm::arm_reference(static_cast<int>(j), p0, md.geometry, md.h_ref);
-    REQUIRE(tm::inverse_kinematics(md.params.arms[j], r.x, elbow[j], md.state.q[j]));
+    const mdl::ArmReference r = mdl::arm_reference(static_cast<int>(j), p0, md.geometry, md.h_ref);
+    REQUIRE(mdl::inverse_kinematics(md.params.arms[j], r.x, elbow[j], md.state.q[j]));
   }
   md.state.c = object_pose.head<2>();
   md.state.psi = -object_pose(2);
@@ -211,11 +211,11 @@ void* volatile g_escape = nullptr;  // keeps the sanity-check allocation observa
 TEST_CASE("contact frame is orthonormal with the approach axis as its second column", "[controller]") {
   for (int k = 0; k <= 72; ++k) {
     const double phi = -2.0 * kPi + 4.0 * kPi * static_cast<double>(k) / 72.0;
-    const Mat3 R = tm::contact_frame(phi);
+    const Mat3 R = mdl::contact_frame(phi);
     INFO("phi = " << phi << "\nR =\n" << R);
     CHECK(max_abs(R.transpose() * R - Mat3::Identity()) <= 1e-15);
     CHECK(R.determinant() == Approx(1.0).epsilon(1e-15));
-    const Vec2 a = tm::approach_axis(phi);
+    const Vec2 a = mdl::approach_axis(phi);
     CHECK(max_abs(R.block<2, 1>(0, 1) - a) <= 1e-15);
     CHECK(a(0) == Approx(std::sin(phi)).margin(1e-15));
     CHECK(a(1) == Approx(std::cos(phi)).margin(1e-15));
@@ -227,7 +227,7 @@ TEST_CASE("contact frame is orthonormal with the approach axis as its second col
 }
 
 TEST_CASE("inverse-dynamics VLLC makes the task-space acceleration equal the PD law exactly", "[controller]") {
-  const ArmParams arm = tm::smart3s2();
+  const ArmParams arm = mdl::smart3s2();
   Lcg rng(201);
   int tested = 0;
   for (int i = 0; i < 200 && tested < 100; ++i) {
@@ -235,8 +235,8 @@ TEST_CASE("inverse-dynamics VLLC makes the task-space acceleration equal the PD 
     if (std::abs(std::sin(q(1))) < 0.2) continue;  // keep J well conditioned (det J = l1 l2 sin q2)
     ++tested;
     const Vec3 qd = rng.vec3(-1.5, 1.5);
-    tm::ArmReference ref;
-    ref.x = tm::forward_kinematics(arm, q) + Vec3(rng.uniform(-0.05, 0.05), rng.uniform(-0.05, 0.05),
+    mdl::ArmReference ref;
+    ref.x = mdl::forward_kinematics(arm, q) + Vec3(rng.uniform(-0.05, 0.05), rng.uniform(-0.05, 0.05),
                                                   rng.uniform(-0.1, 0.1));
     ref.xd = rng.vec3(-0.3, 0.3);
     ref.xdd = rng.vec3(-1.0, 1.0);
@@ -244,24 +244,24 @@ TEST_CASE("inverse-dynamics VLLC makes the task-space acceleration equal the PD 
     // Half the samples carry a measured contact force, which the VLLC must cancel with J^T h.
     const Vec2 h = (i % 4) < 2 ? Vec2::Zero() : Vec2(rng.uniform(-40.0, 40.0), rng.uniform(-40.0, 40.0));
 
-    tm::HybridParams hp;
+    mdl::HybridParams hp;
     hp.selection_p = Vec3(1.0, 1.0, 1.0);
-    hp.law.type = tm::LawType::PD;
+    hp.law.type = mdl::LawType::PD;
     hp.feedforward_position = feedforward;
-    tm::HybridController ctl(arm, hp);
-    tm::ArmSensors in;
+    mdl::HybridController ctl(arm, hp);
+    mdl::ArmSensors in;
     in.q = q;
     in.qd = qd;
     in.h = h;
     const Vec3 tau = ctl.step(in, ref).tau;
 
     // Plant with the same (nominal) model and the same contact force.
-    const Vec3 qdd = tm::forward_dynamics(arm, q, qd, tau, Vec3(h(0), h(1), 0.0));
-    const Vec3 xdd = tm::jacobian(arm, q) * qdd + tm::jacobian_dot(arm, q, qd) * qd;
+    const Vec3 qdd = mdl::forward_dynamics(arm, q, qd, tau, Vec3(h(0), h(1), 0.0));
+    const Vec3 xdd = mdl::jacobian(arm, q) * qdd + mdl::jacobian_dot(arm, q, qd) * qd;
 
     // PD law of eq. (35) in the contact frame, computed here, rotated back to the world frame.
     const Mat3 R = frame_by_hand(ref.x(2));
-    const Vec3 e = R.transpose() * (ref.x - tm::forward_kinematics(arm, q));
+    const Vec3 e = R.transpose() * (ref.x - mdl::forward_kinematics(arm, q));
     const Vec3 ed = R.transpose() * (ref.xd - fd_velocity(arm, q, qd));
     Vec3 u = hp.law.kp_p.cwiseProduct(e) + hp.law.kd_p.cwiseProduct(ed);
     if (feedforward) u += R.transpose() * ref.xdd;
@@ -273,7 +273,7 @@ TEST_CASE("inverse-dynamics VLLC makes the task-space acceleration equal the PD 
     // The same acceleration from forward kinematics alone: second central difference along
     // q(t) = q + q' t + q'' t^2 / 2.
     const double dt = 1e-4;
-    auto at = [&](double t) { return tm::forward_kinematics(arm, q + qd * t + 0.5 * qdd * t * t); };
+    auto at = [&](double t) { return mdl::forward_kinematics(arm, q + qd * t + 0.5 * qdd * t * t); };
     const Vec3 xdd_fd = (at(dt) - 2.0 * at(0.0) + at(-dt)) / (dt * dt);
     CHECK(max_abs(xdd_fd - expected) <= 1e-5 * (1.0 + expected.norm()));
   }
@@ -291,7 +291,7 @@ TEST_CASE("sliding mode reaches the surface in finite time, PD only approaches i
     if (!coulomb) su.arm.coulomb.setZero();
     INFO("Coulomb friction " << (coulomb ? "on" : "off"));
 
-    const Run sm = closed_loop(su.arm, free_space_params(tm::LawType::SlidingMode), su.ref, su.start, 0.5);
+    const Run sm = closed_loop(su.arm, free_space_params(mdl::LawType::SlidingMode), su.ref, su.start, 0.5);
     const double s0 = std::abs(sm.s[0](0));
     REQUIRE(s0 == Approx(m * 0.02).epsilon(1e-9));  // s = m e + e' with e = 2 cm, at rest
     const double disturbance = 0.0;                // nominal model, no xi(t)
@@ -325,7 +325,7 @@ TEST_CASE("sliding mode reaches the surface in finite time, PD only approaches i
     // make s(t) = s(0) exp(-m t) for the continuous loop: s never reaches zero in finite time. The
     // sampled loop (acceleration u_k = K_P e_k + K_D e'_k held over each period) is predicted here by
     //   e_k+1 = e_k + T e'_k - T^2/2 u_k,   e'_k+1 = e'_k - T u_k.
-    tm::HybridParams pd = free_space_params(tm::LawType::PD);
+    mdl::HybridParams pd = free_space_params(mdl::LawType::PD);
     const double kp = m * m, kd = 2.0 * m;
     pd.law.kp_p = Vec3::Constant(kp);
     pd.law.kd_p = Vec3::Constant(kd);
@@ -357,8 +357,8 @@ TEST_CASE("super-twisting drives s and e to zero while holding still", "[control
   const Setup su = offset_start(Vec3(0.01, -0.005, 0.02));
   const double K = 10.0, T = 1e-3, m = 5.0;
   const double k2 = 1.1 * K;  // integral gain of the law (Levant's choice for the bound K)
-  const Run st = closed_loop(su.arm, free_space_params(tm::LawType::SuperTwisting), su.ref, su.start, 3.5);
-  const Run sm = closed_loop(su.arm, free_space_params(tm::LawType::SlidingMode), su.ref, su.start, 3.5);
+  const Run st = closed_loop(su.arm, free_space_params(mdl::LawType::SuperTwisting), su.ref, su.start, 3.5);
+  const Run sm = closed_loop(su.arm, free_space_params(mdl::LawType::SlidingMode), su.ref, su.start, 3.5);
 
   // On the surface s = 0 the error obeys e' = -m e: one second after reaching, e has shrunk by exp(-m).
   const size_t k1 = 300, k2s = 1300;  // t = 0.3 s and 1.3 s
@@ -397,26 +397,26 @@ TEST_CASE("control and plant steps do not allocate", "[controller]") {
   REQUIRE(g_allocations.load() >= 1);
 
   Module md = make_module(Vec3(-0.2, 0.8, 0.0));
-  tm::ModulePlant plant(md.params);
+  mdl::ModulePlant plant(md.params);
   plant.reset(md.state);
-  const tm::ObjectPath path(Vec3(-0.2, 0.8, 0.0), 0.1,
-                            {tm::ObjectPath::Segment{Vec3(-0.1, 0.85, 0.1), 0.8}});
-  std::array<tm::HybridController, 2> ctl{tm::HybridController(md.params.arms[0], tm::HybridParams{}),
-                                          tm::HybridController(md.params.arms[1], tm::HybridParams{})};
-  tm::HybridParams pd;
-  pd.law.type = tm::LawType::PD;
-  ctl[1] = tm::HybridController(md.params.arms[1], pd);  // exercise two laws
+  const mdl::ObjectPath path(Vec3(-0.2, 0.8, 0.0), 0.1,
+                            {mdl::ObjectPath::Segment{Vec3(-0.1, 0.85, 0.1), 0.8}});
+  std::array<mdl::HybridController, 2> ctl{mdl::HybridController(md.params.arms[0], mdl::HybridParams{}),
+                                          mdl::HybridController(md.params.arms[1], mdl::HybridParams{})};
+  mdl::HybridParams pd;
+  pd.law.type = mdl::LawType::PD;
+  ctl[1] = mdl::HybridController(md.params.arms[1], pd);  // exercise two laws
 
   g_allocations = 0;
   g_count_allocations = true;
   for (int k = 0; k < 1000; ++k) {
     const double t = 1e-3 * static_cast<double>(k);
-    const tm::PoseSample ps = path.sample(t);
-    const tm::ContactReading c = plant.contacts();
+    const mdl::PoseSample ps = path.sample(t);
+    const mdl::ContactReading c = plant.contacts();
     std::array<Vec3, 2> tau;
     for (size_t j = 0; j < 2; ++j) {
-      const tm::ArmReference ref = tm::arm_reference(static_cast<int>(j), ps, md.geometry, md.h_ref);
-      tm::ArmSensors in;
+      const mdl::ArmReference ref = mdl::arm_reference(static_cast<int>(j), ps, md.geometry, md.h_ref);
+      mdl::ArmSensors in;
       in.q = plant.state().q[j];
       in.qd = plant.state().qd[j];
       in.h = c.h[j];
@@ -433,26 +433,26 @@ TEST_CASE("control and plant steps do not allocate", "[controller]") {
 }
 
 TEST_CASE("every manipulator type's model evaluations do not allocate", "[controller][manipulator]") {
-  std::vector<std::unique_ptr<tm::Manipulator>> models;
-  models.push_back(tm::make_manipulator(tm::smart3s2()));
-  models.push_back(tm::make_manipulator(tm::cartesian_ppr()));
-  models.push_back(tm::make_manipulator(tm::planar_4r()));
+  std::vector<std::unique_ptr<mdl::Manipulator>> models;
+  models.push_back(mdl::make_manipulator(mdl::smart3s2()));
+  models.push_back(mdl::make_manipulator(mdl::cartesian_ppr()));
+  models.push_back(mdl::make_manipulator(mdl::planar_4r()));
   double sink = 0.0;
   // The controller's step over each type too (the 4R's minimum-norm solve and null-space projection included).
-  std::vector<tm::HybridController> laws;
-  tm::HybridParams hp;
-  hp.law.type = tm::LawType::SuperTwisting;
-  laws.emplace_back(std::make_shared<const tm::Planar3R>(tm::smart3s2()), hp);
-  laws.emplace_back(std::make_shared<const tm::PlanarChain>(tm::cartesian_ppr()), hp);
-  laws.emplace_back(std::make_shared<const tm::PlanarChain>(tm::planar_4r()), hp);
-  std::vector<tm::ArmSensors> sensors(3);
+  std::vector<mdl::HybridController> laws;
+  mdl::HybridParams hp;
+  hp.law.type = mdl::LawType::SuperTwisting;
+  laws.emplace_back(std::make_shared<const mdl::Planar3R>(mdl::smart3s2()), hp);
+  laws.emplace_back(std::make_shared<const mdl::PlanarChain>(mdl::cartesian_ppr()), hp);
+  laws.emplace_back(std::make_shared<const mdl::PlanarChain>(mdl::planar_4r()), hp);
+  std::vector<mdl::ArmSensors> sensors(3);
   for (size_t i = 0; i < 3; ++i) {
     const int n = laws[i].arm().dof();
-    sensors[i].q = tm::JointVec::Constant(n, 0.4);
-    sensors[i].qd = tm::JointVec::Constant(n, 0.1);
-    sensors[i].h = tm::Vec2(5.0, -1.0);
+    sensors[i].q = mdl::JointVec::Constant(n, 0.4);
+    sensors[i].qd = mdl::JointVec::Constant(n, 0.1);
+    sensors[i].h = mdl::Vec2(5.0, -1.0);
   }
-  tm::ArmReference ref;
+  mdl::ArmReference ref;
   ref.x = Vec3(0.2, 0.9, 0.3);
   ref.force = 10.0;
   g_allocations = 0;
@@ -461,11 +461,11 @@ TEST_CASE("every manipulator type's model evaluations do not allocate", "[contro
     for (size_t i = 0; i < 3; ++i) sink += laws[i].step(sensors[i], ref).tau.sum();
   }
   for (const auto& m : models) {
-    tm::JointVec q = tm::JointVec::Constant(m->dof(), 0.3), qd = tm::JointVec::Constant(m->dof(), -0.2);
+    mdl::JointVec q = mdl::JointVec::Constant(m->dof(), 0.3), qd = mdl::JointVec::Constant(m->dof(), -0.2);
     for (int k = 0; k < 200; ++k) {
       q(0) += 1e-3;
-      const tm::JointVec qdd = m->forward_dynamics(q, qd, tm::JointVec::Zero(m->dof()), Vec3(1.0, -2.0, 0.1));
-      const tm::TaskJacobian J = m->jacobian(q), Jd = m->jacobian_dot(q, qd);
+      const mdl::JointVec qdd = m->forward_dynamics(q, qd, mdl::JointVec::Zero(m->dof()), Vec3(1.0, -2.0, 0.1));
+      const mdl::TaskJacobian J = m->jacobian(q), Jd = m->jacobian_dot(q, qd);
       sink += qdd.sum() + J.sum() + Jd.sum() + m->forward_kinematics(q).sum() + m->kinetic_energy(q, qd) +
               m->potential_energy(q);
     }
@@ -485,7 +485,7 @@ TEST_CASE("reaching_gain_bound equals the sum of eq. (33)-(34) terms", "[control
   const Vec3 m(5.0, 4.0, 6.0);
   const Vec3 ed(-0.02, 0.1, -0.3);
   const double margin = 0.5;
-  const Vec3 K = tm::reaching_gain_bound(Jc, eta, xdd, m, ed, margin);
+  const Vec3 K = mdl::reaching_gain_bound(Jc, eta, xdd, m, ed, margin);
   for (int i = 0; i < 3; ++i) {
     double want = margin + std::abs(xdd(i)) + m(i) * std::abs(ed(i));
     for (int j = 0; j < 3; ++j) want += std::abs(Jc(i, j)) * eta(j);

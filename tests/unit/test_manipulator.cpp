@@ -18,25 +18,25 @@
 
 namespace {
 
-namespace tm = tandem::model;
-using tm::JointMat;
-using tm::JointVec;
-using tm::kPi;
-using tm::Vec2;
-using tm::Vec3;
+namespace mdl = tandem::model;
+using mdl::JointMat;
+using mdl::JointVec;
+using mdl::kPi;
+using mdl::Vec2;
+using mdl::Vec3;
 
 struct Case {
   std::string name;
-  std::unique_ptr<tm::Manipulator> model;
-  std::unique_ptr<tm::Manipulator> frictionless;
+  std::unique_ptr<mdl::Manipulator> model;
+  std::unique_ptr<mdl::Manipulator> frictionless;
 };
 
-tm::ArmParams frictionless(tm::ArmParams p) {
+mdl::ArmParams frictionless(mdl::ArmParams p) {
   p.viscous.setZero();
   p.coulomb.setZero();
   return p;
 }
-tm::ChainParams frictionless(tm::ChainParams p) {
+mdl::ChainParams frictionless(mdl::ChainParams p) {
   p.joints.viscous.fill(0.0);
   p.joints.coulomb.fill(0.0);
   return p;
@@ -44,22 +44,22 @@ tm::ChainParams frictionless(tm::ChainParams p) {
 
 std::vector<Case> all_types() {
   std::vector<Case> out;
-  tm::ArmParams smart = tm::smart3s2();
+  mdl::ArmParams smart = mdl::smart3s2();
   smart.base = Vec2(-0.9, 0.0);
-  out.push_back({"planar_3r", tm::make_manipulator(smart), tm::make_manipulator(frictionless(smart))});
-  tm::ChainParams ppr = tm::cartesian_ppr();
+  out.push_back({"planar_3r", mdl::make_manipulator(smart), mdl::make_manipulator(frictionless(smart))});
+  mdl::ChainParams ppr = mdl::cartesian_ppr();
   ppr.joints.base = Vec2(0.9, 0.0);
-  out.push_back({"cartesian_ppr", tm::make_manipulator(ppr), tm::make_manipulator(frictionless(ppr))});
-  tm::ChainParams r4 = tm::planar_4r();
+  out.push_back({"cartesian_ppr", mdl::make_manipulator(ppr), mdl::make_manipulator(frictionless(ppr))});
+  mdl::ChainParams r4 = mdl::planar_4r();
   r4.joints.base = Vec2(0.9, 0.2);
-  out.push_back({"planar_4r", tm::make_manipulator(r4), tm::make_manipulator(frictionless(r4))});
+  out.push_back({"planar_4r", mdl::make_manipulator(r4), mdl::make_manipulator(frictionless(r4))});
   return out;
 }
 
-JointVec random_joints(const tm::Manipulator& m, tandem::test::Lcg& rng, double scale) {
+JointVec random_joints(const mdl::Manipulator& m, tandem::test::Lcg& rng, double scale) {
   JointVec q(m.dof());
   for (int i = 0; i < m.dof(); ++i) {
-    const bool prismatic = m.joints().type[static_cast<size_t>(i)] == tm::JointType::Prismatic;
+    const bool prismatic = m.joints().type[static_cast<size_t>(i)] == mdl::JointType::Prismatic;
     q(i) = prismatic ? rng.uniform(-0.8, 0.8) * scale : rng.uniform(-2.5, 2.5) * scale;
   }
   return q;
@@ -89,10 +89,10 @@ struct Bodies {
   std::vector<Vec2> com;
   std::vector<double> angle;  // absolute body angle (for the rotational energy)
 };
-Bodies hand_bodies(const tm::ChainParams& p, const JointVec& q) {
+Bodies hand_bodies(const mdl::ChainParams& p, const JointVec& q) {
   Bodies b;
   const Vec2 base = p.joints.base;
-  if (p.kind == tm::ArmKind::CartesianPPR) {
+  if (p.kind == mdl::ArmKind::CartesianPPR) {
     // carriage at (q1, 0), column at (q1, q2), wrist link from (q1, q2) at angle q3
     const Vec2 c(q(0), q(1));
     b.com = {base + Vec2(q(0), 0.0), base + c, base + c + p.bodies[2].com * d(q(2))};
@@ -112,7 +112,7 @@ Bodies hand_bodies(const tm::ChainParams& p, const JointVec& q) {
 }
 
 /// Kinetic and potential energy from the hand geometry; velocities by central differences along q'.
-double hand_kinetic(const tm::ChainParams& p, const JointVec& q, const JointVec& qd) {
+double hand_kinetic(const mdl::ChainParams& p, const JointVec& q, const JointVec& qd) {
   const double h = 1e-6;
   const Bodies a = hand_bodies(p, q + h * qd), b = hand_bodies(p, q - h * qd);
   double t = 0.0;
@@ -123,7 +123,7 @@ double hand_kinetic(const tm::ChainParams& p, const JointVec& q, const JointVec&
   }
   return t;
 }
-double hand_potential(const tm::ChainParams& p, const JointVec& q) {
+double hand_potential(const mdl::ChainParams& p, const JointVec& q) {
   const Bodies b = hand_bodies(p, q);
   double u = 0.0;
   for (size_t k = 0; k < b.com.size(); ++k) u += p.joints.g0 * p.bodies[k].mass * b.com[k](1);
@@ -131,7 +131,7 @@ double hand_potential(const tm::ChainParams& p, const JointVec& q) {
 }
 
 /// B from the hand kinetic energy: B_ij = T(e_i + e_j) - T(e_i) - T(e_j) (T is quadratic in q').
-Eigen::MatrixXd hand_inertia(const tm::ChainParams& p, const JointVec& q) {
+Eigen::MatrixXd hand_inertia(const mdl::ChainParams& p, const JointVec& q) {
   const int n = p.joints.dof;
   Eigen::MatrixXd B(n, n);
   auto unit = [n](int i) {
@@ -150,7 +150,7 @@ Eigen::MatrixXd hand_inertia(const tm::ChainParams& p, const JointVec& q) {
 
 /// The Lagrangian's free acceleration: B q'' = -(B' q' - 1/2 d/dq (q'^T B q')) - dU/dq, all by differences
 /// of the hand energies.
-JointVec hand_free_acceleration(const tm::ChainParams& p, const JointVec& q, const JointVec& qd) {
+JointVec hand_free_acceleration(const mdl::ChainParams& p, const JointVec& q, const JointVec& qd) {
   const int n = p.joints.dof;
   const double h = 1e-5;
   const Eigen::MatrixXd B = hand_inertia(p, q);
@@ -173,7 +173,7 @@ TEST_CASE("manipulator types: the Jacobian and its derivative match finite diffe
   tandem::test::Lcg rng(7);
   for (const Case& c : all_types()) {
     INFO(c.name);
-    const tm::Manipulator& m = *c.model;
+    const mdl::Manipulator& m = *c.model;
     for (int s = 0; s < 20; ++s) {
       const JointVec q = random_joints(m, rng, 1.0), qd = random_joints(m, rng, 1.0);
       const double h = 1e-6;
@@ -195,7 +195,7 @@ TEST_CASE("manipulator types: B is symmetric positive definite, B' - 2C is skew,
   tandem::test::Lcg rng(11);
   for (const Case& c : all_types()) {
     INFO(c.name);
-    const tm::Manipulator& m = *c.model;
+    const mdl::Manipulator& m = *c.model;
     const int n = m.dof();
     for (int s = 0; s < 20; ++s) {
       const JointVec q = random_joints(m, rng, 1.0), qd = random_joints(m, rng, 1.0);
@@ -234,7 +234,7 @@ TEST_CASE("manipulator types: with no torque and no friction energy is conserved
   tandem::test::Lcg rng(5);
   for (const Case& c : all_types()) {
     INFO(c.name);
-    const tm::Manipulator& m = *c.frictionless;
+    const mdl::Manipulator& m = *c.frictionless;
     State s{random_joints(m, rng, 0.4), JointVec::Zero(m.dof())};
     const auto accel = [&m](const JointVec& q, const JointVec& qd) {
       return m.forward_dynamics(q, qd, JointVec::Zero(m.dof()), Vec3::Zero());
@@ -250,7 +250,7 @@ TEST_CASE("manipulator types: with no torque and no friction energy is conserved
     CHECK(max_kinetic > 1.0);  // it did swing or fall
     CHECK(max_drift < 1e-6 * max_kinetic);
     // With friction, energy only goes down.
-    const tm::Manipulator& f = *c.model;
+    const mdl::Manipulator& f = *c.model;
     State r{random_joints(f, rng, 0.4), JointVec::Zero(f.dof())};
     const auto accel_f = [&f](const JointVec& q, const JointVec& qd) {
       return f.forward_dynamics(q, qd, JointVec::Zero(f.dof()), Vec3::Zero());
@@ -268,8 +268,8 @@ TEST_CASE("manipulator types: with no torque and no friction energy is conserved
 }
 
 TEST_CASE("cartesian PPR: free fall is the parabola, with the wrist upright and still", "[manipulator]") {
-  tm::ChainParams p = frictionless(tm::cartesian_ppr());
-  const tm::PlanarChain m(p);
+  mdl::ChainParams p = frictionless(mdl::cartesian_ppr());
+  const mdl::PlanarChain m(p);
   State s{JointVec(3), JointVec::Zero(3)};
   s.q << 0.3, 1.0, 0.0;
   const auto accel = [&m](const JointVec& q, const JointVec& qd) {
@@ -292,10 +292,10 @@ TEST_CASE("chain types: free fall matches an independent Lagrangian of the bodie
   // from differences of those energies. The library's forward dynamics must agree at random states, and a
   // one-second fall integrated both ways must end in the same state.
   tandem::test::Lcg rng(3);
-  for (tm::ChainParams p : {frictionless(tm::cartesian_ppr()), frictionless(tm::planar_4r())}) {
-    INFO(tm::arm_kind_name(p.kind));
+  for (mdl::ChainParams p : {frictionless(mdl::cartesian_ppr()), frictionless(mdl::planar_4r())}) {
+    INFO(mdl::arm_kind_name(p.kind));
     p.joints.base = Vec2(0.4, -0.1);
-    const tm::PlanarChain m(p);
+    const mdl::PlanarChain m(p);
     const int n = m.dof();
     for (int s = 0; s < 10; ++s) {
       const JointVec q = random_joints(m, rng, 1.0), qd = random_joints(m, rng, 0.5);
@@ -324,12 +324,12 @@ TEST_CASE("a chain built as a 3R equals the identified lumped model with the mat
   // gamma_1..6 computed from the bodies (gamma_1 = I3 + m3 c3^2, gamma_5 = m2 c2 + m3 l2, gamma_6 = m3 c3, ...).
   const std::array<double, 3> l{0.65, 0.6576, 0.34}, c{0.3, 0.35, 0.12}, mass{30.0, 18.0, 5.0},
       I{1.1, 0.7, 0.05};
-  tm::ChainParams cp;
-  cp.kind = tm::ArmKind::Planar3R;
+  mdl::ChainParams cp;
+  cp.kind = mdl::ArmKind::Planar3R;
   cp.joints.dof = 3;
-  for (size_t k = 0; k < 3; ++k) cp.bodies[k] = tm::ChainBody{tm::JointType::Revolute, 0.0, l[k], c[k], mass[k], I[k]};
+  for (size_t k = 0; k < 3; ++k) cp.bodies[k] = mdl::ChainBody{mdl::JointType::Revolute, 0.0, l[k], c[k], mass[k], I[k]};
   cp.joints.base = Vec2(-0.9, 0.0);
-  tm::ArmParams ap;
+  mdl::ArmParams ap;
   ap.link_length = Vec3(l[0], l[1], l[2]);
   ap.base = cp.joints.base;
   ap.viscous.setZero();
@@ -341,8 +341,8 @@ TEST_CASE("a chain built as a 3R equals the identified lumped model with the mat
   ap.gamma[3] = 9.81 * (mass[0] * c[0] + (mass[1] + mass[2]) * l[0]);
   ap.gamma[4] = mass[1] * c[1] + mass[2] * l[1];
   ap.gamma[5] = mass[2] * c[2];
-  const tm::PlanarChain chain(cp);
-  const tm::Planar3R lumped(ap);
+  const mdl::PlanarChain chain(cp);
+  const mdl::Planar3R lumped(ap);
   tandem::test::Lcg rng(17);
   for (int s = 0; s < 20; ++s) {
     const JointVec q = random_joints(chain, rng, 1.0), qd = random_joints(chain, rng, 1.0);
@@ -356,14 +356,14 @@ TEST_CASE("a chain built as a 3R equals the identified lumped model with the mat
 }
 
 TEST_CASE("arm kind names round-trip and an unknown name is refused", "[manipulator]") {
-  for (tm::ArmKind k : {tm::ArmKind::Planar3R, tm::ArmKind::CartesianPPR, tm::ArmKind::Planar4R}) {
-    tm::ArmKind back = tm::ArmKind::Planar3R;
-    REQUIRE(tm::parse_arm_kind(tm::arm_kind_name(k), back));
+  for (mdl::ArmKind k : {mdl::ArmKind::Planar3R, mdl::ArmKind::CartesianPPR, mdl::ArmKind::Planar4R}) {
+    mdl::ArmKind back = mdl::ArmKind::Planar3R;
+    REQUIRE(mdl::parse_arm_kind(mdl::arm_kind_name(k), back));
     CHECK(back == k);
   }
-  tm::ArmKind out = tm::ArmKind::CartesianPPR;
-  CHECK_FALSE(tm::parse_arm_kind("scara", out));
-  CHECK(out == tm::ArmKind::CartesianPPR);
+  mdl::ArmKind out = mdl::ArmKind::CartesianPPR;
+  CHECK_FALSE(mdl::parse_arm_kind("scara", out));
+  CHECK(out == mdl::ArmKind::CartesianPPR);
 }
 
 // ----- the hybrid controller through the interface ------------------------------------------------------
@@ -373,26 +373,26 @@ TEST_CASE("arm kind names round-trip and an unknown name is refused", "[manipula
 namespace {
 
 /// A free-space reference: a circle of radius 5 cm at 1 rad/s around c, orientation swinging by 0.1 rad.
-tm::ArmReference circle(const Vec3& c, double t) {
-  tm::ArmReference r;
+mdl::ArmReference circle(const Vec3& c, double t) {
+  mdl::ArmReference r;
   r.x = c + Vec3(0.05 * std::sin(t), 0.05 * (1.0 - std::cos(t)), 0.1 * std::sin(t));
   r.xd = Vec3(0.05 * std::cos(t), 0.05 * std::sin(t), 0.1 * std::cos(t));
   r.xdd = Vec3(-0.05 * std::sin(t), 0.05 * std::cos(t), -0.1 * std::sin(t));
   return r;
 }
 
-std::shared_ptr<const tm::Manipulator> shared_model(const std::string& name) {
-  tm::ArmParams smart = tm::smart3s2();
-  if (name == "planar_3r") return std::make_shared<const tm::Planar3R>(smart);
-  return std::make_shared<const tm::PlanarChain>(name == "cartesian_ppr" ? tm::cartesian_ppr() : tm::planar_4r());
+std::shared_ptr<const mdl::Manipulator> shared_model(const std::string& name) {
+  mdl::ArmParams smart = mdl::smart3s2();
+  if (name == "planar_3r") return std::make_shared<const mdl::Planar3R>(smart);
+  return std::make_shared<const mdl::PlanarChain>(name == "cartesian_ppr" ? mdl::cartesian_ppr() : mdl::planar_4r());
 }
 
 /// A start pose of each type inside its workspace, away from singularities.
-JointVec start_pose(const tm::Manipulator& m) {
+JointVec start_pose(const mdl::Manipulator& m) {
   JointVec q(m.dof());
-  if (m.kind() == tm::ArmKind::Planar3R) q << 0.5, 1.0, 0.4;
-  if (m.kind() == tm::ArmKind::CartesianPPR) q << 0.4, 0.8, 1.2;
-  if (m.kind() == tm::ArmKind::Planar4R) q << 0.4, 0.7, 0.6, 0.3;
+  if (m.kind() == mdl::ArmKind::Planar3R) q << 0.5, 1.0, 0.4;
+  if (m.kind() == mdl::ArmKind::CartesianPPR) q << 0.4, 0.8, 1.2;
+  if (m.kind() == mdl::ArmKind::Planar4R) q << 0.4, 0.7, 0.6, 0.3;
   return q;
 }
 
@@ -403,14 +403,14 @@ TEST_CASE("every type tracks a free-space reference with the sliding-mode and PD
   // the plant integrated with RK4 at 0.1 ms (the smoothed Coulomb term of a light distal link is stiff: its
   // time constant, the link's inertia over Fs / band, is about 0.2 ms). The error after the reaching phase stays within a few mm / mrad.
   for (const char* name : {"planar_3r", "cartesian_ppr", "planar_4r"}) {
-    for (tm::LawType law : {tm::LawType::SlidingMode, tm::LawType::PD, tm::LawType::SuperTwisting}) {
+    for (mdl::LawType law : {mdl::LawType::SlidingMode, mdl::LawType::PD, mdl::LawType::SuperTwisting}) {
       INFO(name << " law " << static_cast<int>(law));
       const auto model = shared_model(name);
-      tm::HybridParams hp;
+      mdl::HybridParams hp;
       hp.selection_p = Vec3::Ones();
       hp.law.type = law;
       hp.feedforward_position = true;
-      tm::HybridController ctl(model, hp);
+      mdl::HybridController ctl(model, hp);
       State s{start_pose(*model), JointVec::Zero(model->dof())};
       const Vec3 c = model->forward_kinematics(s.q) + Vec3(0.01, -0.01, 0.02);  // a small initial error
       double max_err = 0.0, max_qd = 0.0;
@@ -420,11 +420,11 @@ TEST_CASE("every type tracks a free-space reference with the sliding-mode and PD
       };
       for (int k = 0; k < 4000; ++k) {
         const double t = 1e-3 * k;
-        tm::ArmSensors in;
+        mdl::ArmSensors in;
         in.q = s.q;
         in.qd = s.qd;
-        const tm::ArmReference ref = circle(c, t);
-        const tm::ControlOutput out = ctl.step(in, ref);
+        const mdl::ArmReference ref = circle(c, t);
+        const mdl::ControlOutput out = ctl.step(in, ref);
         REQUIRE(out.tau.size() == model->dof());
         REQUIRE(out.tau.allFinite());
         tau = out.tau;
@@ -447,7 +447,7 @@ TEST_CASE("4R: the null-space task changes the joints' motion but not the end-ef
   const auto model = shared_model("planar_4r");
   tandem::test::Lcg rng(23);
   for (int trial = 0; trial < 20; ++trial) {
-    tm::HybridParams a, b;
+    mdl::HybridParams a, b;
     a.selection_p = b.selection_p = Vec3::Ones();
     a.null_space.k_posture = 0.0;
     a.null_space.k_damping = 0.0;
@@ -456,11 +456,11 @@ TEST_CASE("4R: the null-space task changes the joints' motion but not the end-ef
     JointVec rest(4);
     rest << 0.1, 0.2, 0.3, 0.4;
     a.null_space.q_rest = b.null_space.q_rest = rest;
-    tm::HybridController ca(model, a), cb(model, b);
-    tm::ArmSensors in;
+    mdl::HybridController ca(model, a), cb(model, b);
+    mdl::ArmSensors in;
     in.q = start_pose(*model) + random_joints(*model, rng, 0.1);
     in.qd = random_joints(*model, rng, 0.3);
-    const tm::ArmReference ref = circle(model->forward_kinematics(in.q), 0.3 * trial);
+    const mdl::ArmReference ref = circle(model->forward_kinematics(in.q), 0.3 * trial);
     const JointVec ta = ca.step(in, ref).tau, tb = cb.step(in, ref).tau;
     const JointVec n = model->nonlinear_terms(in.q, in.qd);
     const Eigen::MatrixXd B = model->inertia(in.q);
@@ -472,19 +472,19 @@ TEST_CASE("4R: the null-space task changes the joints' motion but not the end-ef
 }
 
 TEST_CASE("the controller refuses arms and postures it cannot serve, and sensors of the wrong size get no torque", "[manipulator][controller]") {
-  tm::HybridParams hp;
+  mdl::HybridParams hp;
   JointVec three(3);
   three << 0.1, 0.2, 0.3;
   hp.null_space.q_rest = three;
-  CHECK_THROWS_WITH(tm::HybridController(shared_model("planar_4r"), hp),
+  CHECK_THROWS_WITH(mdl::HybridController(shared_model("planar_4r"), hp),
                     Catch::Contains("q_rest has 3 entries for an arm of 4 joints"));
-  tm::ChainParams two = tm::planar_4r();
+  mdl::ChainParams two = mdl::planar_4r();
   two.joints.dof = 2;
-  CHECK_THROWS_WITH(tm::HybridController(std::make_shared<const tm::PlanarChain>(two), tm::HybridParams{}),
+  CHECK_THROWS_WITH(mdl::HybridController(std::make_shared<const mdl::PlanarChain>(two), mdl::HybridParams{}),
                     Catch::Contains("at least 3 joints"));
-  tm::HybridController ctl(shared_model("planar_4r"), tm::HybridParams{});
-  tm::ArmSensors in;  // 3 joints by default
-  const tm::ControlOutput out = ctl.step(in, tm::ArmReference{});
+  mdl::HybridController ctl(shared_model("planar_4r"), mdl::HybridParams{});
+  mdl::ArmSensors in;  // 3 joints by default
+  const mdl::ControlOutput out = ctl.step(in, mdl::ArmReference{});
   REQUIRE(out.tau.size() == 4);
   CHECK_FALSE(out.tau.allFinite());
 }

@@ -120,7 +120,9 @@ bool record(const mdl::ModuleParams& mp, long lead, long steps, Recording& rec) 
   const double elbow[2] = {-1.0, 1.0};
   for (int j = 0; j < 2; ++j) {
     const mdl::ArmReference r0 = mdl::arm_reference(j, p0, geom, h_ref);
-    if (!mdl::inverse_kinematics(mp.arms[j], r0.x, elbow[j], init.q[j])) return false;
+    Vec3 q0;
+    if (!mdl::inverse_kinematics(mp.arms[j], r0.x, elbow[j], q0)) return false;
+    init.q[j] = q0;
   }
   init.c = p0.pose.head<2>();
   init.psi = -p0.pose(2);

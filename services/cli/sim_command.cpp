@@ -45,9 +45,9 @@ void record_case(record::RecordingWriter& rec, const std::string& name, double h
       for (int i = 0; i < 3; ++i) {
         a.add_x(r.x[j](i));
         a.add_x_d(r.xd[j](i));
-        a.add_tau(r.tau[j](i));
         a.add_s(r.s[j](i));
       }
+      for (int i = 0; i < r.tau[j].size(); ++i) a.add_tau(r.tau[j](i));
       a.set_normal_force(r.normal[j]);
       a.set_e_h(r.e_h[j]);
     }

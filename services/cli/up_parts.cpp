@@ -287,7 +287,7 @@ bool summarize_world(const std::string& name, const msg::WorldSummary& ws, doubl
     list("switch_failover", ws.switch_failover());
     list("switch_ep_max", ws.switch_ep_max());
     list("switch_hn_min", ws.switch_hn_min());
-    for (size_t i = 0; i < 6; ++i) out << name << ".q_final" << i << "=" << ws.q_final()[i] << "\n";
+    for (size_t i = 0; i < ws.q_final().size(); ++i) out << name << ".q_final" << i << "=" << ws.q_final()[i] << "\n";
     for (size_t i = 0; i < 3; ++i) out << name << ".object_final" << i << "=" << ws.object_final()[i] << "\n";
   }
   return ws.slip_events() == 0 && ws.contact_lost() == 0;

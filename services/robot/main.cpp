@@ -111,12 +111,23 @@ class RobotProcess {
     watch_.on_sample(seconds(t_in));
     // Another robot's torque, the world's drive or the brake's holding torque drove the arm over the last period:
     // the core tracks it (bumpless transfer and release).
-    const model::Vec3 applied(smp.tau()[0], smp.tau()[1], smp.tau()[2]);
+    if (smp.arm_kind() != static_cast<uint8_t>(core_.arm().kind())) {
+      // An arm of another type than this robot's model (a robot started with another scenario than its module's):
+      // it serves it not. Said once; the world refuses such commands anyway.
+      if (!wrong_kind_said_) {
+        wrong_kind_said_ = true;
+        std::fprintf(stderr, "tandem-robot %s: the arm is a %s and this robot's model a %s: not serving it\n",
+                     robot_id_.c_str(), model::arm_kind_name(static_cast<model::ArmKind>(smp.arm_kind())),
+                     model::arm_kind_name(core_.arm().kind()));
+      }
+      return;
+    }
+    const model::JointVec applied = robot_wire::applied(smp);
     const bool other = robot_wire::driven_by_other(smp, opt_.strength);
     core_.world_plan({smp.plan_epoch(), smp.plan_strength()}, smp.plan_version(), static_cast<long>(smp.plan_since()),
                      static_cast<long>(smp.tick()));
     if (core_.cut_off()) return;  // a stale plan is never served: the main loop leaves the arm
-    const std::optional<model::Vec3> tau =
+    const std::optional<model::JointVec> tau =
         core_.on_sample(static_cast<long>(smp.tick()), robot_wire::inputs(smp), smp.braked(), other ? &applied : nullptr);
     if (!tau) return;
     robot_wire::fill_command(core_, *tau, cmd_);
@@ -325,6 +336,7 @@ class RobotProcess {
   bool activated_ = false;
   bool stopping_ = false;  // under mu_: set once the robot leaves; the receiving thread computes nothing more
   bool ready_ = false;     // under mu_: the torque writer exists; until then samples are dropped
+  bool wrong_kind_said_ = false;  // under mu_: a sample of an arm of another type was reported
   bool cut_off_ = false;   // the module's leader fell silent for this robot (RobotCore::cut_off): exit 6
 };
 

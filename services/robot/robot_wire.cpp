@@ -6,7 +6,11 @@ namespace tandem::robot_wire {
 
 model::ArmSensors inputs(const msg::ArmSensors& s) {
   model::ArmSensors in;
-  for (int i = 0; i < 3; ++i) {
+  // The sample's joint count, kept to 1-4 entries; the core refuses a count that is not its arm's.
+  const int n = std::clamp(static_cast<int>(s.joints()), 1, model::kMaxJoints);
+  in.q.resize(n);
+  in.qd.resize(n);
+  for (int i = 0; i < n; ++i) {
     in.q(i) = s.q()[static_cast<size_t>(i)];
     in.qd(i) = s.qd()[static_cast<size_t>(i)];
   }
@@ -18,13 +22,22 @@ bool driven_by_other(const msg::ArmSensors& s, int32_t my_strength) {
   return s.from() != my_strength && (s.from() != 0 || s.braked());
 }
 
-void fill_command(const robot::RobotCore& core, const model::Vec3& tau, msg::TorqueCommand& cmd) {
+model::JointVec applied(const msg::ArmSensors& s) {
+  const int n = std::clamp(static_cast<int>(s.joints()), 1, model::kMaxJoints);
+  model::JointVec tau(n);
+  for (int i = 0; i < n; ++i) tau(i) = s.tau()[static_cast<size_t>(i)];
+  return tau;
+}
+
+void fill_command(const robot::RobotCore& core, const model::JointVec& tau, msg::TorqueCommand& cmd) {
   cmd.tick(static_cast<uint64_t>(core.done()));
   const model::ControlOutput& out = core.last_output();
-  for (int i = 0; i < 3; ++i) {
-    cmd.tau()[static_cast<size_t>(i)] = tau(i);
-    cmd.e_p()[static_cast<size_t>(i)] = out.e_p(i);
+  cmd.arm_kind(static_cast<uint8_t>(core.arm().kind()));
+  cmd.joints(static_cast<uint8_t>(tau.size()));
+  for (size_t i = 0; i < cmd.tau().size(); ++i) {
+    cmd.tau()[i] = static_cast<Eigen::Index>(i) < tau.size() ? tau(static_cast<Eigen::Index>(i)) : 0.0;
   }
+  for (int i = 0; i < 3; ++i) cmd.e_p()[static_cast<size_t>(i)] = out.e_p(i);
   cmd.e_h(out.e_h);
   cmd.normal_force(out.normal_force);
 }

@@ -20,7 +20,9 @@ model::ArmSensors inputs(const msg::ArmSensors& s);
 bool driven_by_other(const msg::ArmSensors& s, int32_t my_strength);
 
 /// The command of the tick the core just computed.
-void fill_command(const robot::RobotCore& core, const model::Vec3& tau, msg::TorqueCommand& cmd);
+void fill_command(const robot::RobotCore& core, const model::JointVec& tau, msg::TorqueCommand& cmd);
+/// The effort the arm got over the last period (ArmSensors.tau, its joint count's entries).
+model::JointVec applied(const msg::ArmSensors& s);
 
 /// The robot's results at its end.
 void fill_summary(const robot::RobotCore& core, const std::string& arm_id, const std::string& robot_id,

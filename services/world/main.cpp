@@ -267,7 +267,7 @@ class WorldProcess {
     for (size_t j = 0; j < 2; ++j) {
       const world::SampleOut& o = samples_[j];
       if (!o.publish && !all) continue;
-      world_wire::fill_sample(o, k_, plan_rank, plan_version, plan_since, s_);
+      world_wire::fill_sample(o, core_.plant().arm(static_cast<int>(j)).kind(), k_, plan_rank, plan_version, plan_since, s_);
       const bool written = sensors(j).write(s_);
       if (sensors(j).history_clears() != history_clears_[j]) {
         const long n = history_clears_[j] = sensors(j).history_clears();
@@ -288,7 +288,14 @@ class WorldProcess {
   /// One command to the core; in real time its latency from the tick's start is measured (not in the start wait).
   void apply(const Inbox::Item& item, bool late_arrival, bool measure = true) {
     const msg::TorqueCommand& cmd = item.sample;
-    const model::Vec3 tau(cmd.tau()[0], cmd.tau()[1], cmd.tau()[2]);
+    // The command's joint count as sent (the core refuses one that is not its arm's), and its arm type: a command
+    // made for an arm of another type (a robot started with another scenario) is refused here.
+    if (cmd.arm_kind() != static_cast<uint8_t>(core_.plant().arm(item.source).kind())) {
+      ++core_.rejected;
+      return;
+    }
+    model::JointVec tau(std::clamp(static_cast<int>(cmd.joints()), 1, model::kMaxJoints));
+    for (int i = 0; i < tau.size(); ++i) tau(i) = cmd.tau()[static_cast<size_t>(i)];
     if (core_.on_command(item.source, static_cast<long>(cmd.tick()), tau, cmd.strength(), item.at_ns, late_arrival,
                          cmd.leaving()) == world::WorldCore::Verdict::Applied &&
         opt_.realtime && measure) {

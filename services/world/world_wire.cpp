@@ -2,14 +2,18 @@
 
 namespace tandem::world_wire {
 
-void fill_sample(const world::SampleOut& o, long k, const plan::SupervisorRank& plan_rank, uint64_t plan_version,
+void fill_sample(const world::SampleOut& o, model::ArmKind kind, long k, const plan::SupervisorRank& plan_rank, uint64_t plan_version,
                  long plan_since, msg::ArmSensors& s) {
   s.tick(static_cast<uint64_t>(k));
   s.t(o.t);
-  for (size_t i = 0; i < 3; ++i) {
-    s.q()[i] = o.q(static_cast<int>(i));
-    s.qd()[i] = o.qd(static_cast<int>(i));
-    s.tau()[i] = o.tau_applied(static_cast<int>(i));
+  const auto n = static_cast<size_t>(o.q.size());
+  s.arm_kind(static_cast<uint8_t>(kind));
+  s.joints(static_cast<uint8_t>(n));
+  for (size_t i = 0; i < s.q().size(); ++i) {
+    const auto e = static_cast<Eigen::Index>(i);
+    s.q()[i] = i < n ? o.q(e) : 0.0;
+    s.qd()[i] = i < n ? o.qd(e) : 0.0;
+    s.tau()[i] = i < n && e < o.tau_applied.size() ? o.tau_applied(e) : 0.0;
   }
   s.h()[0] = o.h(0);
   s.h()[1] = o.h(1);
@@ -30,7 +34,10 @@ void fill_summary(const world::WorldCore& core, const std::string& module, long 
   ws.overruns(overruns);
   ws.ticks(static_cast<uint64_t>(ticks));
   for (int j = 0; j < 2; ++j) {
-    for (int i = 0; i < 3; ++i) ws.q_final()[3 * static_cast<size_t>(j) + static_cast<size_t>(i)] = plant.state().q[j](i);
+    const model::JointVec& q = plant.state().q[static_cast<size_t>(j)];
+    for (int i = 0; i < model::kMaxJoints; ++i) {
+      ws.q_final()[static_cast<size_t>(model::kMaxJoints * j + i)] = i < q.size() ? q(i) : 0.0;
+    }
   }
   ws.object_final()[0] = plant.state().c(0);
   ws.object_final()[1] = plant.state().c(1);

@@ -20,8 +20,9 @@ void fill_summary(const world::WorldCore& core, const std::string& module, long 
 /// the load pause and who serves each arm.
 void fill_report_counters(const world::WorldCore& core, bool realtime, msg::WorldReport& rep);
 
-/// One arm's sensor sample of tick k, with the rank, version and start tick of the plan the world follows.
-void fill_sample(const world::SampleOut& o, long k, const plan::SupervisorRank& plan_rank, uint64_t plan_version,
+/// One arm's sensor sample of tick k (the arm of type `kind`), with the rank, version and start tick of the plan the
+/// world follows.
+void fill_sample(const world::SampleOut& o, model::ArmKind kind, long k, const plan::SupervisorRank& plan_rank, uint64_t plan_version,
                  long plan_since, msg::ArmSensors& s);
 
 /// Who each arm follows now, as WorldReport.owners and the world's ProcessStatus.owners carry it.

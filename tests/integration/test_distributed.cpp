@@ -223,12 +223,54 @@ TEST_CASE("lockstep over DDS gives the embedded simulation's numbers", "[distrib
     CHECK(kv.at(a + ".eh_rms") == Approx(e.robots[j].eh_rms).epsilon(1e-12));
     CHECK(kv.at(a + ".min_normal_force") == Approx(e.robots[j].min_normal_force).epsilon(1e-12));
     for (int i = 0; i < 3; ++i) {
-      CHECK(kv.at("m1.q_final" + std::to_string(3 * j + i)) == Approx(e.final_state.q[j](i)).margin(1e-12));
+      CHECK(kv.at("m1.q_final" + std::to_string(4 * j + i)) == Approx(e.final_state.q[j](i)).margin(1e-12));
     }
   }
   CHECK(kv.at("m1.object_final0") == Approx(e.final_state.c(0)).margin(1e-12));
   CHECK(kv.at("m1.object_final1") == Approx(e.final_state.c(1)).margin(1e-12));
   CHECK(kv.at("m1.slip_events") == 0);
+}
+
+TEST_CASE("lockstep over DDS gives the embedded numbers for heterogeneous modules (3R + PPR, 3R + 4R)", "[distributed][hetero]") {
+  int offset = 28;
+  for (const std::string name : {"hetero-ppr", "hetero-4r"}) {
+    INFO(name);
+    const std::string scenario = kSrc + "/config/scenarios/" + name + ".yaml";
+    const int domain = test_domain(offset++);
+    const std::string deploy = write_deployment(name, domain, "SOSM-u", "lockstep", 0, "", "shm", scenario);
+    const std::string summary = work_dir() + "/" + name + ".summary";
+    const Run r = run(kBin + "/tandem up " + deploy + " --summary " + summary);
+    INFO(r.output);
+    REQUIRE(r.exit_code == 0);
+    CHECK_FALSE(processes_left(domain));
+    const auto sc = tandem::sim::load_scenario(scenario);
+    const tandem::sim::CaseConfig* cc = nullptr;
+    for (const auto& c : sc.cases) {
+      if (c.name == "SOSM-u") cc = &c;
+    }
+    REQUIRE(cc != nullptr);
+    const tandem::sim::CaseResult e = tandem::sim::run_case(sc, *cc, tandem::sim::RunOptions{false});
+    const auto kv = read_summary(summary);
+    REQUIRE(kv.count("m1.ticks") == 1);
+    CHECK(kv.at("m1.ticks") == 5000);
+    const char* arms[2] = {"m1/left", "m1/right"};
+    for (int j = 0; j < 2; ++j) {
+      const std::string a = arms[j];
+      INFO(a);
+      CHECK(kv.at(a + ".ep_pos_rms") == Approx(e.robots[j].ep_pos_rms).epsilon(1e-12));
+      CHECK(kv.at(a + ".eh_rms") == Approx(e.robots[j].eh_rms).epsilon(1e-12));
+      CHECK(kv.at(a + ".min_normal_force") == Approx(e.robots[j].min_normal_force).epsilon(1e-12));
+      // Every joint of the arm's type (the 4R's fourth too), and zeros in the slots past its joint count.
+      const auto n = e.final_state.q[static_cast<size_t>(j)].size();
+      CHECK(n == (j == 0 ? 3 : sc.robots[1].dof()));
+      for (int i = 0; i < 4; ++i) {
+        const double want = i < n ? e.final_state.q[static_cast<size_t>(j)](i) : 0.0;
+        CHECK(kv.at("m1.q_final" + std::to_string(4 * j + i)) == Approx(want).margin(1e-12));
+      }
+    }
+    CHECK(kv.at("m1.object_final0") == Approx(e.final_state.c(0)).margin(1e-12));
+    CHECK(kv.at("m1.slip_events") == 0);
+  }
 }
 
 TEST_CASE("one module runs its task in real time: the grasp always held, the task done when nothing stopped it", "[distributed]") {

@@ -58,9 +58,10 @@ int main(int argc, char** argv) {
     msg::TorqueCommand c;
     c.tick(tick);
     c.strength(1000);
-    c.tau({nan, 0.0, 0.0});
+    c.joints(3);
+    c.tau({nan, 0.0, 0.0, 0.0});
     left.write(c);
-    c.tau({1e7, 0.0, 0.0});
+    c.tau({1e7, 0.0, 0.0, 0.0});
     right.write(c);
     msg::SupervisorPlan p;  // outranks every supervisor (epoch 7), but malformed: must be rejected
     p.module_id(module);

@@ -51,9 +51,8 @@ void time_model(const sim::ModuleSetup& ms, Calibration& c) {
   };
   model::ModulePlant plant(ms.plant);
   plant.reset(ms.initial);
-  const std::array<model::Vec3, 2> tau{model::gravity(ms.plant.arms[0], ms.initial.q[0]),
-                                       model::gravity(ms.plant.arms[1], ms.initial.q[1])};
-  model::HybridController law(ms.plant.arms[0], ms.control[0]);
+  const model::ArmEfforts tau{plant.arm(0).gravity(ms.initial.q[0]), plant.arm(1).gravity(ms.initial.q[1])};
+  model::HybridController law(model::arm_model(ms.plant, 0), ms.control[0]);
   model::ArmSensors in;
   in.q = ms.initial.q[0];
   std::vector<double> plant_us, law_us;

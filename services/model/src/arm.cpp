@@ -156,4 +156,11 @@ bool inverse_kinematics(const ArmParams& p, const Vec3& x, double elbow_sign, Ve
   return true;
 }
 
+bool inverse_kinematics(const ArmParams& p, const Vec3& x, double elbow_sign, JointVec& q) noexcept {
+  Vec3 q3;
+  if (!inverse_kinematics(p, x, elbow_sign, q3)) return false;
+  q = q3;
+  return true;
+}
+
 }  // namespace tandem::model

@@ -166,7 +166,7 @@ ControlOutput HybridController::step(const ArmSensors& in, const ArmReference& r
   return out;
 }
 
-Vec3 reaching_gain_bound(const Mat3& J_contact, const Vec3& eta_bound, const Vec3& xdd_contact,
+Vec3 reaching_gain_bound(const TaskJacobian& J_contact, const JointVec& eta_bound, const Vec3& xdd_contact,
                          const Vec3& m, const Vec3& ed_bound, double eta_margin) noexcept {
   // eq. (33)-(34)
   return J_contact.cwiseAbs() * eta_bound + Vec3::Constant(eta_margin) + xdd_contact.cwiseAbs() +

@@ -1,5 +1,6 @@
 #include "tandem/model/manipulator.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace tandem::model {
@@ -135,6 +136,49 @@ double Manipulator::kinetic_energy(const JointVec& q, const JointVec& qd) const 
   return 0.5 * qd.dot(inertia(q) * qd);
 }
 
+bool Manipulator::within_limits(const JointVec& q) const noexcept {
+  if (q.size() != dof()) return false;
+  for (int i = 0; i < dof(); ++i) {
+    const auto ui = static_cast<size_t>(i);
+    if (!(q(i) >= joints_.q_min[ui] && q(i) <= joints_.q_max[ui])) return false;
+  }
+  return true;
+}
+
+JointVec Manipulator::home() const noexcept {
+  JointVec h(dof());
+  for (int i = 0; i < dof(); ++i) h(i) = joints_.home[static_cast<size_t>(i)];
+  return h;
+}
+
+bool Manipulator::inverse_kinematics(const Vec3& x, const JointVec& seed, double /*branch*/,
+                                     JointVec& q) const noexcept {
+  if (seed.size() != dof()) return false;
+  JointVec z = seed;
+  constexpr int kIterations = 100;
+  constexpr double kTolerance = 1e-12;  // [m] and [rad]
+  for (int it = 0; it < kIterations; ++it) {
+    const Vec3 fk = forward_kinematics(z);
+    Vec3 e = x - fk;
+    e(2) = wrap_angle(e(2));
+    if (e.norm() < kTolerance) {
+      if (!within_limits(z)) return false;
+      q = z;
+      return true;
+    }
+    const TaskJacobian J = jacobian(z);
+    // Minimum-norm step J^T (J J^T + lambda^2 I)^-1 e; the small damping keeps it finite near a singularity.
+    const Mat3 JJt = J * J.transpose() + 1e-10 * Mat3::Identity();
+    JointVec step = J.transpose() * JJt.ldlt().solve(e);
+    // Limit a step to 0.5 (rad or m) in its largest joint, so that a far seed does not jump to another branch.
+    double big = 0.0;
+    for (int i = 0; i < dof(); ++i) big = std::max(big, std::abs(step(i)));
+    if (big > 0.5) step *= 0.5 / big;
+    z += step;
+  }
+  return false;
+}
+
 JointSpace joint_space(const ArmParams& p) {
   JointSpace js;
   js.dof = 3;
@@ -177,6 +221,12 @@ JointMat Planar3R::coriolis(const JointVec& q, const JointVec& qd) const noexcep
 JointVec Planar3R::gravity(const JointVec& q) const noexcept { return joint_of(model::gravity(p_, vec3_of(q))); }
 double Planar3R::potential_energy(const JointVec& q) const noexcept {
   return model::potential_energy(p_, vec3_of(q));
+}
+bool Planar3R::inverse_kinematics(const Vec3& x, const JointVec& /*seed*/, double branch, JointVec& q) const noexcept {
+  Vec3 q3;
+  if (!model::inverse_kinematics(p_, x, branch, q3)) return false;
+  q = joint_of(q3);
+  return true;
 }
 
 // ----- PlanarChain ---------------------------------------------------------------------------------------
@@ -274,6 +324,7 @@ ChainParams cartesian_ppr() {
   j.q_min = {-1.5, -0.5, -kPi, 0.0};
   j.q_max = {1.5, 1.8, kPi, 0.0};
   j.effort_max = {3000.0, 3000.0, 500.0, 0.0};
+  j.home = {0.0, 0.8, kPi / 2.0, 0.0};  // a left arm: the wrist towards +x
   return p;
 }
 
@@ -293,6 +344,7 @@ ChainParams planar_4r() {
   j.q_min = {-kPi, -kPi, -kPi, -kPi};
   j.q_max = {kPi, kPi, kPi, kPi};
   j.effort_max = {3000.0, 1500.0, 800.0, 500.0};
+  j.home = {0.3, 0.6, 0.6, kPi / 2.0 - 1.5};  // a left arm: leaning towards +x, the tool along +x
   return p;
 }
 

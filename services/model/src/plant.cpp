@@ -20,10 +20,50 @@ double cross2(const Vec2& a, const Vec2& b) { return a(0) * b(1) - a(1) * b(0); 
 
 }  // namespace
 
-ModulePlant::ModulePlant(const ModuleParams& params) : params_(params) { reset(ModuleState{}); }
+std::shared_ptr<const Manipulator> arm_model(const ModuleParams& p, int j) {
+  const auto uj = static_cast<size_t>(j);
+  return p.models[uj] ? p.models[uj] : std::make_shared<const Planar3R>(p.arms[uj]);
+}
+
+ModulePlant::ModulePlant(const ModuleParams& params) : params_(params) {
+  for (int j = 0; j < 2; ++j) {
+    const auto uj = static_cast<size_t>(j);
+    models_[uj] = arm_model(params_, j);
+    if (const auto* p3 = dynamic_cast<const Planar3R*>(models_[uj].get())) p3r_[uj] = &p3->params();
+  }
+  ModuleState s;
+  for (int j = 0; j < 2; ++j) {
+    s.q[static_cast<size_t>(j)] = JointVec::Zero(arm(j).dof());
+    s.qd[static_cast<size_t>(j)] = JointVec::Zero(arm(j).dof());
+  }
+  reset(s);
+}
+
+Vec3 ModulePlant::end_effector(int j) const noexcept {
+  const auto uj = static_cast<size_t>(j);
+  if (p3r_[uj] != nullptr) return forward_kinematics(*p3r_[uj], Vec3(state_.q[uj]));
+  return models_[uj]->forward_kinematics(state_.q[uj]);
+}
+
+Vec2 ModulePlant::tip(int j, const JointVec& q, const JointVec& qd, Vec2* v) const noexcept {
+  const auto uj = static_cast<size_t>(j);
+  if (const ArmParams* a = p3r_[uj]) {
+    const Vec3 q3 = q;
+    if (v != nullptr) *v = (jacobian(*a, q3) * Vec3(qd)).head<2>();
+    return forward_kinematics(*a, q3).head<2>();
+  }
+  if (v != nullptr) *v = (models_[uj]->jacobian(q) * qd).head<2>();
+  return models_[uj]->forward_kinematics(q).head<2>();
+}
 
 void ModulePlant::reset(const ModuleState& state) {
   state_ = state;
+  for (int j = 0; j < 2; ++j) {
+    // A state of another joint count than the arm's (a caller's mistake): the arm starts at zero.
+    const auto uj = static_cast<size_t>(j);
+    if (state_.q[uj].size() != arm(j).dof()) state_.q[uj] = JointVec::Zero(arm(j).dof());
+    if (state_.qd[uj].size() != arm(j).dof()) state_.qd[uj] = JointVec::Zero(arm(j).dof());
+  }
   counters_ = PlantCounters{};
   // Pre-load each sticking contact with half the weight (upwards on the object).
   const Mat2 R = rotation(state_.psi);
@@ -40,9 +80,8 @@ ContactReading ModulePlant::contact_forces(const ModuleState& s) const noexcept 
   const auto& op = params_.object;
   const Mat2 R = rotation(s.psi);
   for (int j = 0; j < 2; ++j) {
-    const ArmParams& arm = params_.arms[j];
-    const Vec2 p = forward_kinematics(arm, s.q[j]).head<2>();
-    const Vec2 v = (jacobian(arm, s.q[j]) * s.qd[j]).head<2>();
+    Vec2 v;
+    const Vec2 p = tip(j, s.q[static_cast<size_t>(j)], s.qd[static_cast<size_t>(j)], &v);
     const Vec2 r = p - s.c;
     const Vec2 material_v = s.cd + s.psid * Vec2(-r(1), r(0));  // object point under the tip
     const Vec2 rho = R.transpose() * r;
@@ -72,51 +111,66 @@ ContactReading ModulePlant::contact_forces(const ModuleState& s) const noexcept 
   return out;
 }
 
-ModulePlant::StateVec ModulePlant::pack(const ModuleState& s) noexcept {
-  StateVec v;
-  v << s.q[0], s.q[1], s.qd[0], s.qd[1], s.c, s.psi, s.cd, s.psid;
+ModulePlant::StateVec ModulePlant::pack(const ModuleState& s) const noexcept {
+  StateVec v = StateVec::Zero();
+  for (int j = 0; j < 2; ++j) {
+    const auto uj = static_cast<size_t>(j);
+    const int n = arm(j).dof();
+    v.segment(kSlots * j, n) = s.q[uj];
+    v.segment(2 * kSlots + kSlots * j, n) = s.qd[uj];
+  }
+  v.segment<2>(kObject) = s.c;
+  v(kObject + 2) = s.psi;
+  v.segment<2>(kObject + 3) = s.cd;
+  v(kObject + 5) = s.psid;
   return v;
 }
 
-ModuleState ModulePlant::unpack(const StateVec& v) noexcept {
-  ModuleState s;
-  s.q[0] = v.segment<3>(0);
-  s.q[1] = v.segment<3>(3);
-  s.qd[0] = v.segment<3>(6);
-  s.qd[1] = v.segment<3>(9);
-  s.c = v.segment<2>(12);
-  s.psi = v(14);
-  s.cd = v.segment<2>(15);
-  s.psid = v(17);
-  return s;
+void ModulePlant::unpack(const StateVec& v, ModuleState& s) const noexcept {
+  for (int j = 0; j < 2; ++j) {
+    const auto uj = static_cast<size_t>(j);
+    const int n = arm(j).dof();
+    s.q[uj] = v.segment(kSlots * j, n);
+    s.qd[uj] = v.segment(2 * kSlots + kSlots * j, n);
+  }
+  s.c = v.segment<2>(kObject);
+  s.psi = v(kObject + 2);
+  s.cd = v.segment<2>(kObject + 3);
+  s.psid = v(kObject + 5);
 }
 
-ModulePlant::StateVec ModulePlant::derivative(const StateVec& x, const std::array<Vec3, 2>& tau,
-                                              double t) const noexcept {
-  const ModuleState s = unpack(x);
+ModulePlant::StateVec ModulePlant::derivative(const StateVec& x, const ArmEfforts& tau, double t) const noexcept {
+  ModuleState s;
+  unpack(x, s);
   const ContactReading c = contact_forces(s);
-  StateVec dx;
+  StateVec dx = StateVec::Zero();
   for (int j = 0; j < 2; ++j) {
-    const Vec3 h(c.h[j](0), c.h[j](1), 0.0);  // point contacts transmit no moment
-    if (braked_[static_cast<size_t>(j)]) {
+    const auto uj = static_cast<size_t>(j);
+    const int n = arm(j).dof();
+    const Eigen::Index qi = kSlots * j, qdi = 2 * kSlots + kSlots * j;
+    const Vec3 h(c.h[uj](0), c.h[uj](1), 0.0);  // point contacts transmit no moment
+    dx.segment(qi, n) = s.qd[uj];
+    if (braked_[uj]) {
       // Braked joints: the brake takes whatever torque it needs and stops them along qdd = -qd / T_b, as a
       // real holding brake stops a moving arm over a short distance (an instant stop of an arm moving with
       // the object jolts the object against it and makes it slip); at rest they stay locked.
-      dx.segment<3>(3 * j) = s.qd[j];
-      dx.segment<3>(6 + 3 * j) = -s.qd[j] / kBrakeTimeConstant;
+      dx.segment(qdi, n) = -s.qd[uj] / kBrakeTimeConstant;
       continue;
     }
-    const Vec3 qdd = forward_dynamics(params_.arms[j], s.q[j], s.qd[j], tau[j], h) + params_.disturbance[j](t);
-    dx.segment<3>(3 * j) = s.qd[j];
-    dx.segment<3>(6 + 3 * j) = qdd;
+    if (const ArmParams* a = p3r_[uj]) {  // the identified 3R: fixed-size Eigen (the fast path)
+      dx.segment<3>(qdi) = forward_dynamics(*a, Vec3(s.q[uj]), Vec3(s.qd[uj]), Vec3(tau[uj]), h) +
+                           params_.disturbance[uj](t);
+    } else {
+      dx.segment(qdi, n) = models_[uj]->forward_dynamics(s.q[uj], s.qd[uj], tau[uj], h) + params_.disturbance[uj].at(t, n);
+    }
   }
   const auto& op = params_.object;
   // eq. (13), planar: M p'' = f_E - M g, I psi'' = mu_E (the gyroscopic term vanishes in the plane).
   const Vec2 acc = c.force_on_object / op.mass + Vec2(0.0, -params_.g0);
-  dx.segment<2>(12) = s.cd;
-  dx(14) = s.psid;
-  dx.segment<2>(15) = acc;
-  dx(17) = c.torque_on_object / op.effective_inertia();
+  dx.segment<2>(kObject) = s.cd;
+  dx(kObject + 2) = s.psid;
+  dx.segment<2>(kObject + 3) = acc;
+  dx(kObject + 5) = c.torque_on_object / op.effective_inertia();
   return dx;
 }
 
@@ -126,8 +180,8 @@ void ModulePlant::update_anchors() noexcept {
   const Mat2 R = rotation(state_.psi);
   const ContactReading c = contact_forces(state_);
   for (int j = 0; j < 2; ++j) {
-    const ArmParams& arm = params_.arms[j];
-    const Vec2 r = end_effector(j).head<2>() - state_.c;
+    Vec2 v;
+    const Vec2 r = tip(j, state_.q[static_cast<size_t>(j)], state_.qd[static_cast<size_t>(j)], &v) - state_.c;
     const Vec2 rho = R.transpose() * r;
     const double sigma = kFaceTangent.dot(rho);
     if (!c.in_contact[j]) {
@@ -137,7 +191,6 @@ void ModulePlant::update_anchors() noexcept {
     }
     // The friction demand is the whole tangential force (spring and damper), the same force that the
     // contact model clamps to the static cone.
-    const Vec2 v = (jacobian(arm, state_.q[j]) * state_.qd[j]).head<2>();
     const Vec2 vrel = R.transpose() * (v - (state_.cd + state_.psid * Vec2(-r(1), r(0))));
     const double sigma_dot = kFaceTangent.dot(vrel);
     const double demand = cp.k_tangent * (sigma - anchor_[j]) + cp.d_tangent * sigma_dot;
@@ -152,14 +205,24 @@ void ModulePlant::update_anchors() noexcept {
   }
 }
 
-void ModulePlant::step(const std::array<Vec3, 2>& tau_cmd, double t, double dt, int substeps) noexcept {
-  std::array<Vec3, 2> tau = tau_cmd;
+void ModulePlant::step(const std::array<Vec3, 2>& tau, double t, double dt, int substeps) noexcept {
+  ArmEfforts e{JointVec(tau[0]), JointVec(tau[1])};
+  step(e, t, dt, substeps);
+}
+
+void ModulePlant::step(const ArmEfforts& tau_cmd, double t, double dt, int substeps) noexcept {
+  ArmEfforts tau = tau_cmd;
   bool saturated = false;
   for (int j = 0; j < 2; ++j) {
-    const Vec3& lim = params_.arms[j].tau_max;
-    const Vec3 clipped = tau[j].cwiseMax(-lim).cwiseMin(lim);
-    saturated = saturated || !clipped.isApprox(tau[j], 0.0);
-    tau[j] = clipped;
+    const auto uj = static_cast<size_t>(j);
+    const JointSpace& js = arm(j).joints();
+    if (tau[uj].size() != js.dof) tau[uj] = JointVec::Zero(js.dof);
+    for (int i = 0; i < js.dof; ++i) {
+      const double lim = js.effort_max[static_cast<size_t>(i)];
+      const double clipped = std::min(std::max(tau[uj](i), -lim), lim);
+      saturated = saturated || clipped != tau[uj](i);
+      tau[uj](i) = clipped;
+    }
   }
   if (saturated) ++counters_.torque_saturated;
   const double h = dt / substeps;
@@ -171,12 +234,11 @@ void ModulePlant::step(const std::array<Vec3, 2>& tau_cmd, double t, double dt, 
     const StateVec k3 = derivative(x + 0.5 * h * k2, tau, ti + 0.5 * h);
     const StateVec k4 = derivative(x + h * k3, tau, ti + h);
     x += (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
-    state_ = unpack(x);
+    unpack(x, state_);
     update_anchors();
   }
   for (int j = 0; j < 2; ++j) {
-    const ArmParams& arm = params_.arms[j];
-    if ((state_.q[j].array() < arm.q_min.array()).any() || (state_.q[j].array() > arm.q_max.array()).any()) {
+    if (!arm(j).within_limits(state_.q[static_cast<size_t>(j)])) {
       ++counters_.joint_limit;
       break;
     }
@@ -188,8 +250,8 @@ void ModulePlant::set_brake(int j, bool on) noexcept { braked_[static_cast<size_
 double ModulePlant::mechanical_energy() const noexcept {
   double e = 0.0;
   for (int j = 0; j < 2; ++j) {
-    e += kinetic_energy(params_.arms[j], state_.q[j], state_.qd[j]) +
-         potential_energy(params_.arms[j], state_.q[j]);
+    const auto uj = static_cast<size_t>(j);
+    e += arm(j).kinetic_energy(state_.q[uj], state_.qd[uj]) + arm(j).potential_energy(state_.q[uj]);
   }
   const auto& op = params_.object;
   e += 0.5 * op.mass * state_.cd.squaredNorm() + 0.5 * op.effective_inertia() * state_.psid * state_.psid +

@@ -25,6 +25,11 @@ template <class Seq>
 void copy_to(const Seq& from, google::protobuf::RepeatedField<double>* to) {
   for (const auto v : from) to->Add(static_cast<double>(v));
 }
+/// The first `n` entries only (a joint-space array of 4 slots holds the arm's joint count).
+template <class Seq>
+void copy_first(const Seq& from, size_t n, google::protobuf::RepeatedField<double>* to) {
+  for (size_t i = 0; i < n && i < from.size(); ++i) to->Add(static_cast<double>(from[i]));
+}
 
 void copy_owners(const std::vector<msg::ArmOwner>& from,
                  google::protobuf::RepeatedPtrField<pb::ArmOwner>* to) {
@@ -45,27 +50,31 @@ void convert(const msg::ArmSensors& s, pb::ArmSensors& o) {
   o.clear_qd();
   o.clear_h();
   o.clear_tau();
-  copy_to(s.q(), o.mutable_q());
-  copy_to(s.qd(), o.mutable_qd());
+  copy_first(s.q(), s.joints(), o.mutable_q());
+  copy_first(s.qd(), s.joints(), o.mutable_qd());
   copy_to(s.h(), o.mutable_h());
   o.set_braked(s.braked());
-  copy_to(s.tau(), o.mutable_tau());
+  copy_first(s.tau(), s.joints(), o.mutable_tau());
   o.set_from(s.from());
   o.set_plan_epoch(s.plan_epoch());
   o.set_plan_strength(s.plan_strength());
   o.set_plan_version(s.plan_version());
   o.set_plan_since(s.plan_since());
+  o.set_arm_kind(s.arm_kind());
+  o.set_joints(s.joints());
 }
 void convert(const msg::TorqueCommand& c, pb::TorqueCommand& o) {
   o.set_tick(c.tick());
   o.clear_tau();
   o.clear_e_p();
-  copy_to(c.tau(), o.mutable_tau());
+  copy_first(c.tau(), c.joints(), o.mutable_tau());
   o.set_strength(c.strength());
   o.set_leaving(c.leaving());
   copy_to(c.e_p(), o.mutable_e_p());
   o.set_e_h(c.e_h());
   o.set_normal_force(c.normal_force());
+  o.set_arm_kind(c.arm_kind());
+  o.set_joints(c.joints());
 }
 pb::WorldReport convert(const msg::WorldReport& r) {
   pb::WorldReport o;

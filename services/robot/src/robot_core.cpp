@@ -5,8 +5,9 @@
 namespace tandem::robot {
 
 RobotCore::RobotCore(const sim::ModuleSetup& m, int j, bool continuous, double transient)
-    : m_(m), j_(j), follower_(m, continuous), ctl_(m.plant.arms[j], m.control[j]),
-      meter_(m.control[j].selection_p, transient, m.path.motion_end()) {}
+    : m_(m), j_(j), follower_(m, continuous), ctl_(model::arm_model(m.plant, j), m.control[j]),
+      meter_(m.control[j].selection_p, transient, m.path.motion_end()),
+      tau_(model::JointVec::Zero(ctl_.arm().dof())), prev_q_(model::JointVec::Zero(ctl_.arm().dof())) {}
 
 plan::PlanFollower::Offer RobotCore::offer_plan(const plan::PlanData& p, std::string* why) {
   const plan::PlanFollower::Offer o = follower_.offer(p, why, done_);
@@ -38,9 +39,11 @@ void RobotCore::world_plan(const plan::SupervisorRank& world, uint64_t version, 
   last_k_ = std::max(last_k_, k);
 }
 
-std::optional<model::Vec3> RobotCore::on_sample(long k, const model::ArmSensors& in, bool braked,
-                                                const model::Vec3* applied) {
-  if (!plan::all_finite(in.q) || !plan::all_finite(in.qd) || !plan::all_finite(in.h)) {
+std::optional<model::JointVec> RobotCore::on_sample(long k, const model::ArmSensors& in, bool braked,
+                                                    const model::JointVec* applied) {
+  const int n = ctl_.arm().dof();
+  if (in.q.size() != n || in.qd.size() != n || !plan::all_finite(in.q) || !plan::all_finite(in.qd) ||
+      !plan::all_finite(in.h)) {
     ++rejected_;
     return std::nullopt;
   }
@@ -56,7 +59,7 @@ std::optional<model::Vec3> RobotCore::on_sample(long k, const model::ArmSensors&
   // brakes hold the arm, the torque the brake takes to hold it (g + J^T h). A robot that takes a braked arm
   // over then starts from the holding torque, and its law's memory never winds up on an error the arm cannot
   // act on. Only right after this robot's own previous tick; a braked tick without that torque starts afresh.
-  const bool tracks = applied != nullptr && done_ == k - 1 && plan::all_finite(*applied);
+  const bool tracks = applied != nullptr && done_ == k - 1 && applied->size() == n && plan::all_finite(*applied);
   if (tracks) {
     ctl_.track(*applied - tau_);
   } else if (braked) {
@@ -64,14 +67,17 @@ std::optional<model::Vec3> RobotCore::on_sample(long k, const model::ArmSensors&
   }
   model::ControlOutput out = ctl_.step(in, ref);
   // Actuator limits: the command is saturated here as the drive would (the plant clips the same way).
-  const model::Vec3& lim = m_.plant.arms[j_].tau_max;
-  const model::Vec3 clipped = out.tau.cwiseMax(-lim).cwiseMin(lim);
+  model::JointVec clipped = out.tau;
+  for (int i = 0; i < n; ++i) {
+    const double lim = ctl_.arm().joints().effort_max[static_cast<size_t>(i)];
+    clipped(i) = std::min(std::max(clipped(i), -lim), lim);
+  }
   last_saturated_ = clipped != out.tau;
   if (last_saturated_) ++saturated_;
   out.tau = clipped;
   meter_.add(static_cast<double>(k) * m_.period, ref, out);
   if (done_ >= 0) {  // wear and workload, for the coordinator's balancing
-    const model::Vec3 dq = (in.q - prev_q_).cwiseAbs();
+    const model::JointVec dq = (in.q - prev_q_).cwiseAbs();
     wear_ += dq.sum();
     workload_ += out.tau.cwiseAbs().dot(dq);
   }

@@ -131,7 +131,7 @@ void write_csv(const std::string& path, const std::vector<SeriesRow>& rows, cons
     const std::string n = sc.robots[j].name;
     for (const char* f : {"x", "y", "phi"}) out << "," << n << "_" << f;
     for (const char* f : {"x_d", "y_d", "phi_d"}) out << "," << n << "_" << f;
-    for (const char* f : {"tau1", "tau2", "tau3"}) out << "," << n << "_" << f;
+    for (int i = 0; i < sc.robots[j].dof(); ++i) out << "," << n << "_tau" << i + 1;
     for (const char* f : {"s_t", "s_a", "s_phi"}) out << "," << n << "_" << f;
     out << "," << n << "_normal_force," << n << "_e_h";
   }
@@ -145,9 +145,10 @@ void write_csv(const std::string& path, const std::vector<SeriesRow>& rows, cons
     std::snprintf(buf, sizeof buf, "%.4f", r.t);
     out << buf;
     for (int j = 0; j < 2; ++j) {
-      for (const Vec3* v : {&r.x[j], &r.xd[j], &r.tau[j], &r.s[j]}) {
-        for (int i = 0; i < 3; ++i) put((*v)(i));
-      }
+      for (int i = 0; i < 3; ++i) put(r.x[j](i));
+      for (int i = 0; i < 3; ++i) put(r.xd[j](i));
+      for (int i = 0; i < sc.robots[j].dof(); ++i) put(i < r.tau[j].size() ? r.tau[j](i) : 0.0);
+      for (int i = 0; i < 3; ++i) put(r.s[j](i));
       put(r.normal[j]);
       put(r.e_h[j]);
     }

@@ -31,6 +31,23 @@ model::ModuleParams module_params(const Scenario& sc, const CaseConfig& cc) {
   mp.contact = sc.contact;
   mp.g0 = sc.g0;
   for (int j = 0; j < 2; ++j) mp.arms[j].g0 = sc.g0;
+  for (int j = 0; j < 2; ++j) {
+    const RobotConfig& rc = sc.robots[j];
+    if (rc.type == model::ArmKind::Planar3R) {
+      mp.models[j] = std::make_shared<const model::Planar3R>(mp.arms[j]);
+      continue;
+    }
+    model::ChainParams c = rc.chain;
+    c.joints.base = mp.arms[j].base;
+    c.joints.g0 = sc.g0;
+    if (j == 1 && !rc.posture_given) {
+      // The type's home is a left arm's (reaching towards +x): the right arm mirrors its revolute joints.
+      for (int i = 0; i < c.joints.dof; ++i) {
+        if (c.bodies[static_cast<size_t>(i)].joint == model::JointType::Revolute) c.joints.home[static_cast<size_t>(i)] *= -1.0;
+      }
+    }
+    mp.models[j] = std::make_shared<const model::PlanarChain>(c);
+  }
   for (int j : sc.disturbed_robots) {
     mp.disturbance[j].enabled = cc.disturbance;
     mp.disturbance[j].scale = cc.disturbance_scale;
@@ -50,6 +67,7 @@ const ControllerConfig* Scenario::find_controller(const std::string& n) const {
 Vec3 reaching_condition_gains(const Scenario& sc, int j, const ControllerConfig& cc, bool disturbance,
                               double disturbance_scale) {
   const model::ModuleParams mp = module_params(sc, CaseConfig{});
+  const model::Manipulator& arm = *mp.models[j];
   const double h_ref = sc.grasp_safety_factor * model::safe_grasp_force(sc.object.mass, sc.object.mu_s, sc.g0);
   const model::GraspGeometry geom = grasp_geometry(sc, h_ref);
   const model::ObjectPath path = object_path(sc);
@@ -62,12 +80,13 @@ Vec3 reaching_condition_gains(const Scenario& sc, int j, const ControllerConfig&
   const bool twisting = cc.law.type == model::LawType::SuperTwisting;
   const double dt = 1e-3;
   Vec3 worst = Vec3::Zero();
+  model::JointVec q = arm.home();
   for (double t = 0.0; t <= sc.duration; t += 0.01) {
     const model::ArmReference ref = model::arm_reference(j, path.sample(t), geom, h_ref);
-    Vec3 q;
-    if (!model::inverse_kinematics(mp.arms[j], ref.x, sc.robots[j].elbow, q)) continue;
+    // Each sample's inverse kinematics starts from the previous one (a redundant arm stays on one branch).
+    if (!arm.inverse_kinematics(ref.x, q, sc.robots[j].elbow, q)) continue;
     const model::Mat3 R = model::contact_frame(ref.x(2));
-    const model::Mat3 Jc = R.transpose() * model::jacobian(mp.arms[j], q);
+    const model::TaskJacobian Jc = R.transpose() * arm.jacobian(q);
     // Reference term that is not fed forward: x_d'' for the first-order law (eq. 33-34), and its rate
     // (the jerk) for super-twisting, whose gain must exceed the bound on the perturbation's derivative.
     Vec3 ref_term = R.transpose() * ref.xdd;
@@ -79,7 +98,7 @@ Vec3 reaching_condition_gains(const Scenario& sc, int j, const ControllerConfig&
       const bool fed = sel_p(i) > 0.5 ? cc.feedforward_position : cc.feedforward_force;
       if (fed) ref_term(i) = 0.0;
     }
-    const Vec3 eta = twisting ? d.rate_bound() : d.bound();
+    const model::JointVec eta = twisting ? d.rate_bound(arm.dof()) : d.bound(arm.dof());
     // After reaching, e' is small: the m e' term of eq. (33)-(34) is covered by the margin.
     const Vec3 m = model::LawGains::pick(sel_p, cc.law.m_p, cc.law.m_h);
     worst = worst.cwiseMax(model::reaching_gain_bound(Jc, eta, ref_term, m, Vec3::Zero(), cc.reaching_margin));
@@ -100,26 +119,34 @@ ModuleSetup make_module(const Scenario& sc, const CaseConfig& cc) {
   m.substeps = sc.substeps;
   m.steps = std::lround(sc.duration / sc.period);
 
-  // Initial state: both arms on their references at t = 0, at rest, pressing with h_ref (safe grasp).
+  // Initial state: both arms on their references at t = 0, at rest, pressing with h_ref (safe grasp). The
+  // inverse kinematics of a chain type starts from its home posture.
   const model::PoseSample p0 = m.path.sample(0.0);
   for (int j = 0; j < 2; ++j) {
+    const model::Manipulator& arm = *m.plant.models[j];
     const model::ArmReference r0 = model::arm_reference(j, p0, m.geometry, m.reference_force);
-    if (!model::inverse_kinematics(m.plant.arms[j], r0.x, sc.robots[j].elbow, m.initial.q[j])) {
-      throw std::invalid_argument(sc.source + ": robot '" + sc.robots[j].name +
-                                  "' cannot reach its initial reference; move task.start or the bases");
+    if (!arm.inverse_kinematics(r0.x, arm.home(), sc.robots[j].elbow, m.initial.q[j])) {
+      throw std::invalid_argument(sc.source + ": robot '" + sc.robots[j].name + "' (" + model::arm_kind_name(arm.kind()) +
+                                  ") cannot reach its initial reference within its joint limits; move task.start or the "
+                                  "bases" + (arm.kind() == model::ArmKind::Planar3R ? "" : ", or give it a posture near it"));
     }
+    m.initial.qd[j] = model::JointVec::Zero(arm.dof());
   }
   m.initial.c = p0.pose.head<2>();
   m.initial.psi = -p0.pose(2);
-  // Every pose of the task must be reachable by both arms (checked every 10 ms of the path).
+  // Every pose of the task must be reachable by both arms within their limits (checked every 10 ms of the path,
+  // each sample's inverse kinematics from the previous one).
+  std::array<model::JointVec, 2> q_path = m.initial.q;
   for (double t = 0.0; t <= sc.duration + 1e-9; t += 0.01) {
     for (int j = 0; j < 2; ++j) {
+      const model::Manipulator& arm = *m.plant.models[j];
       const model::ArmReference r = model::arm_reference(j, m.path.sample(t), m.geometry, m.reference_force);
-      model::Vec3 q;
-      if (!model::inverse_kinematics(m.plant.arms[j], r.x, sc.robots[j].elbow, q)) {
+      if (!arm.inverse_kinematics(r.x, q_path[j], sc.robots[j].elbow, q_path[j]) ||
+          (arm.kind() != model::ArmKind::Planar3R && !arm.within_limits(q_path[j]))) {
         std::ostringstream os;
         os << sc.source << ": 'task': robot '" << sc.robots[j].name << "' cannot reach the planned object pose at t = "
-           << t << " s (end-effector at " << r.x(0) << ", " << r.x(1) << "); shorten task.segments or move the bases";
+           << t << " s (end-effector at " << r.x(0) << ", " << r.x(1) << ")" << " within its joint limits"
+           << "; shorten task.segments or move the bases";
         throw std::invalid_argument(os.str());
       }
     }
@@ -134,6 +161,9 @@ ModuleSetup make_module(const Scenario& sc, const CaseConfig& cc) {
     hp.law = ctrl->law;
     hp.comp = ctrl->comp;
     hp.period = sc.period;
+    // A redundant arm's null-space rest posture: its initial one, the same for every robot of the arm (a standby or
+    // a restarted robot then continues the primary's posture task: bumpless).
+    if (m.plant.models[j]->dof() > 3) hp.null_space.q_rest = m.initial.q[j];
     if (ctrl->reaching_gain_factor > 0.0) {
       // eq. (33)-(34): position axes take their bound, the force axis the bound of the approach axis.
       const Vec3 k = ctrl->reaching_gain_factor *

@@ -41,6 +41,62 @@ void read_arm(MapReader r, model::ArmParams& a) {
   }
 }
 
+/// `key`: a list of exactly the chain's joint count of numbers in [lo, hi], into out[0..dof).
+void joint_list(MapReader& r, const std::string& key, int dof, std::array<double, model::kMaxJoints>& out, double lo,
+                double hi) {
+  YAML::Node n = r.take(key, false);
+  if (!n) return;
+  if (!n.IsSequence() || n.size() != static_cast<size_t>(dof)) {
+    std::ostringstream what;
+    what << "expected a list of " << dof << " numbers (one per joint of this type)";
+    if (lo > -kInf || hi < kInf) what << " in [" << lo << ", " << hi << "]";
+    r.fail(n, r.key_path(key), what.str());
+  }
+  for (int i = 0; i < dof; ++i) {
+    out[static_cast<size_t>(i)] = r.number(n[static_cast<size_t>(i)], r.key_path(key) + "[" + std::to_string(i) + "]", lo, hi);
+  }
+}
+
+/// A chain type's `arm:` keys: every list has one entry per joint. Limits are in rad (revolute) or m (prismatic);
+/// efforts in N m or N. A link length or mass given recomputes that body's centre (mid-link) and inertia (a rod).
+void read_chain(MapReader r, model::ChainParams& c) {
+  model::JointSpace& js = c.joints;
+  const int n = js.dof;
+  joint_list(r, "q_min", n, js.q_min, -10.0, 10.0);
+  joint_list(r, "q_max", n, js.q_max, -10.0, 10.0);
+  joint_list(r, "effort_max", n, js.effort_max, kPos, kInf);
+  joint_list(r, "viscous", n, js.viscous, 0.0, kInf);
+  joint_list(r, "coulomb", n, js.coulomb, 0.0, kInf);
+  r.num("coulomb_band", js.coulomb_band, 0.0, 10.0);
+  std::array<double, model::kMaxJoints> length{}, mass{};
+  for (int i = 0; i < n; ++i) {
+    length[static_cast<size_t>(i)] = c.bodies[static_cast<size_t>(i)].length;
+    mass[static_cast<size_t>(i)] = c.bodies[static_cast<size_t>(i)].mass;
+  }
+  const bool geometry = r.has("link_length") || r.has("mass");
+  joint_list(r, "link_length", n, length, 0.0, 10.0);
+  joint_list(r, "mass", n, mass, kPos, 1e4);
+  r.finish();
+  for (int i = 0; i < n; ++i) {
+    const auto ui = static_cast<size_t>(i);
+    if (js.q_min[ui] >= js.q_max[ui]) r.fail(YAML::Node(), r.key_path("q_min"), "q_min must be below q_max for every joint");
+    model::ChainBody& b = c.bodies[ui];
+    if (b.joint == model::JointType::Prismatic && length[ui] != 0.0) {
+      r.fail(YAML::Node(), r.key_path("link_length"),
+             "joint " + std::to_string(i) + " is prismatic: its link_length must be 0 (the carriage has no link)");
+    }
+    if (b.joint == model::JointType::Revolute && length[ui] <= 0.0) {
+      r.fail(YAML::Node(), r.key_path("link_length"), "joint " + std::to_string(i) + " is revolute: its link_length must be > 0");
+    }
+    if (geometry) {
+      b.length = length[ui];
+      b.mass = mass[ui];
+      b.com = 0.5 * b.length;
+      b.inertia = b.mass * b.length * b.length / 12.0;
+    }
+  }
+}
+
 void read_controller(MapReader r, ControllerConfig& c) {
   std::string law = "sliding_mode";
   r.choice("law", law, {"sliding_mode", "boundary_layer", "super_twisting", "pd"}, true);
@@ -120,10 +176,31 @@ Scenario read(const YAML::Node& root, const std::string& file) {
         rr.fail(robots[j]["selection_p"], rr.key_path("selection_p"),
                 "expected [1, 0, 1] (hybrid: force on the approach axis, eq. 17) or [1, 1, 1] (position only)");
       }
-      std::string model_name = "smart3s2";
-      rr.choice("model", model_name, {"smart3s2"});
-      rc.arm = model::smart3s2();
-      read_arm(rr.child("arm"), rc.arm);
+      std::string type = model::arm_kind_name(model::ArmKind::Planar3R);
+      rr.choice("type", type,
+                {model::arm_kind_name(model::ArmKind::Planar3R), model::arm_kind_name(model::ArmKind::CartesianPPR),
+                 model::arm_kind_name(model::ArmKind::Planar4R)});
+      (void)model::parse_arm_kind(type, rc.type);
+      if (rc.type == model::ArmKind::Planar3R) {
+        std::string model_name = "smart3s2";
+        rr.choice("model", model_name, {"smart3s2"});
+        rc.arm = model::smart3s2();
+        read_arm(rr.child("arm"), rc.arm);
+        if (rr.has("posture")) {
+          rr.fail(robots[j]["posture"], rr.key_path("posture"),
+                  "only a cartesian_ppr or planar_4r takes a posture (the planar_3r's inverse kinematics is closed-form: "
+                  "'elbow' picks its branch)");
+        }
+      } else {
+        if (rr.has("model")) {
+          rr.fail(robots[j]["model"], rr.key_path("model"), "'model' names an identified planar_3r (smart3s2); a " + type +
+                                                               " takes its parameters under 'arm'");
+        }
+        rc.chain = rc.type == model::ArmKind::CartesianPPR ? model::cartesian_ppr() : model::planar_4r();
+        read_chain(rr.child("arm"), rc.chain);
+        rc.posture_given = rr.has("posture");
+        joint_list(rr, "posture", rc.chain.joints.dof, rc.chain.joints.home, -10.0, 10.0);
+      }
       rr.finish();
     }
     if (s.robots[0].name == s.robots[1].name) {

@@ -23,6 +23,7 @@ WorldCore::WorldCore(const sim::ModuleSetup& m, const WorldOptions& o)
       brake_after_s_(o.realtime ? 0.1 : 1.0),
       backoff_s_(o.overload.backoff_s) {
   plant_.reset(m.initial);
+  for (int j = 0; j < 2; ++j) tau_[static_cast<size_t>(j)] = model::JointVec::Zero(plant_.arm(j).dof());
   if (o.realtime) {
     // As a real arm at power-on: the brakes hold it until its controller answers a tick in time (a first
     // command that comes late would otherwise leave the arm on zero torque, and drop the object).
@@ -106,29 +107,55 @@ void WorldCore::set_brake(int j, bool on, const std::string& why) {
       why + ")");
 }
 
-model::Vec3 WorldCore::drive_torque(int j) const {
+model::JointVec WorldCore::drive_torque(int j) const {
   const size_t a = static_cast<size_t>(j);
-  const model::ArmParams& arm = m_.plant.arms[a];
-  const model::Vec3& q = plant_.state().q[a];
-  const model::Vec3& qd = plant_.state().qd[a];
   const model::ArmReference ref = follower_.reference(j, k_);
-  const model::Mat3 J = model::jacobian(arm, q);
-  const model::Vec3 x = model::forward_kinematics(arm, q);
-  // Task-space computed torque: x'' = x_d'' + Kd (x_d' - x') + Kp (x_d - x), q'' = J^-1 (x'' - J' q').
-  const model::Vec3 acc = ref.xdd + kDriveKd * (ref.xd - J * qd) + kDriveKp * (ref.x - x) -
-                          model::jacobian_dot(arm, q, qd) * qd;
-  const model::Vec3 qdd = J.partialPivLu().solve(acc);
   const model::Vec3 h(contact_.h[a](0), contact_.h[a](1), 0.0);
-  const model::Vec3 tau = model::inertia(arm, q) * qdd + model::nonlinear_terms(arm, q, qd) + J.transpose() * h;
-  return tau.cwiseMax(-arm.tau_max).cwiseMin(arm.tau_max);
+  const model::JointVec& qv = plant_.state().q[a];
+  const model::JointVec& qdv = plant_.state().qd[a];
+  const model::Manipulator& arm = plant_.arm(j);
+  if (const auto* p3 = dynamic_cast<const model::Planar3R*>(&arm)) {  // the identified 3R: fixed-size Eigen
+    const model::ArmParams& ap = p3->params();
+    const model::Vec3 q = qv, qd = qdv;
+    const model::Mat3 J = model::jacobian(ap, q);
+    const model::Vec3 x = model::forward_kinematics(ap, q);
+    // Task-space computed torque: x'' = x_d'' + Kd (x_d' - x') + Kp (x_d - x), q'' = J^-1 (x'' - J' q').
+    const model::Vec3 acc = ref.xdd + kDriveKd * (ref.xd - J * qd) + kDriveKp * (ref.x - x) -
+                            model::jacobian_dot(ap, q, qd) * qd;
+    const model::Vec3 qdd = J.partialPivLu().solve(acc);
+    const model::Vec3 tau = model::inertia(ap, q) * qdd + model::nonlinear_terms(ap, q, qd) + J.transpose() * h;
+    return model::JointVec(tau.cwiseMax(-ap.tau_max).cwiseMin(ap.tau_max));
+  }
+  // Any type: the same law; a redundant arm takes the minimum-norm joint acceleration plus a damping of its
+  // self-motion (the null space of J), so that the stop does not let the free joint drift.
+  const model::TaskJacobian J = arm.jacobian(qv);
+  const model::Vec3 x = arm.forward_kinematics(qv);
+  const model::Vec3 acc = ref.xdd + kDriveKd * (ref.xd - J * qdv) + kDriveKp * (ref.x - x) - arm.jacobian_dot(qv, qdv) * qdv;
+  const model::Mat3 JJt = J * J.transpose();
+  const model::TaskJacobian W = JJt.partialPivLu().solve(J);  // (J J^T)^-1 J: its transpose is J^+
+  model::JointVec qdd = W.transpose() * acc;
+  if (arm.dof() > 3) {
+    const model::JointMat P = model::JointMat::Identity(arm.dof(), arm.dof()) - W.transpose() * J;
+    qdd += P * (-kDriveKd * qdv);
+  }
+  model::JointVec tau = arm.inertia(qv) * qdd + arm.nonlinear_terms(qv, qdv) + J.transpose() * h;
+  for (int i = 0; i < arm.dof(); ++i) {
+    const double lim = arm.joints().effort_max[static_cast<size_t>(i)];
+    tau(i) = std::clamp(tau(i), -lim, lim);
+  }
+  return tau;
 }
 
-model::Vec3 WorldCore::holding_torque(int j) const {
+model::JointVec WorldCore::holding_torque(int j) const {
   const size_t a = static_cast<size_t>(j);
-  const model::ArmParams& arm = m_.plant.arms[a];
-  const model::Vec3& q = plant_.state().q[a];
   const model::Vec3 h(contact_.h[a](0), contact_.h[a](1), 0.0);
-  return model::gravity(arm, q) + model::jacobian(arm, q).transpose() * h;
+  const model::JointVec& q = plant_.state().q[a];
+  const model::Manipulator& arm = plant_.arm(j);
+  if (const auto* p3 = dynamic_cast<const model::Planar3R*>(&arm)) {
+    const model::Vec3 q3 = q;
+    return model::JointVec(model::gravity(p3->params(), q3) + model::jacobian(p3->params(), q3).transpose() * h);
+  }
+  return arm.gravity(q) + arm.jacobian(q).transpose() * h;
 }
 
 void WorldCore::begin_stop(int j, const std::string& why, int64_t /*now_ns*/) {
@@ -232,7 +259,7 @@ double WorldCore::normal_min_since_status() {
   return v;
 }
 
-WorldCore::Verdict WorldCore::on_command(int j, long tick, const model::Vec3& tau, int32_t strength, int64_t at_ns,
+WorldCore::Verdict WorldCore::on_command(int j, long tick, const model::JointVec& tau, int32_t strength, int64_t at_ns,
                                          bool late_arrival, bool leaving) {
   ArmLink& L = link_[static_cast<size_t>(j)];
   if (strength < 1 || strength > plan::kPrimaryStrength) {  // robots are 1 (weakest standby) .. 100 (primary)
@@ -255,7 +282,8 @@ WorldCore::Verdict WorldCore::on_command(int j, long tick, const model::Vec3& ta
     mark_late(L, tick);
     return Verdict::Stale;
   }
-  if (!plan::all_finite(tau) || tick > k_) {  // a future tick is invalid
+  // A future tick is invalid, and so is a command of another joint count than the arm's.
+  if (!plan::all_finite(tau) || tau.size() != plant_.arm(j).dof() || tick > k_) {
     ++rejected;
     return Verdict::Rejected;
   }
@@ -265,9 +293,11 @@ WorldCore::Verdict WorldCore::on_command(int j, long tick, const model::Vec3& ta
     ++stale;
     return Verdict::Stale;
   }
-  if ((tau.cwiseAbs().array() > m_.plant.arms[static_cast<size_t>(j)].tau_max.array()).any()) {
-    ++rejected;
-    return Verdict::Rejected;
+  for (int i = 0; i < tau.size(); ++i) {  // beyond the drive's limit: not a command this arm can have been sent
+    if (std::abs(tau(i)) > plant_.arm(j).joints().effort_max[static_cast<size_t>(i)]) {
+      ++rejected;
+      return Verdict::Rejected;
+    }
   }
   L.heard = at_ns;
   if (tick != k_) {
@@ -304,7 +334,7 @@ WorldCore::Verdict WorldCore::on_command(int j, long tick, const model::Vec3& ta
   return Verdict::Applied;
 }
 
-void WorldCore::apply(int j, const model::Vec3& tau, int32_t strength, int64_t at_ns, int64_t decided_ns) {
+void WorldCore::apply(int j, const model::JointVec& tau, int32_t strength, int64_t at_ns, int64_t decided_ns) {
   ArmLink& L = link_[static_cast<size_t>(j)];
   tau_[static_cast<size_t>(j)] = tau;
   have_[static_cast<size_t>(j)] = true;
@@ -481,7 +511,7 @@ bool WorldCore::end_tick(int64_t now_ns) {
       if (L.last_tick >= 0 && quiet > brake_after_s_ && o_.brakes) begin_stop(j, "no command for " + ms_text(quiet * 1e3), now_ns);
       // Test only (no brakes): an arm whose controller is gone goes limp, as its drives would with nobody to
       // command them: zero torque, and it falls with what it holds.
-      if (L.last_tick >= 0 && quiet > brake_after_s_ && !o_.brakes) tau_[a] = model::Vec3::Zero();
+      if (L.last_tick >= 0 && quiet > brake_after_s_ && !o_.brakes) tau_[a].setZero();
       if (o_.brakes && (L.stopping || load_pending_ || L.miss_run > kDriveAfterMisses)) {
         tau_[a] = drive_torque(j);
         applied_from_[a] = -1;
@@ -617,13 +647,21 @@ std::string WorldCore::flight_record(long ticks) const {
   std::string out;
   const long first = std::max(0L, std::max(k_ - ticks + 1, k_ - static_cast<long>(kHistory) + 1));
   char line[256];
+  const auto efforts = [](const model::JointVec& tau) {
+    std::string t;
+    char v[32];
+    for (int i = 0; i < tau.size(); ++i) {
+      std::snprintf(v, sizeof v, " %.2f", tau(i));
+      t += v;
+    }
+    return t;
+  };
   for (long k = first; k <= k_; ++k) {
     const TickRecord& r = history_[static_cast<size_t>(k) % kHistory];
     std::snprintf(line, sizeof line,
-                  "  tick %ld: h_n %.2f %.2f N, h_t %.2f %.2f N, e_p %.2e %.2e m; left %c from %d tau %.2f %.2f %.2f; "
-                  "right %c from %d tau %.2f %.2f %.2f\n",
-                  k, r.hn[0], r.hn[1], r.ht[0], r.ht[1], r.ep[0], r.ep[1], r.how[0], r.from[0], r.tau[0](0), r.tau[0](1),
-                  r.tau[0](2), r.how[1], r.from[1], r.tau[1](0), r.tau[1](1), r.tau[1](2));
+                  "  tick %ld: h_n %.2f %.2f N, h_t %.2f %.2f N, e_p %.2e %.2e m; left %c from %d tau%s; right %c from %d tau%s\n",
+                  k, r.hn[0], r.hn[1], r.ht[0], r.ht[1], r.ep[0], r.ep[1], r.how[0], r.from[0], efforts(r.tau[0]).c_str(),
+                  r.how[1], r.from[1], efforts(r.tau[1]).c_str());
     out += line;
   }
   return out;

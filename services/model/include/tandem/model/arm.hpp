@@ -78,5 +78,7 @@ double kinetic_energy(const ArmParams& p, const Vec3& q, const Vec3& qd) noexcep
 /// Closed-form inverse kinematics of eq. (1): joint angles placing the end-effector at x (world frame).
 /// elbow_sign = +1 or -1 picks the elbow branch (sign of q2). Returns false if x is out of reach.
 bool inverse_kinematics(const ArmParams& p, const Vec3& x, double elbow_sign, Vec3& q) noexcept;
+/// The same into a joint vector (a module state's; it gets 3 entries).
+bool inverse_kinematics(const ArmParams& p, const Vec3& x, double elbow_sign, JointVec& q) noexcept;
 
 }  // namespace tandem::model

@@ -134,8 +134,9 @@ class HybridController {
 
 /// Gains that satisfy the reaching conditions (eq. 33-34) for one arm, per contact-frame axis:
 ///   K_i >= sum_j |(R^T J)_ij| eta_j + eta_margin + |x_d,i''| (if not fed forward) + m |e_i'|.
-/// J is sampled along the planned trajectory by the caller; this takes the worst case of one sample.
-Vec3 reaching_gain_bound(const Mat3& J_contact, const Vec3& eta_bound, const Vec3& xdd_contact,
+/// J is sampled along the planned trajectory by the caller; this takes the worst case of one sample. J_contact is
+/// R^T J (3 x n, any arm type) and eta_bound the per-joint disturbance bound (n entries).
+Vec3 reaching_gain_bound(const TaskJacobian& J_contact, const JointVec& eta_bound, const Vec3& xdd_contact,
                          const Vec3& m, const Vec3& ed_bound, double eta_margin) noexcept;
 
 /// Contact-frame rotation (tangent, approach, orientation) built from the reference orientation phi.

@@ -20,6 +20,13 @@ struct Disturbance {
                         10.0 * s1 + 5.0 * s2 + 3.0 * s3);
   }
 
+  /// xi(t) for an arm of n joints: eq. (37) on its first min(n, 3) joints, 0 on the others (the paper's
+  /// disturbance is of the 3R's joints; on another type it acts on the same joint indices, in rad/s^2 or m/s^2).
+  JointVec at(double t, int n) const noexcept { return spread((*this)(t), n); }
+  /// bound() and rate_bound() the same way.
+  JointVec bound(int n) const noexcept { return spread(bound(), n); }
+  JointVec rate_bound(int n) const noexcept { return spread(rate_bound(), n); }
+
   /// Component-wise bound sup_t |xi_i(t)| <= sum of the amplitudes (used by eq. 33-34).
   Vec3 bound() const noexcept { return enabled ? Vec3(Vec3(3.6, 14.5, 18.0) * scale) : Vec3(Vec3::Zero()); }
 
@@ -27,6 +34,13 @@ struct Disturbance {
   /// super-twisting law needs its gain above the bound on the perturbation's derivative.
   Vec3 rate_bound() const noexcept {
     return enabled ? Vec3(Vec3(58.0, 235.0, 290.0) * scale) : Vec3(Vec3::Zero());
+  }
+
+ private:
+  static JointVec spread(const Vec3& v, int n) noexcept {
+    JointVec out = JointVec::Zero(n);
+    for (int i = 0; i < n && i < 3; ++i) out(i) = v(i);
+    return out;
   }
 };
 

@@ -24,13 +24,6 @@
 
 namespace tandem::model {
 
-inline constexpr int kMaxJoints = 4;
-/// Joint-space vector of 1..kMaxJoints entries (stack storage).
-using JointVec = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxJoints, 1>;
-/// Joint-space square matrix (stack storage).
-using JointMat = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxJoints, kMaxJoints>;
-/// Task Jacobian: 3 task coordinates [px, py, phi] by n joints (stack storage).
-using TaskJacobian = Eigen::Matrix<double, 3, Eigen::Dynamic, 0, 3, kMaxJoints>;
 
 enum class ArmKind { Planar3R, CartesianPPR, Planar4R };
 enum class JointType { Revolute, Prismatic };
@@ -54,6 +47,9 @@ struct JointSpace {
   std::array<double, kMaxJoints> effort_max{};  ///< torque [N m] or force [N] limits
   Vec2 base{0.0, 0.0};                          ///< position of the first joint in the world frame [m]
   double g0 = 9.81;
+  /// The posture the inverse kinematics starts from (and stays near, for a redundant arm), and the rest posture
+  /// of a redundant arm's null-space task (NullSpace::q_rest) [rad or m]. The 3R's closed form ignores it.
+  std::array<double, kMaxJoints> home{};
 };
 
 class Manipulator {
@@ -89,6 +85,15 @@ class Manipulator {
   JointVec forward_dynamics(const JointVec& q, const JointVec& qd, const JointVec& tau,
                             const Vec3& h) const noexcept;
   double kinetic_energy(const JointVec& q, const JointVec& qd) const noexcept;
+  /// True if every joint is within [q_min, q_max].
+  bool within_limits(const JointVec& q) const noexcept;
+  /// The home posture as a joint vector (JointSpace::home).
+  JointVec home() const noexcept;
+  /// Joint values that put the end-effector at x = [px, py, phi]. The common part: Newton steps from `seed` with
+  /// the minimum-norm inverse of J (a redundant arm ends near the seed, so a path solved sample by sample, each
+  /// from the previous one, stays on one branch). `branch` picks a 3R's elbow (the sign of q2, closed form); other
+  /// types ignore it. False if x is out of reach or only beyond a joint limit (then q is left unchanged).
+  virtual bool inverse_kinematics(const Vec3& x, const JointVec& seed, double branch, JointVec& q) const noexcept;
 
  protected:
   explicit Manipulator(const JointSpace& joints) : joints_(joints) {}
@@ -108,6 +113,8 @@ class Planar3R final : public Manipulator {
   JointMat coriolis(const JointVec& q, const JointVec& qd) const noexcept override;
   JointVec gravity(const JointVec& q) const noexcept override;
   double potential_energy(const JointVec& q) const noexcept override;
+  /// The closed form of arm.hpp (eq. 1 inverted); the seed is not used.
+  bool inverse_kinematics(const Vec3& x, const JointVec& seed, double branch, JointVec& q) const noexcept override;
 
  private:
   ArmParams p_;

@@ -7,7 +7,10 @@
 
 #include "tandem/model/arm.hpp"
 #include "tandem/model/disturbance.hpp"
+#include "tandem/model/manipulator.hpp"
 #include "tandem/model/types.hpp"
+
+#include <memory>
 
 namespace tandem::model {
 
@@ -33,18 +36,28 @@ struct ContactParams {
 };
 
 struct ModuleParams {
+  /// The identified 3R's parameters of each arm (used when `models[j]` is empty).
   std::array<ArmParams, 2> arms{};
+  /// Each arm's model, of any type (manipulator.hpp); empty: the Planar3R of `arms[j]`. Shared and immutable: the
+  /// world, the robots and the supervisor of one module hold the same models.
+  std::array<std::shared_ptr<const Manipulator>, 2> models{};
   ObjectParams object{};
   ContactParams contact{};
   std::array<Disturbance, 2> disturbance{};  ///< eq. (37), per arm
   double g0 = 9.81;
 };
 
+/// Arm j's model: `models[j]`, or a Planar3R of `arms[j]` if that is empty.
+std::shared_ptr<const Manipulator> arm_model(const ModuleParams& p, int j);
+
+/// Both arms' joint torques (or forces) of one period, each of its arm's joint count.
+using ArmEfforts = std::array<JointVec, 2>;
+
 /// Continuous state of the module. The object angle psi is counter-clockwise positive (a clockwise
 /// rotation by a of the grasp increases both arms' phi by a and decreases psi by a).
 struct ModuleState {
-  std::array<Vec3, 2> q{Vec3::Zero(), Vec3::Zero()};
-  std::array<Vec3, 2> qd{Vec3::Zero(), Vec3::Zero()};
+  std::array<JointVec, 2> q{JointVec::Zero(3), JointVec::Zero(3)};  ///< each of its arm's joint count
+  std::array<JointVec, 2> qd{JointVec::Zero(3), JointVec::Zero(3)};
   Vec2 c = Vec2::Zero();   ///< object centre [m]
   double psi = 0.0;        ///< object orientation [rad]
   Vec2 cd = Vec2::Zero();  ///< object velocity
@@ -81,7 +94,10 @@ class ModulePlant {
   void reset(const ModuleState& state);
 
   /// Advances by dt with `substeps` RK4 steps, the torques held constant (zero-order hold); t is the time
-  /// at the start of the period (for the disturbance). Torques are clipped to each arm's tau_max.
+  /// at the start of the period (for the disturbance). Efforts are clipped to each arm's limits; an effort
+  /// vector of the wrong size counts as zero effort.
+  void step(const ArmEfforts& tau, double t, double dt, int substeps) noexcept;
+  /// The same for two 3-joint arms.
   void step(const std::array<Vec3, 2>& tau, double t, double dt, int substeps) noexcept;
 
   /// Brakes of arm j (an arm without a live controller): an ideal lock, the joints stop at once and are
@@ -98,19 +114,29 @@ class ModulePlant {
   /// Contact forces at the current state.
   ContactReading contacts() const noexcept { return contact_forces(state_); }
   /// End-effector pose [px, py, phi] of arm j.
-  Vec3 end_effector(int j) const noexcept { return forward_kinematics(params_.arms[j], state_.q[j]); }
+  Vec3 end_effector(int j) const noexcept;
+  /// Arm j's model.
+  const Manipulator& arm(int j) const noexcept { return *models_[static_cast<size_t>(j)]; }
   /// Total mechanical energy of arms and object (kinetic + gravity potential, contact springs excluded).
   double mechanical_energy() const noexcept;
 
  private:
-  using StateVec = Eigen::Matrix<double, 18, 1>;
-  static StateVec pack(const ModuleState& s) noexcept;
-  static ModuleState unpack(const StateVec& v) noexcept;
+  // [q_0 (4 slots), q_1 (4), q_0' (4), q_1' (4), c (2), psi, c' (2), psi']: slots past an arm's joint count stay 0.
+  static constexpr int kSlots = kMaxJoints;
+  static constexpr int kObject = 4 * kSlots;
+  using StateVec = Eigen::Matrix<double, kObject + 6, 1>;
+  StateVec pack(const ModuleState& s) const noexcept;
+  void unpack(const StateVec& v, ModuleState& s) const noexcept;
+  /// Arm j's tip position and velocity at (q, q').
+  Vec2 tip(int j, const JointVec& q, const JointVec& qd, Vec2* v) const noexcept;
   ContactReading contact_forces(const ModuleState& s) const noexcept;
-  StateVec derivative(const StateVec& x, const std::array<Vec3, 2>& tau, double t) const noexcept;
+  StateVec derivative(const StateVec& x, const ArmEfforts& tau, double t) const noexcept;
   void update_anchors() noexcept;
 
   ModuleParams params_;
+  std::array<std::shared_ptr<const Manipulator>, 2> models_;
+  /// The identified 3R's parameters of an arm that is a Planar3R (its fixed-size fast path), else null.
+  std::array<const ArmParams*, 2> p3r_{nullptr, nullptr};
   ModuleState state_;
   std::array<double, 2> anchor_{0.0, 0.0};  ///< rest position of each sticking contact along its face
   PlantCounters counters_;

@@ -11,6 +11,15 @@ using Vec3 = Eigen::Vector3d;
 using Mat2 = Eigen::Matrix2d;
 using Mat3 = Eigen::Matrix3d;
 
+/// The most joints an arm of any type has (manipulator.hpp).
+inline constexpr int kMaxJoints = 4;
+/// Joint-space vector of 1..kMaxJoints entries (stack storage).
+using JointVec = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxJoints, 1>;
+/// Joint-space square matrix (stack storage).
+using JointMat = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxJoints, kMaxJoints>;
+/// Task Jacobian: 3 task coordinates [px, py, phi] by n joints (stack storage).
+using TaskJacobian = Eigen::Matrix<double, 3, Eigen::Dynamic, 0, 3, kMaxJoints>;
+
 inline constexpr double kPi = 3.14159265358979323846;
 
 /// Unit vector of the tool (approach) axis for an orientation phi measured from the y-axis,

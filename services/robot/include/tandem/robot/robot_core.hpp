@@ -61,14 +61,17 @@ class RobotCore {
   /// nothing for an older tick, a sample with NaN/inf (rejected, counted), or before any plan is heard.
   /// `applied`: the torque the arm got over the last period when another robot served it (nullptr when this
   /// robot served it, or unknown): the law tracks it (bumpless transfer, HybridController::track).
-  std::optional<model::Vec3> on_sample(long k, const model::ArmSensors& in, bool braked,
-                                       const model::Vec3* applied = nullptr);
+  /// A sample of another joint count than the arm's is rejected like a NaN one.
+  std::optional<model::JointVec> on_sample(long k, const model::ArmSensors& in, bool braked,
+                                           const model::JointVec* applied = nullptr);
 
   long done() const { return done_; }                  ///< the last tick computed (-1: none)
   bool has_plan() const { return follower_.has_plan(); }  ///< a plan has been adopted (the law can run)
   plan::SupervisorRank plan_rank() const { return follower_.rank(); }  ///< the rank of the plan followed
   uint64_t plan_version() const { return follower_.version(); }        ///< and its version
-  const model::Vec3& last_tau() const { return tau_; }
+  const model::JointVec& last_tau() const { return tau_; }
+  /// The arm's model (of its type).
+  const model::Manipulator& arm() const { return ctl_.arm(); }
   /// The law's output at the last tick computed (errors e_p, e_h, normal force; for recorders).
   const model::ControlOutput& last_output() const { return out_; }
   /// The reference of the last tick computed (eq. 15 from the plan).
@@ -91,10 +94,10 @@ class RobotCore {
   model::HybridController ctl_;
   sim::RobotMeter meter_;
   long done_ = -1;
-  model::Vec3 tau_ = model::Vec3::Zero();
+  model::JointVec tau_;
   model::ControlOutput out_{};
   model::ArmReference ref_{};
-  model::Vec3 prev_q_ = model::Vec3::Zero();
+  model::JointVec prev_q_;
   double wear_ = 0.0, workload_ = 0.0, tracking_ = 0.0;
   unsigned long long rejected_ = 0;
   unsigned long long adopted_refused_ = 0;

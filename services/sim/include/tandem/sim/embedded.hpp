@@ -43,7 +43,8 @@ struct CaseResult {
 /// One row of the time series (one control period).
 struct SeriesRow {
   double t;
-  std::array<model::Vec3, 2> x, xd, tau, s;
+  std::array<model::Vec3, 2> x, xd, s;
+  std::array<model::JointVec, 2> tau;  ///< each of its arm's joint count
   std::array<double, 2> normal, e_h;
   model::Vec2 obj_c, obj_ref;
   double obj_psi;

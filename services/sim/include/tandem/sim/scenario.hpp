@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "tandem/model/controller.hpp"
+#include "tandem/model/manipulator.hpp"
 #include "tandem/model/plant.hpp"
 #include "tandem/model/reference.hpp"
 
@@ -14,9 +15,15 @@ namespace tandem::sim {
 
 struct RobotConfig {
   std::string name;
+  /// The manipulator's type (manipulator.hpp): the identified 3R (`arm`), or a chain type (`chain`).
+  model::ArmKind type = model::ArmKind::Planar3R;
   model::ArmParams arm = model::smart3s2();
+  model::ChainParams chain{};             ///< the cartesian PPR or planar 4R (type != Planar3R)
+  /// The scenario gave the chain's posture (else an arm on the right mirrors the type's left-arm home).
+  bool posture_given = false;
   double elbow = 1.0;                     ///< elbow branch of the initial inverse kinematics (+1 or -1)
   model::Vec3 selection_p{1.0, 0.0, 1.0}; ///< diagonal of Sigma_p (eq. 17) in the contact frame
+  int dof() const { return type == model::ArmKind::Planar3R ? 3 : chain.joints.dof; }
 };
 
 struct ControllerConfig {

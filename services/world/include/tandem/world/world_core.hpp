@@ -70,12 +70,12 @@ struct WorldOptions {
 struct SampleOut {
   bool publish = true;  ///< false: a module paused for load sends no sample this tick (not a probe)
   double t = 0.0;
-  model::Vec3 q = model::Vec3::Zero(), qd = model::Vec3::Zero();
+  model::JointVec q = model::JointVec::Zero(3), qd = model::JointVec::Zero(3);  ///< the arm's joint count
   model::Vec2 h = model::Vec2::Zero();
   bool braked = false;
   /// Torque the arm got over the last period; braked: the torque the brake takes to hold it (g + J^T h), so
   /// that a robot that takes the arm over starts from it (bumpless release).
-  model::Vec3 tau_applied = model::Vec3::Zero();
+  model::JointVec tau_applied = model::JointVec::Zero(3);
   /// Strength of the robot it came from (1-100); 0: none, or braked (the brake's holding torque); -1: the
   /// world's drive (a controlled stop along the plan, or a tick no robot answered in time).
   int32_t applied_from = 0;
@@ -224,7 +224,7 @@ class WorldCore {
   /// arrived after the tick's deadline. Rejected: not finite, over tau_max, a strength outside [1, 100] (never
   /// applied); Stale: for an earlier tick, too late, a second one for this tick, or a robot's last word
   /// (`leaving`: it stops; if it served the arm, the next one is followed at once).
-  Verdict on_command(int j, long tick, const model::Vec3& tau, int32_t strength, int64_t at_ns, bool late,
+  Verdict on_command(int j, long tick, const model::JointVec& tau, int32_t strength, int64_t at_ns, bool late,
                      bool leaving = false);
   bool have(int j) const { return have_[static_cast<size_t>(j)]; }
   /// The world stood still (its tick started far too late): every robot is taken as heard now, so that its
@@ -260,9 +260,9 @@ class WorldCore {
   /// The arm has no live controller and the world drives it to rest along the plan (then brakes it).
   bool stopping(int j) const { return link_[static_cast<size_t>(j)].stopping; }
   /// Torque of the world's drive for arm j now (computed torque towards the plan's reference).
-  model::Vec3 drive_torque(int j) const;
+  model::JointVec drive_torque(int j) const;
   /// Torque a brake takes to hold arm j still now: g(q) + J^T h.
-  model::Vec3 holding_torque(int j) const;
+  model::JointVec holding_torque(int j) const;
   bool paused_for_load() const { return load_paused_ || load_pending_; }
   /// The last `ticks` ticks of the flight recorder, one line each (for the log, when the module fails).
   std::string flight_record(long ticks) const;
@@ -317,10 +317,10 @@ class WorldCore {
   bool holding() const { return load_pending_ || link_[0].stopping || link_[1].stopping; }
   void set_brake(int j, bool on, const std::string& why);
   void mark_late(ArmLink& L, long tick);
-  void apply(int j, const model::Vec3& tau, int32_t strength, int64_t at_ns, int64_t decided_ns);
+  void apply(int j, const model::JointVec& tau, int32_t strength, int64_t at_ns, int64_t decided_ns);
   struct Fallback {
     bool has = false;
-    model::Vec3 tau = model::Vec3::Zero();
+    model::JointVec tau = model::JointVec::Zero(3);
     int32_t strength = 0;
     int64_t at_ns = 0;
   };
@@ -338,7 +338,7 @@ class WorldCore {
   std::array<ArmLink, 2> link_{};
   std::array<bool, 2> have_{false, false};
   std::array<bool, 2> expect_{true, true};  // a sample went out this tick: a command is due
-  std::array<model::Vec3, 2> tau_{model::Vec3::Zero(), model::Vec3::Zero()};
+  model::ArmEfforts tau_{model::JointVec::Zero(3), model::JointVec::Zero(3)};  // sized to the arms in the constructor
   model::ContactReading contact_{};  // the contacts at the start of the tick (the plant does not move until step)
   std::array<double, 2> ep_{0.0, 0.0};
   long k_ = 0;
@@ -350,7 +350,7 @@ class WorldCore {
     double hn_min = 0.0;
     // The flight recorder a drop prints (fail()): what each contact carried and what each arm got.
     std::array<double, 2> hn{0.0, 0.0}, ht{0.0, 0.0};  ///< normal and tangential force per contact [N]
-    std::array<model::Vec3, 2> tau{model::Vec3::Zero(), model::Vec3::Zero()};  ///< the torque applied
+    model::ArmEfforts tau{model::JointVec::Zero(3), model::JointVec::Zero(3)};  ///< the torque applied
     std::array<int32_t, 2> from{0, 0};  ///< whose torque: a robot's strength, 0 the brake, -1 the world's drive
     std::array<char, 2> how{'.', '.'};  ///< c: its command came, l: late or missing, b: braked, s: stopping
   };

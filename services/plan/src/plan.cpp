@@ -156,15 +156,22 @@ PlanFollower::Offer PlanFollower::offer(const PlanData& p, std::string* why, lon
     refused_version_ = p.version;
     return Offer::Ignored;
   }
-  if (have_ && now_tick >= 0 && (r.outranks(rank_) || rank_.outranks(r))) {
+  if (have_ && now_tick >= 0) {
+    // Measured for every plan adopted, a takeover's or the same leader's next version: a version that reaches a
+    // follower after the tick its change was scheduled for (a lost sample its stalled leader could not send again,
+    // and a lockstep world that went on once the lease lapsed: soak finding 58) jumps the references too.
     ModulePlan next = plan_;
     next.import_from(p);
     const model::Vec3 d = next.sample(now_tick).pose - plan_.sample(now_tick).pose;
-    jump_ = std::max(d.head<2>().norm(), std::abs(d(2)));
-    if (jump_ > kMaxJump && why != nullptr) {
-      *why = "a takeover plan whose reference jumps by " + std::to_string(d.head<2>().norm() * 1e3).substr(0, 6) +
-             " mm at tick " + std::to_string(now_tick) + " (from " + p.supervisor_id + ", epoch " +
-             std::to_string(p.epoch) + "); followed, as every follower does";
+    const double jump = std::max(d.head<2>().norm(), std::abs(d(2)));
+    const bool takeover = r.outranks(rank_) || rank_.outranks(r);
+    if (takeover) jump_ = jump;
+    if (jump > kMaxJump && why != nullptr) {
+      *why = std::string(takeover ? "a takeover plan" : "a plan version") + " whose reference jumps by " +
+             std::to_string(d.head<2>().norm() * 1e3).substr(0, 6) + " mm at tick " + std::to_string(now_tick) +
+             " (from " + p.supervisor_id + ", epoch " + std::to_string(p.epoch) + ", version " +
+             std::to_string(p.version) + " after " + std::to_string(version_) + ", made at tick " +
+             std::to_string(p.heard_tick) + "); followed, as every follower does";
     }
   }
   plan_.import_from(p);

@@ -358,8 +358,12 @@ void SupervisorCore::update(int64_t now_ns) {
         std::snprintf(line, sizeof line, "the leader is silent, but the object moves %.0f mm/s off this replica's plan "
                       "at tick %ld (it missed the leader's newest plan): not taking over", *speed_off * 1e3, heard_tick_);
       } else {
-        std::snprintf(line, sizeof line, "the leader is silent, but this replica is %.1f mm off the object at tick %ld "
-                      "(it missed the leader's newest plan): not taking over", replica_off * 1e3, heard_tick_);
+        // Both versions: a replica ahead of the world (the world never got the leader's newest version, soak finding
+        // 58) reads differently from one behind it.
+        std::snprintf(line, sizeof line, "the leader is silent, but this replica (version %llu) is %.1f mm off the object "
+                      "at tick %ld, where the world follows version %llu: not taking over",
+                      static_cast<unsigned long long>(plan_.version()), replica_off * 1e3, heard_tick_,
+                      static_cast<unsigned long long>(world_version_));
       }
       log(line);
     } else if (now_ns - stale_since_ > kTakeOverAloneNs && !alone_refused_ && !deaf_) {

@@ -36,6 +36,10 @@ UpRun::UpRun(Deployment d, UpOptions o, std::vector<launcher::ModuleSpec> specs,
          outbox_),
       view_(d_.name) {
   for (auto& s : specs) L_.add_module(std::move(s));
+  if (d_.hosts.empty()) {  // one host: the port files of the ids it hands out are on this machine (soak finding 59)
+    const int domain = static_cast<int>(d_.domain_id);
+    L_.set_participant_id_check([domain](int id) { return runtime::participant_port_files_exist(domain, id); });
+  }
 }
 
 int UpRun::run() {
@@ -357,6 +361,10 @@ void UpRun::step() {
   if (L_.shm_dirty() && now_s() - L_.killed_at() > 2.0) {
     L_.shm_cleaned();
     runtime::clean_stale_shm(launcher_started_);
+    // And the port files of the participant ids no child holds now, unless a live process still has them open: a
+    // newcomer given such an id then makes fresh ones (soak finding 59: after about a thousand kills, newcomers
+    // that reopened a killed process's port files were heard by nobody, and modules could no longer start).
+    if (d_.hosts.empty()) runtime::clean_free_ports(static_cast<int>(d_.domain_id), L_.free_participant_ids());
   }
   if (stop_ && !L_.stopping()) {
     std::printf("tandem up: stop requested; stopping %d process(es)\n", L_.running());

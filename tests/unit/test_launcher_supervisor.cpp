@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <csignal>
+#include <cstdio>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -12,6 +13,7 @@
 #include "tandem/launcher/estimate.hpp"
 #include "tandem/launcher/exit_codes.hpp"
 #include "tandem/launcher/supervisor.hpp"
+#include "tandem/runtime/shm_clean.hpp"
 
 using namespace tandem::launcher;
 
@@ -555,4 +557,64 @@ TEST_CASE("launcher supervisor: on another host, starts are re-sent until the ag
                  "m1/world, m1/supervisor, m1/left, m1/right\n"));
   CHECK(sup.running() == 0);
   CHECK(rec.said("tandem up: module m1 failed (m1/world exited with code 137); stopping its processes, the others go on\n"));
+}
+
+TEST_CASE("launcher supervisor: a child gets the longest-free participant id without old port files", "[launcher]") {
+  // Soak finding 59: a newcomer that reopened a killed process's port files was heard by nobody. Ids 20, 21 and 23
+  // still have port files (a live process holds them): they are passed over while fresher ids are free.
+  Recorder rec;
+  Supervisor sup(Fixture::config(false), rec, rec);
+  std::vector<int> asked;
+  sup.set_participant_id_check([&asked](int id) {
+    asked.push_back(id);
+    return id == 20 || id == 21 || id == 23;
+  });
+  sup.add_module(module_m1(0, "never"));
+  sup.start_module("m1", 0.0);
+  std::vector<int> ids;
+  for (const auto& c : sup.children()) ids.push_back(c.participant_id);
+  CHECK(ids == std::vector<int>{22, 24, 25, 26});
+  CHECK_FALSE(asked.empty());
+  // Every id in the pool once, the skipped ones still free and first in line for when their files are gone.
+  const std::vector<int> free = sup.free_participant_ids();
+  REQUIRE(free.size() >= 3);
+  CHECK(std::vector<int>(free.begin(), free.begin() + 3) == std::vector<int>{20, 21, 23});
+  CHECK(std::find(free.begin(), free.end(), 22) == free.end());
+
+  // Without the check (several hosts, or none given): the longest-free id, as before.
+  Recorder rec2;
+  Supervisor plain(Fixture::config(false), rec2, rec2);
+  plain.add_module(module_m1(0, "never"));
+  plain.start_module("m1", 0.0);
+  ids.clear();
+  for (const auto& c : plain.children()) ids.push_back(c.participant_id);
+  CHECK(ids == std::vector<int>{20, 21, 22, 23});
+}
+
+TEST_CASE("launcher: the port files of free participant ids are removed unless a live process holds them", "[launcher]") {
+  // A made-up domain (200) whose ports no run uses: participant 5's ports are 7400 + 250 * 200 + 10 + 10 and + 11.
+  const int domain = 200;
+  const auto ports = tandem::runtime::participant_ports(domain, 5);
+  CHECK(ports.first == 57420);
+  CHECK(ports.second == 57421);
+  const std::string a = "/dev/shm/fastrtps_port57420", b = "/dev/shm/sem.fastrtps_port57421_mutex";
+  const std::string held = "/dev/shm/fastrtps_port57423";  // participant 6's, open in this process
+  for (const auto& p : {a, b, held}) {
+    std::FILE* f = std::fopen(p.c_str(), "w");
+    REQUIRE(f != nullptr);
+    std::fclose(f);
+  }
+  std::FILE* keep = std::fopen(held.c_str(), "r");  // a live process (this one) has it open
+  REQUIRE(keep != nullptr);
+  CHECK(tandem::runtime::participant_port_files_exist(domain, 5));
+  CHECK(tandem::runtime::participant_port_files_exist(domain, 6));
+  CHECK_FALSE(tandem::runtime::participant_port_files_exist(domain, 7));
+  // Id 7 is not free (a running child holds it): never looked at. Ids 5 and 6 are free.
+  CHECK(tandem::runtime::clean_free_ports(domain, {5, 6}) == 2);
+  CHECK_FALSE(tandem::runtime::participant_port_files_exist(domain, 5));
+  CHECK(tandem::runtime::participant_port_files_exist(domain, 6));  // held: kept
+  std::fclose(keep);
+  CHECK(tandem::runtime::clean_free_ports(domain, {6}) == 1);
+  CHECK_FALSE(tandem::runtime::participant_port_files_exist(domain, 6));
+  CHECK(tandem::runtime::clean_free_ports(-1, {5}) == 0);  // no domain: nothing
 }

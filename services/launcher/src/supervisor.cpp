@@ -174,8 +174,14 @@ bool Supervisor::launch(Child& c, const char* note, double now) {
   // The participant id left longest ago (see services/dds/src/participant.cpp); none left: Fast DDS picks.
   c.participant_id = -1;
   if (!free_ids_.empty()) {
-    c.participant_id = free_ids_.front();
-    free_ids_.pop_front();
+    // The longest-free id whose old port files are gone (removed, or never made); none such: the longest-free id.
+    auto pick = free_ids_.begin();
+    if (has_old_ports_) {
+      const auto fresh = std::find_if(free_ids_.begin(), free_ids_.end(), [this](int id) { return !has_old_ports_(id); });
+      if (fresh != free_ids_.end()) pick = fresh;
+    }
+    c.participant_id = *pick;
+    free_ids_.erase(pick);
   }
   c.running = true;
   c.started = now;

@@ -118,4 +118,48 @@ int clean_stale_shm(std::time_t since, int domain, bool ignore_self) {
   return removed;
 }
 
+std::pair<int, int> participant_ports(int domain, int id) {
+  const int meta = 7400 + 250 * domain + 10 + 2 * id;
+  return {meta, meta + 1};
+}
+
+namespace {
+std::vector<std::string> port_file_names(int port) {
+  const std::string p = std::to_string(port);
+  return {"fastrtps_port" + p, "fastrtps_port" + p + "_el", "sem.fastrtps_port" + p + "_mutex"};
+}
+}  // namespace
+
+bool participant_port_files_exist(int domain, int id) {
+  const auto [meta, user] = participant_ports(domain, id);
+  for (int port : {meta, user}) {
+    for (const auto& n : port_file_names(port)) {
+      struct stat st {};
+      if (::stat((kPrefix + n).c_str(), &st) == 0) return true;
+    }
+  }
+  return false;
+}
+
+int clean_free_ports(int domain, const std::vector<int>& free_ids) {
+  if (domain < 0 || free_ids.empty()) return 0;
+  const std::set<std::string> files = fastdds_shm_files();
+  std::vector<std::string> candidates;
+  for (int id : free_ids) {
+    const auto [meta, user] = participant_ports(domain, id);
+    for (int port : {meta, user}) {
+      for (const auto& n : port_file_names(port)) {
+        if (files.count(n) != 0) candidates.push_back(n);
+      }
+    }
+  }
+  if (candidates.empty()) return 0;
+  const std::set<std::string> used = in_use(false);
+  int removed = 0;
+  for (const auto& n : candidates) {
+    if (used.count(n) == 0 && ::unlink((kPrefix + n).c_str()) == 0) ++removed;
+  }
+  return removed;
+}
+
 }  // namespace tandem::runtime

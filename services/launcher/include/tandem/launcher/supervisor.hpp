@@ -20,6 +20,7 @@
 #include <memory>
 #include <set>
 #include <string>
+#include <functional>
 #include <vector>
 
 #include "tandem/launcher/drain_watch.hpp"
@@ -231,6 +232,12 @@ class Supervisor {
   /// A `down` request was carried out (the caller stops as for Ctrl-C).
   bool down_requested() const { return down_requested_; }
   const std::deque<Child>& children() const { return children_; }
+  /// Participant ids no running child holds (the one left longest ago first).
+  std::vector<int> free_participant_ids() const { return {free_ids_.begin(), free_ids_.end()}; }
+  /// A check that a free participant id still has shared-memory port files of an earlier process (they are
+  /// removed between runs of runtime::clean_free_ports unless some process holds them): launch() prefers, among
+  /// the free ids, the longest-free one without (soak finding 59). Unset: the longest-free id.
+  void set_participant_id_check(std::function<bool(int)> has_old_ports) { has_old_ports_ = std::move(has_old_ports); }
   const std::map<std::string, ModuleRun>& modules() const { return modules_; }
   /// Hosts whose agent does not serve this run yet.
   std::vector<std::string> agents_not_serving() const;
@@ -356,6 +363,7 @@ class Supervisor {
   std::map<unsigned long long, Answer> answers_;
   unsigned long long current_seq_ = 0;  ///< the live command being carried out (its say() lines are its answer)
   std::deque<int> free_ids_;            ///< participant ids, the one left longest ago first
+  std::function<bool(int)> has_old_ports_;
 };
 
 }  // namespace tandem::launcher

@@ -6,6 +6,8 @@
 #include <ctime>
 #include <set>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace tandem::runtime {
 
@@ -18,12 +20,26 @@ std::set<std::string> shm_used_by_self();
 /// Removes the Fast DDS files in /dev/shm that were last modified at or after `since` (and at least 2 s ago: a
 /// younger one may be being created) and that no live process has mapped or open (checked in /proc/*/maps and
 /// /proc/*/fd). Files of other runs that started earlier are left alone. Port files (fastrtps_port<N>, its lock
-/// and semaphore) are reused by a new participant that gets the same participant id, so they are removed only
-/// with domain >= 0 and only in that domain's port range: call it so only when none of the domain's processes
-/// can start any more (the end of a run). Segments and data-sharing pools are unique to a participant and a
+/// and semaphore) would be reopened by a new participant that gets the same participant id, so they are removed
+/// only with domain >= 0 and only in that domain's port range: call it so only when none of the domain's processes
+/// can start any more (the end of a run); during a run, clean_free_ports removes those of ids no one holds. Segments and data-sharing pools are unique to a participant and a
 /// writer, and are removed with any domain. With ignore_self, what this process has open does not count: at the
 /// end of a run the launcher (or the soak) still holds the port files of the peers it sent to, which are dead by
 /// then and would otherwise stay. Returns how many were removed.
 int clean_stale_shm(std::time_t since, int domain = -1, bool ignore_self = false);
+
+/// The shared-memory port numbers of participant `id` in `domain` (its metatraffic and user unicast ports,
+/// 7400 + 250 domain + 10 + 2 id and + 11: the RTPS port mapping).
+std::pair<int, int> participant_ports(int domain, int id);
+
+/// True if a port file (fastrtps_port<N>, its _el lock or its semaphore) of participant `id` in `domain` exists.
+bool participant_port_files_exist(int domain, int id);
+
+/// During a run: removes the port files of the participant ids in `free_ids` (ids no running process of the
+/// caller was given) that no live process has mapped or open. A killed process leaves its port files behind, and
+/// a newcomer given the same id opened those old files: after about a thousand kills in an hour, newcomers were
+/// heard by nobody and modules could no longer start (soak finding 59). Only the caller hands these ids out, and it
+/// does not while this runs, so no process is opening them meanwhile. Returns how many files were removed.
+int clean_free_ports(int domain, const std::vector<int>& free_ids);
 
 }  // namespace tandem::runtime

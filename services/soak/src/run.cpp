@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -535,6 +536,33 @@ std::string derived_deployment(const std::string& file, const runtime::Deploymen
          runtime::deployment_yaml(out);
 }
 
+namespace {
+std::atomic<bool> g_teardown_hung{false};
+
+/// Deletes the observer's DDS entities and participant in a thread of its own, waited for at most 15 s. Fast DDS 2.9
+/// can deadlock deleting a participant while its Discovery Server client announces itself (the PDP mutex against
+/// the event thread's timer): the CI soak once hung 8 minutes here, before writing its report. A teardown that
+/// hangs is left behind; the soak writes its report all the same and ends its process without library teardown
+/// (teardown_hung()).
+void observer_teardown(Observer& soak, bus::Participant* part) {
+  auto done = std::make_shared<std::atomic<bool>>(false);
+  std::thread([&soak, part, done] {
+    soak.close();
+    delete part;
+    done->store(true);
+  }).detach();
+  const auto t0 = Clock::now();
+  while (!done->load() && Clock::now() - t0 < std::chrono::seconds(15)) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  if (!done->load()) {
+    g_teardown_hung = true;
+    std::printf("tandem soak: the observer's DDS teardown did not end within 15 s (a Fast DDS deadlock); the report is "
+                "written all the same\n");
+  }
+}
+}  // namespace
+
+bool teardown_hung() { return g_teardown_hung.load(); }
+
 int run(const runtime::Deployment& d, const Schedule& sched, const RunOptions& o, const std::atomic<bool>& stop) {
   const std::set<std::string> shm_before = runtime::fastdds_shm_files();
   const std::time_t soak_started = std::time(nullptr) - 1;
@@ -579,8 +607,9 @@ int run(const runtime::Deployment& d, const Schedule& sched, const RunOptions& o
     // every process started after about 1140 s (174 faults skipped for want of a target, tasks seen stuck at 593
     // while the coordinator counted 754), with one of its Fast DDS threads spinning in shm_open at about 55% of a
     // core; the deployment itself ran on. An observer needs no shared-memory speed.
-    bus::Participant part(d.domain_id, "soak/" + d.name, bus::Transport::Udp);
-    soak.setup(part);
+    // Deleted by the bounded teardown below (observer_teardown), or left to the process's end if that hangs.
+    auto* part = new bus::Participant(d.domain_id, "soak/" + d.name, bus::Transport::Udp);
+    soak.setup(*part);
     double last_progress = 0.0, last_log = -10.0;
     const double progress_every = o.duration_s > 300 ? 30.0 : 10.0;
     while (!stop) {
@@ -632,7 +661,7 @@ int run(const runtime::Deployment& d, const Schedule& sched, const RunOptions& o
     }
     soak.sample_logs(soak.now());
     own_shm = runtime::shm_used_by_self();  // this observer's own files (none over UDP; kept for a shared-memory one)
-    soak.close();
+    observer_teardown(soak, part);
   }
   History& h = soak.history();
   h.launcher_exit = launcher_status;

@@ -36,5 +36,8 @@ std::string derived_deployment(const std::string& file, const runtime::Deploymen
 /// Runs `d` (the derived deployment, loaded) for o.duration_s under `sched` until then or until `stop`, stops it,
 /// judges and reports. Returns 0 when every invariant held, 1 on a violation, 2 if it could not start.
 int run(const runtime::Deployment& d, const Schedule& sched, const RunOptions& o, const std::atomic<bool>& stop);
+/// True if run() left its observer's DDS teardown hung (a Fast DDS deadlock): the caller ends the process with _exit
+/// once its output is flushed, as library teardown at exit would hang the same way.
+bool teardown_hung();
 
 }  // namespace tandem::soak

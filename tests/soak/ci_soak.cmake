@@ -2,7 +2,16 @@
 # 75 s under the `ci` preset with a fixed seed. Every fault kind of the preset must have been carried out,
 # every invariant must hold (exit 0, summary.txt result=pass), and the report must have its plots.
 file(REMOVE_RECURSE ${WORK}/ci-soak)
-execute_process(COMMAND ${TANDEM} soak ${SRC}/deploy/soak-small.yaml --duration 75 --faults ci --seed 11
+# soak-small with shed_modules: false (and its scenario paths absolute): the test judges every fault kind, and a
+# module parked for load (at start-up by the calibrated estimate, or later when other tests load the machine) left
+# a world kill without a second module to take out, so the kind was never carried out (2026-11-27, the full test
+# command). Parking is tested on its own (unit tests of launcher::Governor, docs/failure-model.md).
+file(READ ${SRC}/deploy/soak-small.yaml deploy_text)
+string(REPLACE "../config/" "${SRC}/config/" deploy_text "${deploy_text}")
+string(APPEND deploy_text "shed_modules: false\n")
+file(MAKE_DIRECTORY ${WORK})
+file(WRITE ${WORK}/soak-small-ci.yaml "${deploy_text}")
+execute_process(COMMAND ${TANDEM} soak ${WORK}/soak-small-ci.yaml --duration 75 --faults ci --seed 11
                         --report ${WORK}/ci-soak
                 RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
 message("${out}")

@@ -38,7 +38,6 @@ using Clock = std::chrono::steady_clock;
 
 constexpr double kPeriod = 1.0e-3;  // control period [s]
 constexpr int kSubsteps = 10;       // RK4 substeps per period
-constexpr double kSubstep = kPeriod / kSubsteps;
 constexpr int kBenchArm = 1;  // the hybrid arm, selection (1, 0, 1)
 
 // Whatever the timed loops compute ends up here, so the compiler cannot drop the work.
@@ -299,6 +298,7 @@ int main(int argc, char** argv) {
   }
 
   std::vector<Row> rows;
+  rows.reserve(benches.size());
   for (const auto& b : benches) rows.push_back({b.name, b.label, "ns", b.calls, stats(b.ns)});
   // Derived quantities, computed per repetition (the batches of one repetition ran back to back).
   const auto reps = static_cast<std::size_t>(opt.reps);

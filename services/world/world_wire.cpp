@@ -36,7 +36,8 @@ void fill_summary(const world::WorldCore& core, const std::string& module, long 
   for (int j = 0; j < 2; ++j) {
     const model::JointVec& q = plant.state().q[static_cast<size_t>(j)];
     for (int i = 0; i < model::kMaxJoints; ++i) {
-      ws.q_final()[static_cast<size_t>(model::kMaxJoints * j + i)] = i < q.size() ? q(i) : 0.0;
+      const size_t slot = static_cast<size_t>(model::kMaxJoints) * static_cast<size_t>(j) + static_cast<size_t>(i);
+      ws.q_final()[slot] = i < q.size() ? q(i) : 0.0;
     }
   }
   ws.object_final()[0] = plant.state().c(0);

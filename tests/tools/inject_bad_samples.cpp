@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <exception>
 #include <cstdlib>
 #include <limits>
 #include <string>
@@ -16,7 +17,8 @@
 namespace bus = tandem::dds;
 using namespace tandem;
 
-int main(int argc, char** argv) {
+namespace {
+int run(int argc, char** argv) {
   int domain = -1;
   std::string module = "m1";
   double seconds = 2.0;
@@ -79,4 +81,14 @@ int main(int argc, char** argv) {
   }
   std::printf("injected %llu invalid samples\ninjected_torques=%llu\n", sent, sent_torques);
   return sent > 0 ? 0 : 1;
+}
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return run(argc, argv);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "tandem_inject: %s\n", e.what());
+    return 2;
+  }
 }

@@ -116,8 +116,8 @@ ModulePlant::StateVec ModulePlant::pack(const ModuleState& s) const noexcept {
   for (int j = 0; j < 2; ++j) {
     const auto uj = static_cast<size_t>(j);
     const int n = arm(j).dof();
-    v.segment(kSlots * j, n) = s.q[uj];
-    v.segment(2 * kSlots + kSlots * j, n) = s.qd[uj];
+    v.segment(slot_q(j), n) = s.q[uj];
+    v.segment(slot_qd(j), n) = s.qd[uj];
   }
   v.segment<2>(kObject) = s.c;
   v(kObject + 2) = s.psi;
@@ -130,8 +130,8 @@ void ModulePlant::unpack(const StateVec& v, ModuleState& s) const noexcept {
   for (int j = 0; j < 2; ++j) {
     const auto uj = static_cast<size_t>(j);
     const int n = arm(j).dof();
-    s.q[uj] = v.segment(kSlots * j, n);
-    s.qd[uj] = v.segment(2 * kSlots + kSlots * j, n);
+    s.q[uj] = v.segment(slot_q(j), n);
+    s.qd[uj] = v.segment(slot_qd(j), n);
   }
   s.c = v.segment<2>(kObject);
   s.psi = v(kObject + 2);
@@ -147,7 +147,7 @@ ModulePlant::StateVec ModulePlant::derivative(const StateVec& x, const ArmEffort
   for (int j = 0; j < 2; ++j) {
     const auto uj = static_cast<size_t>(j);
     const int n = arm(j).dof();
-    const Eigen::Index qi = kSlots * j, qdi = 2 * kSlots + kSlots * j;
+    const Eigen::Index qi = slot_q(j), qdi = slot_qd(j);
     const Vec3 h(c.h[uj](0), c.h[uj](1), 0.0);  // point contacts transmit no moment
     dx.segment(qi, n) = s.qd[uj];
     if (braked_[uj]) {

@@ -125,6 +125,9 @@ class ModulePlant {
   static constexpr int kSlots = kMaxJoints;
   static constexpr int kObject = 4 * kSlots;
   using StateVec = Eigen::Matrix<double, kObject + 6, 1>;
+  /// Where arm j's joints (and rates) start in the state vector.
+  static Eigen::Index slot_q(int j) noexcept { return static_cast<Eigen::Index>(kSlots) * j; }
+  static Eigen::Index slot_qd(int j) noexcept { return static_cast<Eigen::Index>(kSlots) * (2 + j); }
   StateVec pack(const ModuleState& s) const noexcept;
   void unpack(const StateVec& v, ModuleState& s) const noexcept;
   /// Arm j's tip position and velocity at (q, q').

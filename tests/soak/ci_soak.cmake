@@ -2,10 +2,9 @@
 # 75 s under the `ci` preset with a fixed seed. Every fault kind of the preset must have been carried out,
 # every invariant must hold (exit 0, summary.txt result=pass), and the report must have its plots.
 file(REMOVE_RECURSE ${WORK}/ci-soak)
-# soak-small with shed_modules: false (and its scenario paths absolute): the test judges every fault kind, and a
-# module parked for load (at start-up by the calibrated estimate, or later when other tests load the machine) left
-# a world kill without a second module to take out, so the kind was never carried out (2026-11-27, the full test
-# command). Parking is tested on its own (unit tests of launcher::Governor, docs/failure-model.md).
+# soak-small with shed_modules: false (a copy, its scenario paths absolute): the test judges every fault kind, and
+# with shedding the governor parked m2 for load after m1's unplug, leaving the world kill without a second module
+# to take out (2026-11-27: 2 of 3 runs, the test running alone). Parking has tests of its own (launcher::Governor).
 file(READ ${SRC}/deploy/soak-small.yaml deploy_text)
 string(REPLACE "../config/" "${SRC}/config/" deploy_text "${deploy_text}")
 string(APPEND deploy_text "shed_modules: false\n")

@@ -193,6 +193,30 @@ std::string read_file_text(const std::string& path) {
   return ss.str();
 }
 
+// A lockstep run's summary (tandem up --summary) against the embedded run of the same case: same inputs, same code,
+// same order of operations, so equal to 1e-12 (in practice bit-equal), every joint slot of each arm included (zeros
+// past its joint count).
+void check_equals_embedded(const std::map<std::string, double>& kv, const tandem::sim::CaseResult& e) {
+  REQUIRE(kv.count("m1.ticks") == 1);
+  CHECK(kv.at("m1.ticks") == 5000);
+  const char* arms[2] = {"m1/left", "m1/right"};
+  for (int j = 0; j < 2; ++j) {
+    const std::string a = arms[j];
+    INFO(a);
+    CHECK(kv.at(a + ".ep_pos_rms") == Approx(e.robots[j].ep_pos_rms).epsilon(1e-12));
+    CHECK(kv.at(a + ".ep_ori_rms") == Approx(e.robots[j].ep_ori_rms).epsilon(1e-12));
+    CHECK(kv.at(a + ".eh_rms") == Approx(e.robots[j].eh_rms).epsilon(1e-12));
+    CHECK(kv.at(a + ".min_normal_force") == Approx(e.robots[j].min_normal_force).epsilon(1e-12));
+    const auto& q = e.final_state.q[static_cast<size_t>(j)];
+    for (int i = 0; i < 4; ++i) {
+      CHECK(kv.at("m1.q_final" + std::to_string(4 * j + i)) == Approx(i < q.size() ? q(i) : 0.0).margin(1e-12));
+    }
+  }
+  CHECK(kv.at("m1.object_final0") == Approx(e.final_state.c(0)).margin(1e-12));
+  CHECK(kv.at("m1.object_final1") == Approx(e.final_state.c(1)).margin(1e-12));
+  CHECK(kv.at("m1.slip_events") == 0);
+}
+
 bool processes_left(int domain) {
   // The bracket keeps pgrep (and its shell) from matching their own command lines.
   return run("pgrep -f 'tandem-[wrsc][a-z]* .*--domain " + std::to_string(domain) + " '").exit_code == 0;
@@ -209,26 +233,7 @@ TEST_CASE("lockstep over DDS gives the embedded simulation's numbers", "[distrib
   REQUIRE(r.exit_code == 0);
   CHECK_FALSE(processes_left(domain));
 
-  const tandem::sim::CaseResult& e = embedded_sosm();
-  const auto kv = read_summary(summary);
-  REQUIRE(kv.count("m1.ticks") == 1);
-  CHECK(kv.at("m1.ticks") == 5000);
-  const char* arms[2] = {"m1/left", "m1/right"};
-  for (int j = 0; j < 2; ++j) {
-    const std::string a = arms[j];
-    INFO(a);
-    // Same inputs, same code, same order of operations: equal to 1e-12 relative (in practice bit-equal).
-    CHECK(kv.at(a + ".ep_pos_rms") == Approx(e.robots[j].ep_pos_rms).epsilon(1e-12));
-    CHECK(kv.at(a + ".ep_ori_rms") == Approx(e.robots[j].ep_ori_rms).epsilon(1e-12));
-    CHECK(kv.at(a + ".eh_rms") == Approx(e.robots[j].eh_rms).epsilon(1e-12));
-    CHECK(kv.at(a + ".min_normal_force") == Approx(e.robots[j].min_normal_force).epsilon(1e-12));
-    for (int i = 0; i < 3; ++i) {
-      CHECK(kv.at("m1.q_final" + std::to_string(4 * j + i)) == Approx(e.final_state.q[j](i)).margin(1e-12));
-    }
-  }
-  CHECK(kv.at("m1.object_final0") == Approx(e.final_state.c(0)).margin(1e-12));
-  CHECK(kv.at("m1.object_final1") == Approx(e.final_state.c(1)).margin(1e-12));
-  CHECK(kv.at("m1.slip_events") == 0);
+  check_equals_embedded(read_summary(summary), embedded_sosm());
 }
 
 TEST_CASE("lockstep over DDS gives the embedded numbers for heterogeneous modules (3R + PPR, 3R + 4R)", "[distributed][hetero]") {
@@ -250,26 +255,9 @@ TEST_CASE("lockstep over DDS gives the embedded numbers for heterogeneous module
     }
     REQUIRE(cc != nullptr);
     const tandem::sim::CaseResult e = tandem::sim::run_case(sc, *cc, tandem::sim::RunOptions{false});
-    const auto kv = read_summary(summary);
-    REQUIRE(kv.count("m1.ticks") == 1);
-    CHECK(kv.at("m1.ticks") == 5000);
-    const char* arms[2] = {"m1/left", "m1/right"};
-    for (int j = 0; j < 2; ++j) {
-      const std::string a = arms[j];
-      INFO(a);
-      CHECK(kv.at(a + ".ep_pos_rms") == Approx(e.robots[j].ep_pos_rms).epsilon(1e-12));
-      CHECK(kv.at(a + ".eh_rms") == Approx(e.robots[j].eh_rms).epsilon(1e-12));
-      CHECK(kv.at(a + ".min_normal_force") == Approx(e.robots[j].min_normal_force).epsilon(1e-12));
-      // Every joint of the arm's type (the 4R's fourth too), and zeros in the slots past its joint count.
-      const auto n = e.final_state.q[static_cast<size_t>(j)].size();
-      CHECK(n == (j == 0 ? 3 : sc.robots[1].dof()));
-      for (int i = 0; i < 4; ++i) {
-        const double want = i < n ? e.final_state.q[static_cast<size_t>(j)](i) : 0.0;
-        CHECK(kv.at("m1.q_final" + std::to_string(4 * j + i)) == Approx(want).margin(1e-12));
-      }
-    }
-    CHECK(kv.at("m1.object_final0") == Approx(e.final_state.c(0)).margin(1e-12));
-    CHECK(kv.at("m1.slip_events") == 0);
+    CHECK(e.final_state.q[0].size() == 3);
+    CHECK(e.final_state.q[1].size() == sc.robots[1].dof());  // the 4R's fourth joint is compared too
+    check_equals_embedded(read_summary(summary), e);
   }
 }
 

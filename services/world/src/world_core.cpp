@@ -114,8 +114,8 @@ model::JointVec WorldCore::drive_torque(int j) const {
   const model::JointVec& qv = plant_.state().q[a];
   const model::JointVec& qdv = plant_.state().qd[a];
   const model::Manipulator& arm = plant_.arm(j);
-  if (const auto* p3 = dynamic_cast<const model::Planar3R*>(&arm)) {  // the identified 3R: fixed-size Eigen
-    const model::ArmParams& ap = p3->params();
+  if (const model::ArmParams* p3 = plant_.planar3r(j)) {  // the identified 3R: fixed-size Eigen
+    const model::ArmParams& ap = *p3;
     const model::Vec3 q = qv, qd = qdv;
     const model::Mat3 J = model::jacobian(ap, q);
     const model::Vec3 x = model::forward_kinematics(ap, q);
@@ -151,9 +151,9 @@ model::JointVec WorldCore::holding_torque(int j) const {
   const model::Vec3 h(contact_.h[a](0), contact_.h[a](1), 0.0);
   const model::JointVec& q = plant_.state().q[a];
   const model::Manipulator& arm = plant_.arm(j);
-  if (const auto* p3 = dynamic_cast<const model::Planar3R*>(&arm)) {
+  if (const model::ArmParams* p3 = plant_.planar3r(j)) {
     const model::Vec3 q3 = q;
-    return model::JointVec(model::gravity(p3->params(), q3) + model::jacobian(p3->params(), q3).transpose() * h);
+    return model::JointVec(model::gravity(*p3, q3) + model::jacobian(*p3, q3).transpose() * h);
   }
   return arm.gravity(q) + arm.jacobian(q).transpose() * h;
 }

@@ -117,6 +117,8 @@ class ModulePlant {
   Vec3 end_effector(int j) const noexcept;
   /// Arm j's model.
   const Manipulator& arm(int j) const noexcept { return *models_[static_cast<size_t>(j)]; }
+  /// Arm j's identified-3R parameters if it is a Planar3R (its fixed-size fast path), else null.
+  const ArmParams* planar3r(int j) const noexcept { return p3r_[static_cast<size_t>(j)]; }
   /// Total mechanical energy of arms and object (kinetic + gravity potential, contact springs excluded).
   double mechanical_energy() const noexcept;
 

@@ -117,7 +117,7 @@ echo "no credentials, torque writer for m1/left: $out"
 if [ -n "$cyclone" ]; then
   out=$("$cyclone" "$d3" sensors m1/left 10 3) || true
   echo "Cyclone DDS without credentials: $out"
-  echo "$out" | grep -q "^samples=0 " || fail "another vendor without credentials read sensor samples: $out"
+  grep -q "^samples=0 " <<< "$out" || fail "another vendor without credentials read sensor samples: $out"
 fi
 # A robot's identity: its own arm yes (the control), the other arm no.
 out=$(TANDEM_SECURITY_DIR="$PWD/keys" TANDEM_IDENTITY=robot.m1.left "$bin/tandem_intruder" --domain "$d3" --arm m1/right --seconds 1) && rc=0 || rc=$?
@@ -125,7 +125,7 @@ echo "identity robot.m1.left, torque writer for m1/right: $out"
 [ "$rc" -eq 3 ] || fail "the left robot's identity could create a torque writer for the right arm: $out"
 out=$(TANDEM_SECURITY_DIR="$PWD/keys" TANDEM_IDENTITY=robot.m1.left "$bin/tandem_intruder" --domain "$d3" --arm m1/left --seconds 15 --until-matched) && rc=0 || rc=$?
 echo "identity robot.m1.left, torque writer for m1/left: $out"
-[ "$rc" -eq 0 ] && echo "$out" | grep -q "matched=[1-9]" || fail "the left robot's own identity could not write its arm: $out"
+[ "$rc" -eq 0 ] && grep -q "matched=[1-9]" <<< "$out" || fail "the left robot's own identity could not write its arm: $out"
 # The CLI's identity: `tandem status` sees it, `tandem down` stops it.
 s0=$(date +%s.%N); "$bin/tandem" status live.yaml > st2.log 2>&1 || { cat st2.log; echo "after $(awk -v s=$s0 -v e=$(date +%s.%N) "BEGIN {print e - s}") s"; tail -5 up4.log; fail "tandem status with the identity of the CLI"; }
 grep -q "m1/world" st2.log || { cat st2.log; fail "tandem status with credentials did not list the world"; }

@@ -17,9 +17,18 @@ set -euo pipefail
 bin=$1 src=$2 work=$3 node=$4 domain=$5
 rm -rf "$work"; mkdir -p "$work"; cd "$work"
 pids=()
-cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; wait "$p" 2>/dev/null || true; done; }
+# Reaped even when one ignores SIGTERM (headless Chromium's driver may: the test then hung in `wait`).
+cleanup() {
+  for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done
+  for _ in $(seq 50); do
+    alive=0; for p in "${pids[@]}"; do kill -0 "$p" 2>/dev/null && alive=1; done
+    [ "$alive" -eq 0 ] && break; sleep 0.1
+  done
+  for p in "${pids[@]}"; do kill -9 "$p" 2>/dev/null || true; wait "$p" 2>/dev/null || true; done
+}
 trap cleanup EXIT
-fail() { echo "FAIL: $*"; for f in up.log view.log; do [ -f "$f" ] && { echo "--- $f"; tail -20 "$f"; }; done; exit 1; }
+# The logs first and the reason last: CI shows the end of a failed test's output.
+fail() { for f in up.log view.log; do [ -f "$f" ] && { echo "--- $f"; tail -20 "$f"; }; done; echo "FAIL: $*"; exit 1; }
 
 echo "== 1. bad command lines"
 rc=0; "$bin/tandem" view > bad1.log 2>&1 || rc=$?
@@ -51,8 +60,9 @@ echo "viewer on port $port"
 get() { node -e 'fetch(process.argv[1]).then(async r => { console.log(r.status); console.log(await r.text()); })' "$1"; }
 get "http://127.0.0.1:$port/" > index.out; head -1 index.out | grep -q 200 && grep -q "<title>tandem view</title>" index.out \
   || fail "GET / did not serve the page"
-get "http://127.0.0.1:$port/uPlot.iife.min.js" | head -1 | grep -q 200 || fail "uPlot is not served"
-get "http://127.0.0.1:$port/etc/passwd" | head -1 | grep -q 404 || fail "a file that is not the page's was served"
+# (each answer to a file first: `get | head -1` under pipefail fails whenever head closes the pipe before node is done)
+get "http://127.0.0.1:$port/uPlot.iife.min.js" > uplot.out; head -1 uplot.out | grep -q 200 || fail "uPlot is not served"
+get "http://127.0.0.1:$port/etc/passwd" > passwd.out; head -1 passwd.out | grep -q 404 || fail "a file that is not the page's was served"
 
 echo "== 2. an independent Foxglove client gets consecutive ticks"
 node "$node/foxglove_client.mjs" "ws://127.0.0.1:$port" tandem/torque_commands/m1/left 500 || fail "foxglove client"
@@ -86,7 +96,7 @@ post "http://127.0.0.1:$port/api/command" '{"command": "explode", "target": "m1/
 head -1 cmd_bad.out | grep -q 400 && grep -q "accepted: down, kill, plug, unplug" cmd_bad.out || { cat cmd_bad.out; fail "a bad live command"; }
 post "http://127.0.0.1:$port/api/command" '{"command": "kill", "target": "m1/left; rm -rf /"}' > cmd_bad2.out
 head -1 cmd_bad2.out | grep -q 400 || { cat cmd_bad2.out; fail "a target that is no name"; }
-get "http://127.0.0.1:$port/api/command" | head -1 | grep -q 405 || fail "GET /api/command was not refused"
+get "http://127.0.0.1:$port/api/command" > cmd_get.out; head -1 cmd_get.out | grep -q 405 || fail "GET /api/command was not refused"
 # (a checker that died meanwhile has closed the fifo: no GO then, and its log says why)
 if kill -0 "$page" 2>/dev/null; then { echo GO >&7; } 2>/dev/null || true; fi
 exec 7>&-

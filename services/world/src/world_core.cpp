@@ -550,7 +550,9 @@ bool WorldCore::end_tick(int64_t now_ns) {
     // Holding: the supervisor stops the path while the drive serves every tick an arm misses; brake once the
     // object is still (braking a moving object makes it slip: the arms stop at once, the object does not),
     // or after hold_max_s at the latest.
-    const double held_s = static_cast<double>(now_ns - load_pending_ns_) * 1e-9;
+    // In ticks, not wall time: a world starved for longer than hold_max_s (a hog on every core) wakes with its
+    // object still moving, and braking it then makes it slip (CI soak, 2026-11-27: a 1.2 s two-core hog).
+    const double held_s = static_cast<double>(k_ - load_pending_tick_) * m_.period;
     if (still_count_ >= rule.still_ticks || held_s > rule.hold_max_s) {
       load_pending_ = false;
       load_paused_ = true;
@@ -578,7 +580,7 @@ bool WorldCore::end_tick(int64_t now_ns) {
                        ? std::min(backoff_s_ * 2.0, rule.backoff_max_s)
                        : rule.backoff_s;
       load_pending_ = true;
-      load_pending_ns_ = now_ns;
+      load_pending_tick_ = k_;
       still_count_ = 0;
       for (ArmLink& L : link_) L.late_run = 0;
       ++load_pauses;

@@ -370,7 +370,8 @@ class WorldCore {
   bool serving_changed_ = true;
   // Overload state.
   bool load_pending_ = false;  // holding: the path stops, the brakes follow once the object is still
-  int64_t load_pending_ns_ = 0;
+  long load_pending_tick_ = 0;  // the tick the hold began (its bound counts ticks: a starved world's wall clock
+                                // runs on while its object does not move)
   int still_count_ = 0;
   std::string load_why_;
   bool load_paused_ = false;

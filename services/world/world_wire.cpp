@@ -90,6 +90,7 @@ std::vector<msg::ArmOwner> owners(const world::WorldCore& core) {
                                          : msg::ARM_BRAKED_LOAD);
     w.robot(o.robot);
     w.strength(o.strength);
+    w.handover_ticks(o.state == State::Served ? o.handover_ticks : -1);
   }
   return out;
 }

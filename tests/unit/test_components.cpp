@@ -456,6 +456,9 @@ TEST_CASE("in real time a silent owner's ticks are served by its standby, which 
   CHECK(w.late == 0);  // no tick went without a command
   REQUIRE(w.switches.size() == 1);
   CHECK(w.switches[0].gap_ms == Approx(10.4).margin(0.2));  // tick 80 + 9, decided at its end
+  // The status and report say the handover in the module's time: last command at tick 79, followed at tick 89.
+  CHECK(w.owner(0).handover_ticks == WorldCore::kFailoverTicks);
+  CHECK(w.owner(1).handover_ticks == -1);  // never changed owner
   // A robot that says it leaves is followed by the next one at once.
   WorldCore g(m, world_options(true));
   for (long k = 0; k < 70; ++k) {

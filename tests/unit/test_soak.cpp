@@ -305,7 +305,7 @@ TEST_CASE("soak checker: failover and restart are measured from the recording, l
   CHECK(find(check(braked, Bounds{}), "recovery") != nullptr);
 }
 
-TEST_CASE("soak checker: in lockstep an arm's failover is judged in module time (ticks), in real time on the wall clock") {
+TEST_CASE("soak checker: an arm's failover is judged in module time (ticks), in lockstep and in real time") {
   // The world heard at tick 20000 when the robot is killed at 20.0 s, then stands still (a lockstep wait): its reports
   // reach the observer late, and the new owner shows at 20.9 s on the wall clock in the report of tick `owner_tick`.
   auto run = [](bool realtime, long owner_tick) {
@@ -337,11 +337,35 @@ TEST_CASE("soak checker: in lockstep an arm's failover is judged in module time 
   const Violation* x = find(lock400, "recovery");
   REQUIRE(x != nullptr);
   CHECK_THAT(x->text, Catch::Contains("within 0.2 s") && Catch::Contains("after 0.4 s"));
-  // Real time, the same recording: the wall clock counts, 0.9 s, a violation.
-  const Verdict real = run(true, 20050);  // kept: find() points into it
-  const Violation* y = find(real, "recovery");
+  // Real time, the same recordings: the module's ticks count too, not when a starved observer heard the report.
+  const Verdict real50 = run(true, 20050);
+  CHECK(find(real50, "recovery") == nullptr);
+  CHECK(failover_s(real50) == Approx(0.05));
+  const Verdict real400 = run(true, 20400);  // kept: find() points into it
+  const Violation* y = find(real400, "recovery");
   REQUIRE(y != nullptr);
-  CHECK_THAT(y->text, Catch::Contains("after 0.9 s"));
+  CHECK_THAT(y->text, Catch::Contains("after 0.4 s"));
+  // The world says its handover (ticks from the old owner's last command to the new one followed): that count is
+  // taken, whatever the ticks the observer heard: 11 ticks held, 350 ticks a violation.
+  auto with_handover = [](long ticks) {
+    History h = quiet_history(60.0);
+    h.realtime = true;
+    h.faults.push_back(kill_left(20.0));
+    h.faults.back().module_tick = 19000;  // a starved observer's stale note
+    Event owners{20.4, Event::Type::Owners, "m1", "left=m1/left@50,right=m1/right", {{"left", "m1/left@50"}, {"right", "m1/right"}}};
+    owners.tick = 20400;
+    owners.handover = {{"left", ticks}, {"right", -1}};
+    add_event(h, owners);
+    add_event(h, {21.8, Event::Type::State, "m1/left@49", "2 222"});
+    return check(h, Bounds{});
+  };
+  const Verdict h11 = with_handover(11);
+  CHECK(find(h11, "recovery") == nullptr);
+  CHECK(failover_s(h11) == Approx(0.011));
+  const Verdict h350 = with_handover(350);
+  const Violation* z = find(h350, "recovery");
+  REQUIRE(z != nullptr);
+  CHECK_THAT(z->text, Catch::Contains("after 0.4 s"));  // 0.35 s, said to one decimal
 }
 
 TEST_CASE("soak checker: tasks done twice or lost are violations") {

@@ -39,6 +39,7 @@ void copy_owners(const std::vector<msg::ArmOwner>& from,
     p->set_state(static_cast<pb::ArmState>(o.state()));
     p->set_robot(o.robot());
     p->set_strength(o.strength());
+    p->set_handover_ticks(o.handover_ticks());
   }
 }
 

@@ -255,8 +255,8 @@ class Judge {
   /// First time after t at which arm `robot` is served by another process than `label`'s pid `old_pid`: another
   /// label, or the same label once a new process of it is active (a restart keeps its label: run 13 counted m1/right
   /// unserved for 136 s while its restarted m1/right@49 served it).
-  /// `module_time`: a failover to a standby, judged in the module's time in lockstep (served_again_at); a restart
-  /// is judged on the wall clock (the world runs on meanwhile, at lockstep's pace, with the arm braked).
+  /// `module_time`: a failover to a standby, judged in the module's time (the world's handover count, else
+  /// served_again_at); a restart is judged on the wall clock (the world runs on meanwhile with the arm braked).
   double arm_served_without(const std::string& module, const std::string& robot, const std::string& label,
                             long long old_pid, double t, bool module_time, long tick_at_fault) const {
     double back = -1.0;
@@ -271,18 +271,28 @@ class Judge {
       if (e.t < t || e.type != Event::Type::Owners || e.subject != module) continue;
       const auto it = e.owners.find(robot);
       if (it == e.owners.end() || it->second.empty()) continue;
-      if (it->second != label || (back >= 0.0 && e.t >= back)) return module_time ? served_again_at(module, e, t, tick_at_fault) : e.t;
+      if (it->second != label || (back >= 0.0 && e.t >= back)) {
+        if (!module_time) return e.t;
+        // The world's own count: from the old owner's last command (which came before the kill) to the tick it
+        // followed the new one. Exact in module time, whatever the observer's lag.
+        const auto h = e.handover.find(robot);
+        if (h != e.handover.end() && h->second >= 0) return t + static_cast<double>(h->second) * kTickS;
+        return served_again_at(module, e, t, tick_at_fault);
+      }
     }
     return -1.0;
   }
-  /// When the arm counts as served again, seen in Owners event e after a fault at t. Real time: when the event was
-  /// heard. Lockstep: the module's own time matters (the plant stands still while its world waits, however long the
-  /// wall clock runs meanwhile, and a lockstep world's reports reach the observer late), so t plus the ticks the
-  /// world ran from the newest tick heard before t to the event's report, at 1 ms a tick. That is an upper bound:
-  /// the world had run past the tick heard last when the fault came. The tick heard last is the nemesis's note at
-  /// the fault (FaultRecord::module_tick), else the newest 100 ms bucket before t (up to a bucket older).
+  /// When the arm counts as served again, seen in Owners event e after a fault at t, when the world did not say its
+  /// handover (see above): in the module's own time, in both timings. The plant moves only as the world ticks, so the ticks without a serving robot are what the object
+  /// lives through: t plus the ticks the world ran from the newest tick heard before t to the event's report, at 1 ms
+  /// a tick. In lockstep the wall clock runs on while the world waits (its reports reach the observer late); in real
+  /// time the observer itself is starved on a loaded machine (the CI soak, 2026-11-27: the world logged a failover
+  /// 10.8 ms after the killed robot's last command, and the observer heard it 0.4 s after the kill). That is an
+  /// upper bound: the world had run past the tick heard last when the fault came. The tick heard last is the
+  /// nemesis's note at the fault (FaultRecord::module_tick), else the newest 100 ms bucket before t (up to a
+  /// bucket older).
   double served_again_at(const std::string& module, const Event& e, double t, long tick_at_fault) const {
-    if (h_.realtime || e.tick < 0) return e.t;
+    if (e.tick < 0) return e.t;
     long before = tick_at_fault;
     if (before < 0) {
       const auto m = h_.modules.find(module);

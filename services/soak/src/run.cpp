@@ -254,10 +254,15 @@ class Observer : public NemesisActions {
         if (const std::string text = runtime::owners_text(r.owners()); text != b.serving) {
           b.serving = text;
           std::map<std::string, std::string> owners;
-          for (const auto& o : r.owners()) owners[o.arm()] = o.state() == msg::ARM_SERVED ? o.robot() : "";
+          std::map<std::string, long> handover;
+          for (const auto& o : r.owners()) {
+            owners[o.arm()] = o.state() == msg::ARM_SERVED ? o.robot() : "";
+            handover[o.arm()] = o.state() == msg::ARM_SERVED ? static_cast<long>(o.handover_ticks()) : -1;
+          }
           nemesis_.on_owners(module, owners);
           h_.events.push_back({t, Event::Type::Owners, module, text, owners});
           h_.events.back().tick = tick;
+          h_.events.back().handover = std::move(handover);
         }
         if (t >= b.end) flush(module, b);
       }

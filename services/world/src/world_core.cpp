@@ -54,6 +54,7 @@ WorldCore::Owner WorldCore::owner(int j) const {
     o.state = Owner::State::Served;
     o.robot = L.owner;
     o.strength = L.strength;
+    o.handover_ticks = L.handover_ticks;
   }
   return o;
 }
@@ -411,6 +412,7 @@ void WorldCore::apply(int j, const model::JointVec& tau, int32_t strength, int64
     }
     L.owner = name;
     L.strength = strength;
+    L.handover_ticks = L.last_tick >= 0 ? k_ - L.last_tick : -1;
     serving_changed_ = true;
   } else if (L.owner != name || L.strength != strength) {
     L.owner = name;

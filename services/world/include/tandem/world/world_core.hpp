@@ -255,6 +255,9 @@ class WorldCore {
     enum class State { Served, Stopping, Braked, BrakedLoad } state = State::Braked;
     std::string robot;     ///< Served: the robot's process label
     int32_t strength = 0;  ///< Served: its strength
+    /// Served after a change of owner: ticks from the previous owner's last command to the tick this one was
+    /// followed (the module's time without its owner); -1 before any change.
+    long handover_ticks = -1;
   };
   Owner owner(int j) const;
   const std::string& arm_name(int j) const;
@@ -298,6 +301,7 @@ class WorldCore {
   struct ArmLink {
     std::string owner;
     int32_t strength = 0;
+    long handover_ticks = -1; // the last change of owner: ticks from the old owner's last command
     long last_tick = -1;      // tick of the last applied command
     int64_t last_at = 0;      // when it was applied
     bool braked = false;

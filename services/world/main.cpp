@@ -244,6 +244,7 @@ class WorldProcess {
     // extra report can leave the last plan's tick between the periodic ones), and a standby sees the world a full
     // lease past a silent leader's last plan.
     if (reported_) send_report();
+    double republished_at = seconds();
     while (!runtime::g_stop && !core_.plan_lease_ok(k_)) {
       const world::LockstepPacer::LeaseAction a = pacer_.lease_wait_pass(seconds(), core_.plan_lease(), reported_);
       if (a == world::LockstepPacer::LeaseAction::Lapsed) {
@@ -254,20 +255,28 @@ class WorldProcess {
       }
       publish_status_if_changed();
       if (a == world::LockstepPacer::LeaseAction::ResendReport) report_.write(rep_);
+      // The last tick's samples again (its robots answered them: they repeat their answer, which is stale here), so
+      // that a robot hearing plans from another supervisor meanwhile does not renew a reader that is not deaf.
+      if (k_ > 0 && seconds() - republished_at > pacer_.rules().republish_s) {
+        publish_samples(true, k_ - 1);
+        republished_at = seconds();
+      }
       (void)plans_.wait(0.005);
       take_plans();
     }
     pacer_.lease_wait_end(seconds());
   }
 
-  void publish_samples(bool all) {
+  /// The tick's samples (`tick`: another tick's label, for the previous tick's samples sent again).
+  void publish_samples(bool all, long tick = -1) {
+    if (tick < 0) tick = k_;
     const plan::SupervisorRank plan_rank = core_.plan_rank();
     const uint64_t plan_version = core_.plan_version();
     const long plan_since = core_.plan_since();
     for (size_t j = 0; j < 2; ++j) {
       const world::SampleOut& o = samples_[j];
       if (!o.publish && !all) continue;
-      world_wire::fill_sample(o, core_.plant().arm(static_cast<int>(j)).kind(), k_, plan_rank, plan_version, plan_since, s_);
+      world_wire::fill_sample(o, core_.plant().arm(static_cast<int>(j)).kind(), tick, plan_rank, plan_version, plan_since, s_);
       const bool written = sensors(j).write(s_);
       if (sensors(j).history_clears() != history_clears_[j]) {
         const long n = history_clears_[j] = sensors(j).history_clears();

@@ -309,7 +309,7 @@ void SupervisorCore::update(int64_t now_ns) {
   // The object moves as the replica's plan has it (a replica at rest with the object moving on a leader's plan it
   // missed is within kReplicaMatch for a while; finding 53). Not known yet (no report 10-200 ticks back: a world's
   // first ticks, or a starved standby that heard the world again after a gap): not matching until the next reports
-  // tell (in lockstep a world that waits at its lease for a dead leader runs on once the lease lapses, 0.8 s). A
+  // tell (in lockstep a world that waits at its lease for a dead leader runs on once the lease lapses, 3 s). A
   // world that does not report the object: the version rule alone, as the position rule.
   const std::optional<double> speed_off = replica_speed_off();
   const bool moves_as_replica = !object_known_ || (speed_off && *speed_off < kReplicaSpeedMatch);
@@ -322,8 +322,10 @@ void SupervisorCore::update(int64_t now_ns) {
   // Silent in wall time and in ticks. Lockstep (a lease): the world runs no further than kPlanLeaseTicks past what
   // the leader had heard, so a silent leader shows as half a lease of ticks, not kTakeOverTicks (never reached).
   const long silent_ticks = o_.lease_every > 0 ? o_.lease_every / 2 : kTakeOverTicks;
+  const bool not_ticking = heard_tick_ <= 0 && stronger_tick_ <= 0;  // the world's start wait (reports of tick 0)
   const bool leader_silent =
-      heard_stronger_ && now_ns - last_stronger_ > kTakeOverAfterNs && heard_tick_ - stronger_tick_ > silent_ticks;
+      heard_stronger_ && now_ns - last_stronger_ > kTakeOverAfterNs &&
+      (heard_tick_ - stronger_tick_ > silent_ticks || (not_ticking && now_ns - last_stronger_ > kTakeOverAtStartNs));
   // A silent leader is replaced only by a replica that has its plan: the object is where the replica's plan has it.
   const double replica_off =
       object_known_ && heard_tick_ >= 0 ? (plan_.sample(heard_tick_).pose.head<2>() - object_xy_).norm() : 0.0;

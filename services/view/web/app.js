@@ -156,12 +156,24 @@ function plotFor(arm) {
       {label: 'h_n [N]', stroke: '#d62728', scale: 'hn'},
       {label: 'h_sg [N]', stroke: '#7f7f7f', dash: [6, 4], scale: 'hn'},
     ],
-    axes: [{}, {scale: 'ep', label: 'mm', size: 70, values: (u, vals) => vals.map(v => +v.toPrecision(3))},
+    axes: [{}, {scale: 'ep', label: 'mm', size: 70, values: (u, vals) => tickLabels(vals)},
            {scale: 'hn', side: 1, label: 'N', grid: {show: false}}],
   }, data, div);
   p = {u, data};
   plots.set(arm, p);
   return p;
+}
+
+// Axis labels with as many digits as the tick spacing needs: a tracking error of 0.01529-0.01531 mm must not read
+// 0.0153 on every tick (3 significant digits did). Exponent form below 1e-3 (nanometre errors are common).
+function tickLabels(vals) {
+  const step = vals.length > 1 ? Math.abs(vals[1] - vals[0]) : 0;
+  const big = Math.max(...vals.map(v => Math.abs(v)));
+  return vals.map(v => {
+    if (v === 0 || !(step > 0)) return String(v);
+    if (big < 1e-3 || big >= 1e5) return v.toExponential(Math.min(6, Math.max(1, Math.ceil(Math.log10(big / step)))));
+    return v.toFixed(Math.min(8, Math.max(0, Math.ceil(-Math.log10(step)))));
+  });
 }
 
 function addPoints(points) {

@@ -76,6 +76,11 @@ class SupervisorCore {
   static constexpr int64_t kHeartbeatNs = 20'000'000;
   static constexpr int64_t kTakeOverAfterNs = 50'000'000;
   static constexpr long kTakeOverTicks = 20;
+  /// A world that has not ticked yet (its first tick waits up to 5 s for the robots' first commands, reporting tick
+  /// 0 every 20 ms) gives no silence in ticks: a leader silent this long in wall time, with the world's reports
+  /// flowing, is silent (the CI soak loop, 2026-11-27: a standby took 5.0 s over a leader killed during a restarted
+  /// module's start wait, bound 2 s).
+  static constexpr int64_t kTakeOverAtStartNs = 200'000'000;
   /// A leader whose world follows a higher-ranked plan for this many ticks never heard that plan: it steps down.
   static constexpr long kOutrankedTicks = 500;
 

@@ -13,8 +13,13 @@ class LockstepPacer {
  public:
   struct Rules {
     /// A lease the leader does not renew within this is not waited for again until it changes (none alive, or all
-    /// stalled). Below the robots' 1 s without samples, after which they would renew their readers.
-    double lease_wait_s = 0.8;
+    /// stalled). Waiting costs the plant nothing (it stands still in lockstep); going on does: a leader stalled right
+    /// after writing a change, whose lease lapsed at 0.8 s, came back with that change hundreds of ticks in the
+    /// world's past, the references jumped and the object was dropped (soak finding 58). 3 s is above the
+    /// supervisors' stalls seen in lockstep soaks (up to 1.2 s each, in turn) and the nemesis's (up to 2 s; a live
+    /// standby takes over a stalled leader within 50 ms anyway), and below the robots' 10 s without input. The
+    /// tick's samples go out again meanwhile (republish_s), so that no robot takes the wait for a deaf reader.
+    double lease_wait_s = 3.0;
     /// While waiting for the lease: the latest report again this often, so that the supervisors see the world
     /// alive and a standby takes over from a leader that fell silent instead of waiting with the world.
     double report_resend_s = 0.02;

@@ -2,15 +2,12 @@
 # 75 s under the `ci` preset with a fixed seed. Every fault kind of the preset must have been carried out,
 # every invariant must hold (exit 0, summary.txt result=pass), and the report must have its plots.
 file(REMOVE_RECURSE ${WORK}/ci-soak)
-# soak-small with shed_modules: false (a copy, its scenario paths absolute): the test judges every fault kind, and
-# with shedding the governor parked m2 for load after m1's unplug, leaving the world kill without a second module
-# to take out (2026-11-27: 2 of 3 runs, the test running alone). Parking has tests of its own (launcher::Governor).
-file(READ ${SRC}/deploy/soak-small.yaml deploy_text)
-string(REPLACE "../config/" "${SRC}/config/" deploy_text "${deploy_text}")
-string(APPEND deploy_text "shed_modules: false\n")
+# soak-small as shipped (shedding on). On a 2-core machine two modules with standbys do not fit (about 1.5 cores
+# each): admission or the governor parks m2, and the faults that take a module out (world kill, module unplug) may
+# then take the only running one (soak::Nemesis, "others parked"). With shedding off (2026-11-27) both modules paused
+# for load again and again, and one run of five did no task in 75 s.
 file(MAKE_DIRECTORY ${WORK})
-file(WRITE ${WORK}/soak-small-ci.yaml "${deploy_text}")
-execute_process(COMMAND ${TANDEM} soak ${WORK}/soak-small-ci.yaml --duration 75 --faults ci --seed 11
+execute_process(COMMAND ${TANDEM} soak ${SRC}/deploy/soak-small.yaml --duration 75 --faults ci --seed 11
                         --report ${WORK}/ci-soak
                 RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
 message("${out}")

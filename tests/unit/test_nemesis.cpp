@@ -179,6 +179,15 @@ TEST_CASE("nemesis: one module always runs, and a settling module is left alone"
   heard(n, 3.5);
   CHECK(n.candidates(Target::World, 3.5).empty());  // a kill: the only module always runs
   CHECK(n.candidates(Target::World, 3.5, FaultKind::Stall) == std::vector<std::string>{"m1/world"});  // a stall takes nothing out
+  // ... unless the launcher holds another back for load: then the running one may be taken out; not once it is back.
+  n.on_parked("m2", true);
+  CHECK(n.candidates(Target::World, 3.5) == std::vector<std::string>{"m1/world"});
+  CHECK(n.candidates(Target::Module, 3.5) == std::vector<std::string>{"m1"});
+  n.on_parked("m2", false);
+  CHECK(n.candidates(Target::World, 3.5).empty());
+  n.on_parked("m1", true);  // the running one itself said parked (its processes still stopping): not a reason
+  CHECK(n.candidates(Target::World, 3.5).empty());
+  n.on_parked("m1", false);
   CHECK(n.candidates(Target::Robot, 3.5).size() == 2);
   CHECK(n.candidates(Target::Standby, 3.5).size() == 2);
   CHECK(n.candidates(Target::Robot, 5.1).empty());  // not heard for 1.6 s

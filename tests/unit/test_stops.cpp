@@ -236,6 +236,8 @@ TEST_CASE("a fresh robot takes over a braked arm 1-5 s later: it starts from the
       INFO("arm " << j << ", restarted after " << delay_ms << " ms\n" << rig.log);
       REQUIRE_FALSE(rig.w.braked(j));
       CHECK(rig.k - joined >= WorldCore::kReleaseTrialTicks);
+      // The status's handover: from the dead robot's last command (kPeakTick - 1) to the release, the whole stop.
+      CHECK(rig.w.owner(j).handover_ticks == rig.k - 1 - (kPeakTick - 1));
       CHECK((at_release - holding).norm() < 0.05 * holding.norm() + 1.0);
       // The rest of the task: 4.5 s of motion in all, 2 s of it done before the stop.
       rig.run_to(rig.k + 4000);

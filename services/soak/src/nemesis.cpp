@@ -104,7 +104,9 @@ std::vector<std::string> Nemesis::candidates(Target target, double t, FaultKind 
   if (target == Target::World || target == Target::Module) {
     const auto up = modules_up(t);
     const bool takes_out = !(target == Target::World && kind == FaultKind::Stall);
-    if (up.empty() || (takes_out && up.size() < 2)) return c;  // one module always runs
+    // One module always runs, unless the launcher holds the others back for load (they come back when calm).
+    const bool others_parked = up.size() == 1 && !parked_.empty() && parked_.count(up.front()) == 0;
+    if (up.empty() || (takes_out && up.size() < 2 && !others_parked)) return c;
     for (const auto& m : up) {
       if (!settling(m, t)) c.push_back(target == Target::World ? m + "/world" : m);
     }

@@ -183,6 +183,7 @@ class Observer : public NemesisActions {
         const auto open = rest.find('('), close = rest.find(')');
         const std::string why = open != std::string::npos && close > open ? rest.substr(open + 1, close - open - 1) : "";
         h_.events.push_back({t, key[11] == 'p' ? Event::Type::Parked : Event::Type::Unparked, module, why});
+        nemesis_.on_parked(module, key[11] == 'p');
       }
       // Admission: "tandem up: starting m3, m4 parked: the calibrated estimate gives ..." (before any module runs).
       const std::string admit = "tandem up: starting ";
@@ -190,7 +191,9 @@ class Observer : public NemesisActions {
         std::istringstream list(line.substr(admit.size(), at - admit.size()));
         for (std::string module; std::getline(list, module, ',');) {
           module.erase(0, module.find_first_not_of(' '));
-          if (!module.empty()) h_.events.push_back({t, Event::Type::Parked, module, "admission at start-up: " + line.substr(at + 9, line.find(';', at) - at - 9)});
+          if (module.empty()) continue;
+          h_.events.push_back({t, Event::Type::Parked, module, "admission at start-up: " + line.substr(at + 9, line.find(';', at) - at - 9)});
+          nemesis_.on_parked(module, true);
         }
       }
     }

@@ -367,6 +367,7 @@ void WorldCore::apply(int j, const model::JointVec& tau, int32_t strength, int64
                        : ""));
     L.owner = name;
     L.strength = strength;
+    L.handover_ticks = L.last_tick >= 0 ? k_ - L.last_tick : -1;  // the whole stop or brake, not an older handover
     if (L.stopping) {
       L.stopping = false;
       report_now_ = true;

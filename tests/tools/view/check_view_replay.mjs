@@ -41,6 +41,15 @@ try {
 } catch { await fail("moving the slider to the start did not change the events shown"); }
 const startPoints = await page.evaluate(() => window.tandemView.points().reduce((a, b) => a + b, 0));
 if (!(startPoints < end.points)) await fail(`the plots still show ${startPoints} points at the start (${end.points} at the end)`);
+// The screenshot halfway through the run (at the start there is little to see): the plots fill again.
+await page.evaluate((t) => {
+  const s = document.getElementById("slider");
+  s.value = t;
+  s.dispatchEvent(new Event("input"));
+}, (end.min + end.max) / 2);
+try {
+  await page.waitForFunction((n) => window.tandemView.points().reduce((a, b) => a + b, 0) > n, startPoints, { timeout: 10000 });
+} catch { await fail("moving the slider halfway did not bring plot points back"); }
 await page.screenshot({ path: shot, fullPage: true });
 if (problems.length) await fail(problems.join("; "));
 console.log(`check_view_replay: PASS: ${end.max - end.min} s, ${end.events} events and ${end.points} points at the end, ` +

@@ -84,6 +84,14 @@ class Nemesis {
   void on_owners(const std::string& module, std::map<std::string, std::string> owners);
   /// The newest tick heard from `module`'s world (each fault on the module records it: FaultRecord::module_tick).
   void on_tick(const std::string& module, long tick) { ticks_[module] = tick; }
+  /// The launcher parked `module` for load (admission or shedding), or brought it back.
+  void on_parked(const std::string& module, bool parked) {
+    if (parked) {
+      parked_.insert(module);
+    } else {
+      parked_.erase(module);
+    }
+  }
   /// Carries out what is due at `t`: scheduled faults, faults that waited, and timed follow-ups (continue a
   /// stalled process, plug a module or robot in again).
   void step(double t);
@@ -96,8 +104,10 @@ class Nemesis {
   const std::map<std::string, ProcessView>& processes() const { return procs_; }
   size_t waiting() const { return waiting_.size(); }
   /// Targets a fault of this kind could hit now (process labels; modules for unplug module). A kill of a world or an
-  /// unplug of a module needs two modules up (one always runs); a stall of a world takes no module out, so the only
-  /// one running may be stalled (a CI soak skipped its world stall while admission had parked the other module).
+  /// unplug of a module needs two modules up (one always runs), unless the others are parked for load by the
+  /// launcher: they are the deployment's still, and come back when the machine is calm (on a machine that fits one
+  /// module, the CI soak's world kill and module unplug never found a target while the governor held the second
+  /// back). A stall of a world takes no module out, so the only one running may be stalled.
   std::vector<std::string> candidates(Target target, double t, FaultKind kind = FaultKind::Kill) const;
 
  private:
@@ -130,6 +140,7 @@ class Nemesis {
   std::map<std::string, long> ticks_;  ///< module -> the newest tick heard from its world
   std::map<std::string, double> module_started_;  ///< module -> when its (latest) world turned active
   std::set<std::string> out_;                     ///< modules taken out, to be plugged in again
+  std::set<std::string> parked_;                  ///< modules the launcher parked for load
   std::map<long long, std::string> stalled_;      ///< pid -> label
   std::map<long long, size_t> hogs_;              ///< pid -> its fault record
   std::vector<Pending> pending_;

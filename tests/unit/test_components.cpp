@@ -768,18 +768,22 @@ TEST_CASE("supervisor component: a standby takes over when the leader's plans st
 
 TEST_CASE("supervisor component: a leader that dies while the world waits for its first tick is taken over in wall time", "[components]") {
   // The world's start wait: it reports tick 0 every 20 ms and does not tick (a robot that has not answered yet,
-  // up to 5 s). The leader dies: its silence cannot grow in ticks, so 200 ms of wall time with the reports flowing
-  // suffice; not before.
+  // up to 5 s), with the object where the plan starts. The leader dies: its silence cannot grow in ticks, so 200 ms
+  // of wall time with the reports flowing suffice (not before); and the object's speed is known, 0, though there is
+  // no report 10-200 ticks back to measure it (the CI soak loop saw both rules hold a takeover for 5 s).
   const ts::ModuleSetup& m = sosm();
   const int64_t ms = 1000000;
   SupervisorOptions lo{"m1/supervisor", 100, true, 0.1}, so{"m1/supervisor@50", 50, true, 0.1};
   SupervisorCore leader(m, lo, 0), standby(m, so, 0);
   std::string log;
   standby.set_log([&](const std::string& l) { log += l + "\n"; });
+  tandem::supervisor::ReportIn at0 = report_at(0);
+  at0.object_xy = tp::ModulePlan(m, true).sample(0).pose.head<2>();
+  at0.object_known = true;
   int64_t t = 0;
   for (; t < 300 * ms; t += 20 * ms) {  // both hear the world at tick 0; the leader's plans reach the standby
-    leader.on_report(report_at(0), t);
-    standby.on_report(report_at(0), t);
+    leader.on_report(at0, t);
+    standby.on_report(at0, t);
     leader.update(t);
     if (auto p = leader.take_plan()) standby.on_plan(*p, t);
     standby.update(t);
@@ -788,7 +792,7 @@ TEST_CASE("supervisor component: a leader that dies while the world waits for it
   const int64_t died = t;
   int64_t took = -1;
   for (; t < died + 1000 * ms && took < 0; t += 10 * ms) {  // the leader is dead; still tick 0
-    if (t % (20 * ms) == 0) standby.on_report(report_at(0), t);
+    if (t % (20 * ms) == 0) standby.on_report(at0, t);
     standby.update(t);
     if (standby.active()) took = t - died;
   }

@@ -312,7 +312,11 @@ void SupervisorCore::update(int64_t now_ns) {
   // tell (in lockstep a world that waits at its lease for a dead leader runs on once the lease lapses, 3 s). A
   // world that does not report the object: the version rule alone, as the position rule.
   const std::optional<double> speed_off = replica_speed_off();
-  const bool moves_as_replica = !object_known_ || (speed_off && *speed_off < kReplicaSpeedMatch);
+  // A world that has not ticked yet (its start wait reports tick 0) has not moved the object: its speed is known, 0.
+  const bool not_ticking = heard_tick_ <= 0 && stronger_tick_ <= 0;
+  const bool moves_as_replica =
+      !object_known_ || (not_ticking && plan_.sample(0).vel.head<2>().norm() == 0.0) ||
+      (speed_off && *speed_off < kReplicaSpeedMatch);
   const bool alone_ok = failed_ || (heard_tick_ > kTakeOverTicks && !behind && moves_as_replica &&
                                     (plan_.sample(heard_tick_).pose.head<2>() - object_xy_).norm() < kAloneMatch);
   if (!heard_stronger_ && !active_ && now_ns - t_start_ > kTakeOverAloneNs && !alone_ok && !alone_refused_ && !deaf_) {
@@ -322,7 +326,6 @@ void SupervisorCore::update(int64_t now_ns) {
   // Silent in wall time and in ticks. Lockstep (a lease): the world runs no further than kPlanLeaseTicks past what
   // the leader had heard, so a silent leader shows as half a lease of ticks, not kTakeOverTicks (never reached).
   const long silent_ticks = o_.lease_every > 0 ? o_.lease_every / 2 : kTakeOverTicks;
-  const bool not_ticking = heard_tick_ <= 0 && stronger_tick_ <= 0;  // the world's start wait (reports of tick 0)
   const bool leader_silent =
       heard_stronger_ && now_ns - last_stronger_ > kTakeOverAfterNs &&
       (heard_tick_ - stronger_tick_ > silent_ticks || (not_ticking && now_ns - last_stronger_ > kTakeOverAtStartNs));

@@ -656,3 +656,33 @@ TEST_CASE("soak checker: a deployment that ended by itself before the soak stopp
   REQUIRE(find(v, "progress") != nullptr);
   CHECK_THAT(find(v, "progress")->text, Catch::Contains("ended by itself at 0.0 s of 60.0 s") && Catch::Contains("exit 2"));
 }
+
+TEST_CASE("soak checker: a module plugged in again after its world's kill is back when running, or when the launcher parks it for load") {
+  auto run = [](bool parked, double back_at) {
+    History h = quiet_history(60.0);
+    FaultRecord f;
+    f.fault.index = 1;
+    f.fault.kind = FaultKind::Kill;
+    f.fault.target = Target::World;
+    f.t = 20.0;
+    f.end_t = 22.0;  // plugged in again
+    f.label = "m1/world";
+    f.module = "m1";
+    f.pid = 100;
+    h.faults.push_back(f);
+    add_event(h, {0.2, Event::Type::State, "m1/world", "2 100"});
+    if (parked) add_event(h, {22.3, Event::Type::Parked, "m1", "overload: the running modules were paused for load 88% of the last 20 s"});
+    if (back_at > 0.0) add_event(h, {back_at, Event::Type::State, "m1/world", "2 200"});
+    return check(h, Bounds{});
+  };
+  auto back_violation = [](const Verdict& v) {
+    for (const auto& x : v.violations) {
+      if (x.text.find("was not running again") != std::string::npos) return true;
+    }
+    return false;
+  };
+  CHECK_FALSE(back_violation(run(false, 25.0)));   // its new world is active 3 s after the plug
+  CHECK(back_violation(run(false, -1.0)));         // never again: a violation
+  CHECK(back_violation(run(false, 40.0)));         // 18 s after the plug: past the 15 s bound
+  CHECK_FALSE(back_violation(run(true, -1.0)));    // parked for load 0.3 s after the plug: the governor's, by design
+}

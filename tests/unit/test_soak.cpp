@@ -686,3 +686,26 @@ TEST_CASE("soak checker: a module plugged in again after its world's kill is bac
   CHECK(back_violation(run(false, 40.0)));         // 18 s after the plug: past the 15 s bound
   CHECK_FALSE(back_violation(run(true, -1.0)));    // parked for load 0.3 s after the plug: the governor's, by design
 }
+
+TEST_CASE("soak checker: a fault's recovery is not judged when the launcher parks its module for load before it is due") {
+  auto run = [](double parked_at) {
+    History h = quiet_history(60.0);
+    FaultRecord f = kill_left(20.0);
+    f.fault.target = Target::Standby;  // a standby killed: its replacement must be active within 10 s
+    f.label = "m1/left@50";
+    f.pid = 150;
+    h.faults.push_back(f);
+    add_event(h, {0.3, Event::Type::State, "m1/left@50", "2 150"});
+    if (parked_at > 0.0) add_event(h, {parked_at, Event::Type::Parked, "m1", "overload: paused for load 63% of the last 20 s"});
+    return check(h, Bounds{});
+  };
+  auto replacement_violation = [](const Verdict& v) {
+    for (const auto& x : v.violations) {
+      if (x.text.find("no replacement robot") != std::string::npos) return true;
+    }
+    return false;
+  };
+  CHECK(replacement_violation(run(-1.0)));        // no replacement and no park: a violation
+  CHECK_FALSE(replacement_violation(run(20.2)));  // parked 0.2 s after the kill: its restart was dropped by design
+  CHECK(replacement_violation(run(35.0)));        // parked only after the bound: the violation stands
+}

@@ -1,3 +1,6 @@
+#include <algorithm>
+#include <cstdint>
+
 #include "world_wire.hpp"
 
 namespace tandem::world_wire {
@@ -90,7 +93,7 @@ std::vector<msg::ArmOwner> owners(const world::WorldCore& core) {
                                          : msg::ARM_BRAKED_LOAD);
     w.robot(o.robot);
     w.strength(o.strength);
-    w.handover_ticks(o.state == State::Served ? o.handover_ticks : -1);
+    w.handover_ticks(o.state == State::Served ? static_cast<int32_t>(std::min<long>(o.handover_ticks, INT32_MAX)) : -1);
   }
   return out;
 }

@@ -660,14 +660,10 @@ TEST_CASE("soak checker: a deployment that ended by itself before the soak stopp
 TEST_CASE("soak checker: a module plugged in again after its world's kill is back when running, or when the launcher parks it for load") {
   auto run = [](bool parked, double back_at) {
     History h = quiet_history(60.0);
-    FaultRecord f;
-    f.fault.index = 1;
-    f.fault.kind = FaultKind::Kill;
+    FaultRecord f = kill_left(20.0);
     f.fault.target = Target::World;
-    f.t = 20.0;
     f.end_t = 22.0;  // plugged in again
     f.label = "m1/world";
-    f.module = "m1";
     f.pid = 100;
     h.faults.push_back(f);
     add_event(h, {0.2, Event::Type::State, "m1/world", "2 100"});

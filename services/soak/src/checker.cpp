@@ -325,18 +325,6 @@ class Judge {
     }
     return -1.0;
   }
-  /// A module plugged in again at t is back when its world (a new process) turns active, or when the launcher parks
-  /// it for load first: then the governor holds it back by design, and brings it back when calm (its own rules,
-  /// unit-tested). A CI soak loop run saw m2 parked the moment it was plugged in again after its world's kill (the
-  /// running modules had been paused for load 88% of the last 20 s): not a failed recovery.
-  double module_back(const std::string& module, long long old_pid, double t) const {
-    const double active = slot_active(module + "/world", old_pid, t);
-    for (const Event& e : h_.events) {
-      if (e.t < t || e.type != Event::Type::Parked || e.subject != module) continue;
-      return active >= 0.0 ? std::min(active, e.t) : e.t;
-    }
-    return active;
-  }
   /// Whether the launcher parked `module` for load in [t0, t1].
   bool parked_between(const std::string& module, double t0, double t1) const {
     for (const Event& e : h_.events) {
@@ -399,7 +387,8 @@ class Judge {
     if (from + bound > h_.stop_s) return;  // the run ended before the bound: not judged
     // The launcher parked the fault's module for load before its recovery was due: its processes stopped (pending
     // restarts dropped) by design, and its return is the governor's (unit-tested). Not judged. (The CI soak loop:
-    // a standby killed 0.2 s before m2 was parked, "no replacement robot ... within 10 s".)
+    // a standby killed 0.2 s before m2 was parked, "no replacement robot ... within 10 s"; m2 parked the moment it
+    // was plugged in again after its world's kill, "not running again".)
     if (!f.module.empty() && parked_between(f.module, f.t, from + bound)) return;
     violate(inv, f.t, f.fault.index,
             fmt("fault #%d (%s %s at %.1f s): %s within %.1f s%s", f.fault.index, label(f.fault.kind, f.fault.target).c_str(),
@@ -438,7 +427,7 @@ class Judge {
           if (f.end_t < 0.0) {
             judge(inv, f, "kill world: module back", -1.0, f.t, f.fault.duration_s + kReplugS, module + " was not plugged in again");
           } else {
-            judge(inv, f, "kill world: module back", module_back(module, f.pid, f.end_t), f.end_t,
+            judge(inv, f, "kill world: module back", slot_active(module + "/world", f.pid, f.end_t), f.end_t,
                   b_.module_back_s, module + " was not running again (nor parked for load) after it was plugged in");
           }
         }
@@ -458,7 +447,7 @@ class Judge {
           if (f.end_t < 0.0) {
             judge(inv, f, "unplug module: back", -1.0, f.t, f.fault.duration_s + kReplugS, module + " was not plugged in again");
           } else {
-            judge(inv, f, "unplug module: back", module_back(module, f.pid, f.end_t), f.end_t,
+            judge(inv, f, "unplug module: back", slot_active(module + "/world", f.pid, f.end_t), f.end_t,
                   b_.module_back_s, module + " was not running again (nor parked for load) after it was plugged in");
           }
         } else {

@@ -97,6 +97,7 @@ class WorldProcess {
       std::fflush(stdout);
     });
     inbox_.set_sources({torques0_.get(), torques1_.get()});
+    pacer_.start_expect(opt.standbys);
     status_.msg().deployment(opt.deployment);
     status_.set(runtime::Lifecycle::Inactive, "waiting for the supervisor and two robots");
     rep_.module_id(opt.module);
@@ -116,7 +117,6 @@ class WorldProcess {
       core_.begin_tick(k_, sent_, samples_);
       publish_status_if_changed();
       if (k_ % 100 == 0) publish_live_status();
-      if (k_ == 0 && !opt_.realtime) say_first_tick();  // real time: after the start wait
       if (opt_.realtime) {
         const int64_t woke_late_ns = clock_.begin(sent_);  // re-anchors after a stall
         wake_late_us_.add(static_cast<double>(woke_late_ns) * 1e-3);
@@ -127,6 +127,9 @@ class WorldProcess {
       if (core_.report_due(m_.steps)) send_report();
       if (opt_.realtime && k_ == 0) start_wait();
       const bool gave_up = collect_commands();
+      // Lockstep: once tick 0's commands are in (every robot of each arm, LockstepPacer); real time: after the start
+      // wait. A fault injected "after the first tick" then lands in the run, not in its start.
+      if (k_ == 0 && !opt_.realtime) say_first_tick();
       if (runtime::g_stop) break;
       if (!end_tick(gave_up)) break;
     }
@@ -148,10 +151,11 @@ class WorldProcess {
   // module, is normally there by then). Returns -1 when the peers are there, else the exit code.
   int wait_for_peers() {
     const int readers_all = 1 + opt_.observers;
+    const int writers_all = 1 + (opt_.realtime ? 0 : opt_.standbys);  // lockstep: every robot of the arm (tick 0)
     runtime::PeerWait peers({{"sensor readers of " + ctx_.arm_id(0), readers_all, std::min(readers_all, 2)},
                              {"sensor readers of " + ctx_.arm_id(1), readers_all, std::min(readers_all, 2)},
-                             {"torque writer of " + ctx_.arm_id(0), 1},
-                             {"torque writer of " + ctx_.arm_id(1), 1},
+                             {"torque writers of " + ctx_.arm_id(0), writers_all, 1},
+                             {"torque writers of " + ctx_.arm_id(1), writers_all, 1},
                              {"supervisor (report reader)", 1},
                              {"launcher (summary reader)", 1}},
                             opt_.timeout, seconds());
@@ -305,6 +309,7 @@ class WorldProcess {
     }
     model::JointVec tau(std::clamp(static_cast<int>(cmd.joints()), 1, model::kMaxJoints));
     for (int i = 0; i < tau.size(); ++i) tau(i) = cmd.tau()[static_cast<size_t>(i)];
+    if (!opt_.realtime && k_ == 0 && cmd.tick() == 0) pacer_.start_heard(item.source, cmd.strength());
     if (core_.on_command(item.source, static_cast<long>(cmd.tick()), tau, cmd.strength(), item.at_ns, late_arrival,
                          cmd.leaving()) == world::WorldCore::Verdict::Applied &&
         opt_.realtime && measure) {
@@ -364,7 +369,13 @@ class WorldProcess {
       if (opt_.realtime) {
         if (now_ns() >= deadline_ns_) break;
         ::clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &deadline, nullptr);  // the commands queue meanwhile
-      } else if (core_.lockstep_done()) {
+      } else if (core_.lockstep_done() && (k_ > 0 || pacer_.start_answers_in(pacer_.commands_waited(seconds())))) {
+        if (k_ == 0 && pacer_.start_short()) {
+          std::fprintf(stderr, "tandem-world %s: tick 0: %d and %d of the %d robots of each arm answered within %.1f s; "
+                       "going on (a standby that answers later runs in shadow from then on)\n", opt_.module.c_str(),
+                       pacer_.start_heard_count(0), pacer_.start_heard_count(1), 1 + opt_.standbys,
+                       pacer_.rules().start_answers_s);
+        }
         break;
       } else {
         if (!core_.lockstep_waited(pacer_.commands_waited(seconds()), opt_.timeout, now_ns())) return true;

@@ -75,6 +75,7 @@ TEST_CASE("role options: bad values are refused by name, with exit code 2, and -
       {"world", false, {"--scenario", "s", "--case", "PD", "--timeout", "0"}, "--timeout"},
       {"world", false, {"--scenario", "s", "--case", "PD", "--timeout", "nan"}, "--timeout"},
       {"world", false, {"--scenario", "s", "--case", "PD", "--observers", "17"}, "--observers"},
+      {"world", false, {"--scenario", "s", "--case", "PD", "--standbys", "8"}, "--standbys"},
       {"world", false, {"--scenario", "s", "--case", "PD", "--strength", "50"}, "--strength"},  // robots and supervisors only
       {"robot", true, {"--scenario", "s", "--case", "PD", "--arm", "left", "--strength", "0"}, "--strength"},
       {"supervisor", false, {"--scenario", "s", "--case", "PD", "--speed", "2"}, "--speed"},
@@ -149,6 +150,7 @@ TEST_CASE("one form: the launcher's command line of a role reads back as the sam
       o.overload_brake = variant != 0;
       o.test_no_brakes = variant == 0;
       o.observers = variant == 0 ? 3 : 0;
+      o.standbys = variant == 0 ? 2 : 0;
       o.strength = r == "world" ? RoleOptions::kPrimaryStrength : (variant == 0 ? 49 : 100);
       const std::vector<std::string> args = tandem::runtime::role_args(r, o);
       std::vector<const char*> argv{"tandem-x"};
@@ -172,6 +174,7 @@ TEST_CASE("one form: the launcher's command line of a role reads back as the sam
       CHECK(back.overload_brake == o.overload_brake);
       CHECK(back.test_no_brakes == o.test_no_brakes);
       CHECK(back.observers == o.observers);
+      CHECK(back.standbys == o.standbys);
       CHECK(back.strength == o.strength);
     }
   }

@@ -1429,6 +1429,41 @@ TEST_CASE("lockstep pacer: the lease wait resends the report every 20 ms and lap
   CHECK(held->commands_s == Approx(0.05));
 }
 
+TEST_CASE("lockstep pacer: tick 0 waits for every robot of each arm, a repeat or a third arm counts nothing, and at most 2 s", "[components]") {
+  using tandem::world::LockstepPacer;
+  LockstepPacer p;
+  p.start_expect(1);  // a primary and one standby per arm
+  CHECK_FALSE(p.start_answers_in(0.0));
+  p.start_heard(0, 50);   // the standby of the left arm first (discovery order)
+  p.start_heard(0, 50);   // its repeat (samples sent again) is the same robot
+  p.start_heard(2, 100);  // no arm 2: ignored
+  p.start_heard(1, 100);
+  p.start_heard(1, 50);
+  CHECK(p.start_heard_count(0) == 1);
+  CHECK(p.start_heard_count(1) == 2);
+  CHECK_FALSE(p.start_answers_in(1.9));
+  p.start_heard(0, 100);
+  CHECK(p.start_answers_in(0.01));
+  CHECK_FALSE(p.start_short());
+  // A standby that never answers holds tick 0 for 2 s, then the module goes on without it, and says so.
+  LockstepPacer q;
+  q.start_expect(2);
+  for (const int j : {0, 1}) {
+    q.start_heard(j, 100);
+    q.start_heard(j, 50);
+  }
+  CHECK_FALSE(q.start_answers_in(2.0));
+  CHECK(q.start_answers_in(2.001));
+  CHECK(q.start_short());
+  // Without standbys the first answer of each arm is enough (the old rule).
+  LockstepPacer r;
+  r.start_expect(0);
+  r.start_heard(0, 50);
+  CHECK_FALSE(r.start_answers_in(0.0));
+  r.start_heard(1, 100);
+  CHECK(r.start_answers_in(0.0));
+}
+
 TEST_CASE("lockstep lease: the world runs at most 10 ticks past what its leader heard; the leader publishes at every report; a standby still takes over a silent leader", "[components]") {
   const ts::ModuleSetup& m = sosm();
   const int64_t ms = 1000000;

@@ -54,6 +54,8 @@ bool parse_role_options(const char* role, int argc, const char* const* argv, boo
   app.add_flag("--test-no-brakes", o.test_no_brakes, "world, test only: an arm whose controller is gone keeps no brake");
   app.add_option("--observers", o.observers, "world: sensor readers besides the first robot to wait for at start")
       ->check(CLI::Range(0, 16))->capture_default_str()->type_name("N");
+  app.add_option("--standbys", o.standbys, "world, lockstep: robots per arm besides the primary; tick 0 waits for their first answers")
+      ->check(CLI::Range(0, 7))->capture_default_str()->type_name("N");
   if (ranked) {
     app.add_option("--strength", o.strength, "ownership strength (robot) or rank (supervisor); 100: primary")
         ->check(CLI::Range(1, 1000000))->capture_default_str()->type_name("N");
@@ -81,6 +83,7 @@ std::vector<std::string> role_args(const std::string& role, const RoleOptions& o
   if (o.continuous) a.emplace_back("--continuous");
   if (!o.overload_brake) a.emplace_back("--no-overload-brake");
   if (o.test_no_brakes) a.emplace_back("--test-no-brakes");
+  if (o.standbys > 0) a.insert(a.end(), {"--standbys", std::to_string(o.standbys)});
   if (o.observers > 0) a.insert(a.end(), {"--observers", std::to_string(o.observers)});
   if (role == "robot") a.insert(a.end(), {"--arm", o.arm});
   if (role == "robot" || role == "supervisor") a.insert(a.end(), {"--strength", std::to_string(o.strength)});

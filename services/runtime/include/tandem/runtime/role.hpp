@@ -28,6 +28,7 @@ struct RoleOptions {
   bool continuous = false;    ///< run until stopped, tasks from the coordinator (else the scenario's task)
   bool overload_brake = true; ///< world, real time: brake and pause a module whose commands keep coming late
   bool test_no_brakes = false; ///< world, test only: never brake an arm whose controller is gone
+  int standbys = 0;           ///< world, lockstep: robots per arm besides the primary, whose first answers tick 0 waits for
   int observers = 0;          ///< world, lockstep: sensor readers besides the first robot (standbys, a recorder) to wait for before tick 0
   int strength = kPrimaryStrength;  ///< robot: ownership strength of its torque writer; supervisor: its rank (standby: lower)
   static constexpr int kPrimaryStrength = plan::kPrimaryStrength;  // one definition (services/plan)

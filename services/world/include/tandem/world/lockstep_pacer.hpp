@@ -5,6 +5,8 @@
 // be said (with what it waited for). Real time has none of this (its deadline is the clock's).
 #pragma once
 
+#include <array>
+#include <cstdint>
 #include <optional>
 
 namespace tandem::world {
@@ -28,6 +30,8 @@ class LockstepPacer {
     double republish_s = 0.05;
     /// A tick that held the module this long is said (below it: scheduling noise on 2 cores).
     double long_tick_s = 0.3;
+    /// Tick 0 waits this long at most for the first answers of every robot of each arm (start_answers_in).
+    double start_answers_s = 2.0;
   };
   enum class LeaseAction { Wait, ResendReport, Lapsed };
   /// A tick that held the module long, split by what it waited for.
@@ -92,6 +96,36 @@ class LockstepPacer {
     return true;
   }
 
+  // ---- tick 0: every robot of each arm ---------------------------------------------------------------------
+  /// Tick 0 waits for the first answers of each arm's primary and its `standbys`, not only for the first robot
+  /// heard: then every robot of an arm computes every tick from tick 0 on the same samples, and the strongest
+  /// serves from the first tick (WorldCore: a stronger robot's answer in the first ticks takes the arm). Without
+  /// it, which robot served and from which tick a standby ran in shadow depended on discovery order, and so did
+  /// the run (a standby whose first sample was tick 1424 served after a failover with another controller memory
+  /// than the embedded run's; a standby heard first kept its primary in shadow for the whole run).
+  void start_expect(int standbys) { start_expected_ = 1 + (standbys < 0 ? 0 : standbys); }
+  /// An answer to tick 0 for arm `arm` (0 or 1) from the robot of `strength`.
+  void start_heard(int arm, int32_t strength) {
+    if (arm < 0 || arm > 1) return;
+    StartArm& a = start_[static_cast<size_t>(arm)];
+    for (int i = 0; i < a.n; ++i) {
+      if (a.strengths[static_cast<size_t>(i)] == strength) return;
+    }
+    if (a.n < static_cast<int>(a.strengths.size())) a.strengths[static_cast<size_t>(a.n++)] = strength;
+  }
+  /// Whether tick 0 may end (its commands are in): every arm heard from `standbys` + 1 robots, or `waited` (since
+  /// the tick's samples went out) is past start_answers_s (start_short() then says so).
+  bool start_answers_in(double waited) {
+    if (start_[0].n >= start_expected_ && start_[1].n >= start_expected_) return true;
+    if (waited <= r_.start_answers_s) return false;
+    start_short_ = true;
+    return true;
+  }
+  /// Tick 0 went on without some robot's answer.
+  bool start_short() const { return start_short_; }
+  /// The robots heard at tick 0 for arm `arm`.
+  int start_heard_count(int arm) const { return start_[static_cast<size_t>(arm)].n; }
+
   /// The end of the tick (after its step): the account if it held the module longer than long_tick_s.
   std::optional<LongTick> tick_end(double now) const {
     const double total = now - tick_start_;
@@ -116,6 +150,13 @@ class LockstepPacer {
   long lapsed_lease_ = -2;  // none (a lease is a tick >= -1)
   long lease_waits_ = 0;
   int resent_ = 0, republished_ = 0;
+  struct StartArm {
+    std::array<int32_t, 8> strengths{};
+    int n = 0;
+  };
+  std::array<StartArm, 2> start_{};
+  int start_expected_ = 1;
+  bool start_short_ = false;
 };
 
 }  // namespace tandem::world

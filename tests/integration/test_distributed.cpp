@@ -1000,10 +1000,24 @@ TEST_CASE("tandem up --check estimates the real-time load and warns when the mac
   CHECK(r.output.find("expect modules to pause for load") != std::string::npos);
   CHECK(r.output.find("started") == std::string::npos);
   const Run small = run(kBin + "/tandem up " + kSrc + "/deploy/one-module-realtime.yaml --check");
+  INFO(small.output);
   CHECK(small.exit_code == 0);
-  CHECK(small.output.find("real time: about 0.") != std::string::npos);
   CHECK(small.output.find("calibrated here: wake-up ") != std::string::npos);
-  CHECK(small.output.find("warning") == std::string::npos);
+  // One module needs its per-module figure. On a quiet machine that fits (about 0.6 core); the calibration measures
+  // the machine as it is, and a busy one (the suite runs two tests at once) once measured 0.78 per module: said as
+  // a fit or as a warning, never both, and the same figure either way.
+  const size_t per = small.output.find(" per module");
+  REQUIRE(per != std::string::npos);
+  const size_t open = small.output.rfind('(', per);
+  REQUIRE(open != std::string::npos);
+  const double small_per_module = std::atof(small.output.c_str() + open + 1);
+  CHECK(small_per_module > 0.02);
+  CHECK(small_per_module < 2.0);
+  const bool fits = small.output.find("real time: about ") != std::string::npos;
+  CHECK(fits != (small.output.find("warning") != std::string::npos));
+  const size_t about = fits ? small.output.find("real time: about ") + std::strlen("real time: about ")
+                            : small.output.find("needs about ") + std::strlen("needs about ");
+  CHECK(std::atof(small.output.c_str() + about) == Approx(small_per_module).margin(0.006));
   CHECK_FALSE(processes_left(domain));
 }
 

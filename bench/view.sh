@@ -7,7 +7,12 @@
 # clients got. A bare reference comes first: the same N modules with no viewer (the "no" rows).
 #
 # Usage: bash bench/view.sh [N ...]      default: 1 4 8
-#   env: REPS (default 3), SECONDS_RUN (scenario duration, default 10), DOMAIN_BASE (default 170),
+#   env: CLIENTS=stalled: instead of the two live clients, one Foxglove client that subscribes to every channel and
+#        then reads nothing for the run (tests/tools/view/foxglove_client.mjs --stall): the "yes" rows are then the
+#        deployment beside a viewer whose only client never reads; the columns "client" and "rss_kB+" then say
+#        whether it stalled to the end and the viewer's RSS growth [kB] from the client's start to just before it
+#        closes (SECONDS_RUN of 8 or more).
+#        REPS (default 3), SECONDS_RUN (scenario duration, default 10), DOMAIN_BASE (default 170),
 #        PRIO (realtime_priority, default 20), NODE_DIR (where bench_clients.mjs and its ws package are; default
 #        build/tests/record-work/node, which the test suite fills)
 set -euo pipefail
@@ -17,7 +22,10 @@ bin=build/bin
 [ -x "$bin/tandem" ] || { echo "view.sh: build first (bash scripts/build.sh)" >&2; exit 2; }
 node_dir="${NODE_DIR:-build/tests/record-work/node}"
 [ -d "$node_dir/node_modules/ws" ] || { echo "view.sh: no ws package in $node_dir (run the view test once: ctest -R view:)" >&2; exit 2; }
-cp tests/tools/view/bench_clients.mjs "$node_dir/"
+cp tests/tools/view/bench_clients.mjs tests/tools/view/foxglove_client.mjs "$node_dir/"
+mode="${CLIENTS:-live}"
+[ "$mode" != stalled ] || [ "${SECONDS_RUN:-10}" -ge 8 ] || { echo "view.sh: CLIENTS=stalled needs SECONDS_RUN >= 8" >&2; exit 2; }
+[ "$mode" = live ] || [ "$mode" = stalled ] || { echo "view.sh: CLIENTS must be live or stalled, got '$mode'" >&2; exit 2; }
 ns=("$@")
 [ ${#ns[@]} -gt 0 ] || ns=(1 4 8)
 for n in "${ns[@]}"; do
@@ -29,9 +37,13 @@ prio="${PRIO:-20}"
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 echo "machine: $(nproc) cores, $(lscpu | sed -n 's/^Model name: *//p'), kernel $(uname -r)"
-echo "command: bash bench/view.sh ${ns[*]}  (REPS=$reps, duration ${dur} s, realtime_priority $prio, commit $(git rev-parse --short HEAD 2>/dev/null || echo '?'))"
+echo "command: bash bench/view.sh ${ns[*]}  (CLIENTS=$mode, REPS=$reps, duration ${dur} s, realtime_priority $prio, commit $(git rev-parse --short HEAD 2>/dev/null || echo '?'))"
 sed "s/^  duration: .*/  duration: $dur/" config/scenarios/paper.yaml > "$work/scenario.yaml"
-printf "%-3s %-5s %-7s %-7s %-7s %-8s %-9s %-10s %-10s %-6s %-8s\n" N view late% p50_us p99_us cpu/mod view_cpu page_msgs fox_msgs slips result
+if [ "$mode" = stalled ]; then
+  printf "%-3s %-5s %-7s %-7s %-7s %-8s %-9s %-10s %-10s %-6s %-8s\n" N view late% p50_us p99_us cpu/mod view_cpu client rss_kB+ slips result
+else
+  printf "%-3s %-5s %-7s %-7s %-7s %-8s %-9s %-10s %-10s %-6s %-8s\n" N view late% p50_us p99_us cpu/mod view_cpu page_msgs fox_msgs slips result
+fi
 idx=0
 for n in "${ns[@]}"; do
   for rep in $(seq 1 "$reps"); do
@@ -66,7 +78,14 @@ for n in "${ns[@]}"; do
       if [ -n "$first" ]; then
         if [ "$view" = yes ]; then
           port=$(sed -n 's/^tandem view: .* at http:\/\/127\.0\.0\.1:\([0-9]*\)\/.*/\1/p' "$log" | head -1)
-          node "$node_dir/bench_clients.mjs" "ws://127.0.0.1:$port" $(( dur - 2 )) > "$work/clients.log" 2>&1 &
+          if [ "$mode" = stalled ]; then
+            vpid0=$(pgrep -P "$up" -f "tandem view" || true)
+            rss0=$(awk '/^VmRSS/ {print $2}' "/proc/$vpid0/status" 2>/dev/null || echo 0)
+            node "$node_dir/foxglove_client.mjs" "ws://127.0.0.1:$port" tandem/arm_sensors/m1/left 1 --stall $(( dur - 2 )) \
+              > "$work/clients.log" 2>&1 &
+          else
+            node "$node_dir/bench_clients.mjs" "ws://127.0.0.1:$port" $(( dur - 2 )) > "$work/clients.log" 2>&1 &
+          fi
           clients=$!
         fi
         sleep 1
@@ -77,7 +96,14 @@ for n in "${ns[@]}"; do
         cpu_snap $pids $vpid > "$work/t1"; w1=$(date +%s.%N)
         cpu=$(cpu_cores "$work/t0" "$work/t1" "$w0" "$w1" "$n" "$pids")
         [ -n "$vpid" ] && vcpu=$(cpu_cores "$work/t0" "$work/t1" "$w0" "$w1" 1 "$vpid")
-        if [ "$view" = yes ]; then
+        if [ "$view" = yes ] && [ "$mode" = stalled ]; then
+          # The viewer's RSS once the client has stalled for the run (read just before it closes), minus at its start.
+          sleep $(( dur - 2 - 4 - 1 )) 2>/dev/null || true
+          rss1=$(awk '/^VmRSS/ {print $2}' "/proc/$vpid/status" 2>/dev/null || echo 0)
+          wait "$clients" || true
+          grep -q "stalled" "$work/clients.log" && pmsg=stalled || pmsg="client-failed"
+          fmsg=$(( rss1 - rss0 ))
+        elif [ "$view" = yes ]; then
           wait "$clients" || true
           pmsg=$(awk '$1 == "page" {print $2}' "$work/clients.log"); fmsg=$(awk '$1 == "foxglove" {print $2}' "$work/clients.log")
         fi

@@ -67,12 +67,13 @@ class CommandLines {
     const runtime::ModuleDeployment& m = modules_.at(c.module);
     runtime::RoleOptions o = role_options(m);
     if (c.role == "world") {
-      // The world waits for every robot of each arm (standbys included) before its first tick: in lockstep so that
-      // each computes every tick from the first (runtime::RoleOptions::standbys, world::LockstepPacer), on several
-      // hosts because the primaries' host may answer later than a standby's and the arms would start braked. (With
-      // a recorder role_options counts them already.)
+      // The world waits for every robot of each arm (standbys included) before its first tick: in lockstep for their
+      // torque writers and their first answers, so that each computes every tick from the first (RoleOptions::
+      // standbys, world::LockstepPacer); on several hosts also for their sensor readers, because the primaries' host
+      // may answer later than a standby's and the arms would start braked. (With a recorder role_options counts the
+      // readers already.)
       o.standbys = m.standby;
-      if ((!d_.hosts.empty() || !o.realtime) && !records_ticks() && m.standby > 0) o.observers = m.standby;
+      if (!d_.hosts.empty() && !records_ticks() && m.standby > 0) o.observers = m.standby;
     } else {
       if (c.role == "robot") o.arm = slot_of(c);
       o.strength = c.strength;

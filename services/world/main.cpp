@@ -129,7 +129,7 @@ class WorldProcess {
       const bool gave_up = collect_commands();
       // Lockstep: once tick 0's commands are in (every robot of each arm, LockstepPacer); real time: after the start
       // wait. A fault injected "after the first tick" then lands in the run, not in its start.
-      if (k_ == 0 && !opt_.realtime) say_first_tick();
+      if (k_ == 0 && !opt_.realtime && !gave_up && !runtime::g_stop) say_first_tick();
       if (runtime::g_stop) break;
       if (!end_tick(gave_up)) break;
     }
@@ -152,6 +152,7 @@ class WorldProcess {
   int wait_for_peers() {
     const int readers_all = 1 + opt_.observers;
     const int writers_all = 1 + (opt_.realtime ? 0 : opt_.standbys);  // lockstep: every robot of the arm (tick 0)
+    // (After half the timeout one torque writer per arm is enough: a standby that never comes holds no module.)
     runtime::PeerWait peers({{"sensor readers of " + ctx_.arm_id(0), readers_all, std::min(readers_all, 2)},
                              {"sensor readers of " + ctx_.arm_id(1), readers_all, std::min(readers_all, 2)},
                              {"torque writers of " + ctx_.arm_id(0), writers_all, 1},
@@ -309,10 +310,13 @@ class WorldProcess {
     }
     model::JointVec tau(std::clamp(static_cast<int>(cmd.joints()), 1, model::kMaxJoints));
     for (int i = 0; i < tau.size(); ++i) tau(i) = cmd.tau()[static_cast<size_t>(i)];
-    if (!opt_.realtime && k_ == 0 && cmd.tick() == 0) pacer_.start_heard(item.source, cmd.strength());
-    if (core_.on_command(item.source, static_cast<long>(cmd.tick()), tau, cmd.strength(), item.at_ns, late_arrival,
-                         cmd.leaving()) == world::WorldCore::Verdict::Applied &&
-        opt_.realtime && measure) {
+    const world::WorldCore::Verdict v = core_.on_command(item.source, static_cast<long>(cmd.tick()), tau, cmd.strength(),
+                                                         item.at_ns, late_arrival, cmd.leaving());
+    // Lockstep tick 0: a valid answer to it counts for the wait for every robot of the arm (not a refused or a last one).
+    if (!opt_.realtime && k_ == 0 && cmd.tick() == 0 && !cmd.leaving() && v != world::WorldCore::Verdict::Rejected) {
+      pacer_.start_heard(item.source, cmd.strength());
+    }
+    if (v == world::WorldCore::Verdict::Applied && opt_.realtime && measure) {
       const double us = static_cast<double>(item.at_ns - sent_) * 1e-3;
       latency_us_.add(us);
       interval_worst_us_ = std::max(interval_worst_us_, us);
@@ -369,7 +373,7 @@ class WorldProcess {
       if (opt_.realtime) {
         if (now_ns() >= deadline_ns_) break;
         ::clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &deadline, nullptr);  // the commands queue meanwhile
-      } else if (core_.lockstep_done() && (k_ > 0 || pacer_.start_answers_in(pacer_.commands_waited(seconds())))) {
+      } else if (core_.lockstep_done() && (k_ > 0 || pacer_.start_answers_in(seconds()))) {
         if (k_ == 0 && pacer_.start_short()) {
           std::fprintf(stderr, "tandem-world %s: tick 0: %d and %d of the %d robots of each arm answered within %.1f s; "
                        "going on (a standby that answers later runs in shadow from then on)\n", opt_.module.c_str(),

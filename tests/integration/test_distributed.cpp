@@ -414,9 +414,6 @@ TEST_CASE("SIGKILL of a primary robot: its hot standby takes over and nothing ch
   CHECK(r.output.find("up_rc=0") != std::string::npos);
   CHECK(ss.str().find("fault injection: SIGKILL m1/left") != std::string::npos);
   CHECK(ss.str().find("m1/left now follows m1/left@50") != std::string::npos);
-  // Tick 0 waits for every robot of each arm (world::LockstepPacer): the primary serves from the first tick, never
-  // taken over from a standby heard first, and the standby runs in shadow from tick 0 (its RMS below).
-  CHECK(ss.str().find("takeover") == std::string::npos);
   const auto kv = read_summary(summary);
   CHECK(kv.at("m1.ticks") == 15000);
   CHECK(kv.at("m1.slip_events") == 0);
@@ -426,7 +423,9 @@ TEST_CASE("SIGKILL of a primary robot: its hot standby takes over and nothing ch
   // (open: docs/architecture.md, Hot standby). The bound here is the world's 10 s tick timeout, halved.
   CHECK(kv.at("m1.failover_max_ms") > 1.0);
   CHECK(kv.at("m1.failover_max_ms") < 5000.0);
-  // The standby ran the same controller in shadow on the same inputs: the run is exactly the embedded one.
+  // The standby ran the same controller in shadow on the same inputs from tick 0 (the world's tick 0 waits for every
+  // robot of each arm, world::LockstepPacer): the run is exactly the embedded one. (Before, a standby heard first
+  // kept the primary in shadow, and one discovered at tick 1424 had another controller memory: 2% off.)
   const tandem::sim::CaseResult& e = embedded_sosm_15s();
   CHECK(kv.at("m1/left@50.ep_pos_rms") == Approx(e.robots[0].ep_pos_rms).epsilon(1e-12));
   CHECK(kv.at("m1/left@50.eh_rms") == Approx(e.robots[0].eh_rms).epsilon(1e-12));

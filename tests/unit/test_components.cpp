@@ -1429,7 +1429,7 @@ TEST_CASE("lockstep pacer: the lease wait resends the report every 20 ms and lap
   CHECK(held->commands_s == Approx(0.05));
 }
 
-TEST_CASE("lockstep pacer: tick 0 waits for every robot of each arm, a repeat or a third arm counts nothing, and at most 2 s", "[components]") {
+TEST_CASE("lockstep pacer: tick 0 waits for every robot of each arm, a repeat or a third arm counts nothing, and at most 2 s after the first answers", "[components]") {
   using tandem::world::LockstepPacer;
   LockstepPacer p;
   p.start_expect(1);  // a primary and one standby per arm
@@ -1445,15 +1445,18 @@ TEST_CASE("lockstep pacer: tick 0 waits for every robot of each arm, a repeat or
   p.start_heard(0, 100);
   CHECK(p.start_answers_in(0.01));
   CHECK_FALSE(p.start_short());
-  // A standby that never answers holds tick 0 for 2 s, then the module goes on without it, and says so.
+  // A standby that never answers holds tick 0 for 2 s counted from the first answers (robots that took 10 s to get
+  // the plan), then the module goes on without it, and says so.
   LockstepPacer q;
   q.start_expect(2);
   for (const int j : {0, 1}) {
     q.start_heard(j, 100);
     q.start_heard(j, 50);
   }
-  CHECK_FALSE(q.start_answers_in(2.0));
-  CHECK(q.start_answers_in(2.001));
+  CHECK_FALSE(q.start_answers_in(10.0));
+  CHECK_FALSE(q.start_answers_in(12.0));
+  CHECK_FALSE(q.start_short());
+  CHECK(q.start_answers_in(12.001));
   CHECK(q.start_short());
   // Without standbys the first answer of each arm is enough (the old rule).
   LockstepPacer r;

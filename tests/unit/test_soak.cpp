@@ -611,6 +611,65 @@ TEST_CASE("soak checker: a supervisor kill with no warm standby is judged by the
   CHECK_THAT(find(v, "recovery")->text, Catch::Contains("within 15.0 s"));
 }
 
+TEST_CASE("soak checker: a supervisor's takeover is judged in module time: a lockstep world that waited holds, ticks run on do not") {
+  // Lockstep soak run 37 (finding 67): the leader killed at 20.0 s (its world at tick 20000); the standby stood still
+  // twice for about a second (Fast DDS's interprocess lock) and serves at 22.6 s on the wall clock. Meanwhile the world
+  // ran `ran` ticks (a lockstep world waits for its leader's plan after 10).
+  auto run = [](long ran, bool realtime) {
+    History h = quiet_history(60.0);
+    h.realtime = realtime;
+    for (ModuleSample& s : h.modules["m1"]) {
+      if (s.t > 20.0) s.tick = std::min(s.tick, 20000 + ran) + std::max(0L, s.tick - 22700);
+    }
+    FaultRecord f;
+    f.fault.index = 1;
+    f.fault.kind = FaultKind::Kill;
+    f.fault.target = Target::Supervisor;
+    f.t = 20.0;
+    f.label = "m1/supervisor";
+    f.module = "m1";
+    f.pid = 111;
+    f.had_standby = true;
+    f.module_tick = 20000;
+    h.faults.push_back(f);
+    add_event(h, {22.6, Event::Type::Serving, "m1/supervisor@50", "primary"});
+    return check(h, Bounds{});
+  };
+  auto takeover_s = [](const Verdict& v) {
+    for (const auto& r : v.recoveries) {
+      if (r.kind == "kill supervisor: another serves") return r.seconds;
+    }
+    return -1.0;
+  };
+  // The world waited after 10 ticks: 0.01 s of module time, held (2.6 s on the wall clock would be a violation).
+  const Verdict waited = run(10, false);
+  CHECK(find(waited, "recovery") == nullptr);
+  CHECK(takeover_s(waited) == Approx(0.01));
+  // The world ran 2500 ticks without its leader (a lapsed lease, or real time): 2.5 s, a violation, in both timings.
+  for (const bool realtime : {false, true}) {
+    const Verdict ran = run(2500, realtime);
+    const Violation* x = find(ran, "recovery");
+    REQUIRE(x != nullptr);
+    CHECK_THAT(x->text, Catch::Contains("within 2.0 s") && Catch::Contains("after 2.5 s"));
+  }
+  // The wall clock bounds it: a report heard long after the takeover does not make it later than it was.
+  History late = quiet_history(60.0);
+  FaultRecord f;
+  f.fault.index = 1;
+  f.fault.kind = FaultKind::Kill;
+  f.fault.target = Target::Supervisor;
+  f.t = 20.0;
+  f.label = "m1/supervisor";
+  f.module = "m1";
+  f.pid = 111;
+  f.had_standby = true;
+  late.faults.push_back(f);  // no tick noted at the fault: the newest bucket before it (tick 20000)
+  add_event(late, {20.06, Event::Type::Serving, "m1/supervisor@50", "primary"});
+  const Verdict v = check(late, Bounds{});
+  CHECK(find(v, "recovery") == nullptr);
+  CHECK(takeover_s(v) == Approx(0.06));
+}
+
 TEST_CASE("soak checker: a coordinator kill with no standby coordinator is judged by the restart bound") {
   auto history = [](bool standby, double after) {
     History h = quiet_history(60.0);

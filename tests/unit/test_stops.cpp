@@ -12,6 +12,7 @@
 #include <algorithm>
 
 #include <cmath>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <random>
@@ -71,15 +72,18 @@ struct Rig {
   long k = 0;
 
   bool continuous = false;
-  static tandem::world::WorldOptions opts(bool continuous = false) {
+  bool realtime = true;
+  std::function<void(Rig&)> during;  // called in each tick after the robots' commands, before the world ends it
+  static tandem::world::WorldOptions opts(bool continuous = false, bool realtime = true) {
     tandem::world::WorldOptions o;
     o.continuous = continuous;
     o.arm_ids = {"m1/left", "m1/right"};
     o.arm_names = {"left", "right"};
-    o.realtime = true;
+    o.realtime = realtime;
     return o;
   }
-  explicit Rig(bool standby = false, bool cont = false) : w{m, opts(cont)}, continuous(cont) {
+  explicit Rig(bool standby = false, bool cont = false, bool rt = true)
+      : w{m, opts(cont, rt)}, continuous(cont), realtime(rt) {
     w.set_log([this](const std::string& l) { log += "world: " + l + "\n"; });
     sup[0] = std::make_unique<SupervisorCore>(m, SupervisorOptions{"m1/supervisor", 100, cont, 0.1}, 0);
     sup[0]->set_log([this](const std::string& l) { log += "supervisor: " + l + "\n"; });
@@ -133,6 +137,10 @@ struct Rig {
       const auto tau = robot[a]->on_sample(k, s, out[a].braked, other ? &out[a].tau_applied : nullptr);
       if (tau) w.on_command(j, k, *tau, 100, now + 100000, false);
     }
+    if (during) during(*this);
+    // Lockstep: the world waits for the commands it lacks; a robot that is gone never answers, and the wait ends past
+    // the no-command bound (1 s: the world then drives the arm to rest and brakes it).
+    if (!realtime && !w.lockstep_done()) (void)w.lockstep_waited(1.5, 10.0, now + 400000);
     w.end_tick(now + 500000);
     if (k > 100) {
       const tmo::ContactReading c = w.plant().contacts();
@@ -215,9 +223,12 @@ TEST_CASE("the last controller of an arm dies at peak speed: the object is broug
 }
 
 TEST_CASE("a fresh robot takes over a braked arm 1-5 s later: it starts from the holding torque, and the task ends without a slip", "[stops]") {
+  // Real time, and lockstep (lockstep soak run 37, finding 68: the world released the arm on the fresh robot's first
+  // answer, computed by a law just reset, and the object slipped 3-4 ticks later: 25 slip events).
+  for (const bool realtime : {true, false}) {
   for (const int j : {0, 1}) {
     for (const long delay_ms : {1000L, 3000L, 5000L}) {
-      Rig rig;
+      Rig rig(false, false, realtime);
       rig.run_to(kPeakTick);
       rig.robot[static_cast<size_t>(j)].reset();
       rig.run_to(kPeakTick + delay_ms);
@@ -233,9 +244,9 @@ TEST_CASE("a fresh robot takes over a braked arm 1-5 s later: it starts from the
         rig.tick();
         at_release = rig.robot[static_cast<size_t>(j)]->last_tau();
       }
-      INFO("arm " << j << ", restarted after " << delay_ms << " ms\n" << rig.log);
+      INFO((realtime ? "real time" : "lockstep") << ", arm " << j << ", restarted after " << delay_ms << " ms\n" << rig.log);
       REQUIRE_FALSE(rig.w.braked(j));
-      CHECK(rig.k - joined >= WorldCore::kReleaseTrialTicks);
+      CHECK(rig.k - joined >= (realtime ? WorldCore::kReleaseTrialTicks : WorldCore::kLockstepReleaseTicks));
       // The status's handover: from the dead robot's last command (kPeakTick - 1) to the release, the whole stop.
       CHECK(rig.w.owner(j).handover_ticks == rig.k - 1 - (kPeakTick - 1));
       CHECK((at_release - holding).norm() < 0.05 * holding.norm() + 1.0);
@@ -248,6 +259,41 @@ TEST_CASE("a fresh robot takes over a braked arm 1-5 s later: it starts from the
       CHECK(rig.w.plant().state().c(1) == Approx(0.8).margin(2e-3));
     }
   }
+  }
+}
+
+TEST_CASE("lockstep: a braked arm's robot that answers late is waited for, and released after 10 answers in step", "[stops]") {
+  Rig rig(false, false, /*rt=*/false);
+  rig.run_to(kPeakTick);
+  rig.robot[0].reset();  // the left arm's robot dies
+  rig.run_to(kPeakTick + 1500);
+  REQUIRE(rig.w.braked(0));
+  tmo::JointVec hold = rig.w.holding_torque(0);
+  // A late answer (the tick before, after the world stepped on): stale, and from now on the world waits for the arm.
+  bool waited = false;
+  rig.during = [&](Rig& r) {
+    CHECK(r.w.on_command(0, r.k - 1, hold, 100, r.k * kMs, false) == WorldCore::Verdict::Stale);
+    waited = !r.w.lockstep_done();
+    r.during = nullptr;
+  };
+  rig.tick();  // its lockstep wait ran past 1 s without the robot: the trial is dropped, the arm stays braked
+  CHECK(waited);
+  CHECK(rig.w.braked(0));
+  CHECK(rig.w.lockstep_done());
+  // Answers in step: each tick the world waits for the next one, and the 10th releases the arm.
+  long released_at = -1;
+  for (int n = 1; n <= 12 && released_at < 0; ++n) {
+    rig.during = [&](Rig& r) {
+      if (n > 1) CHECK_FALSE(r.w.lockstep_done());  // the trial's robot has not answered this tick yet
+      hold = r.w.holding_torque(0);
+      r.w.on_command(0, r.k, hold, 100, r.k * kMs, false);
+      CHECK(r.w.lockstep_done());
+    };
+    rig.tick();
+    if (!rig.w.braked(0)) released_at = n;
+  }
+  rig.during = nullptr;
+  CHECK(released_at == WorldCore::kLockstepReleaseTicks);
 }
 
 TEST_CASE("the leading supervisor dies at random ticks: its replica takes over and the references stay continuous", "[stops]") {

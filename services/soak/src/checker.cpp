@@ -305,6 +305,35 @@ class Judge {
     if (before < 0 || e.tick < before) return e.t;
     return t + static_cast<double>(e.tick - before) * kTickS;
   }
+  /// `at` (a wall time after a fault at t; negative: never) in `module`'s own time, when that is earlier: t plus the
+  /// ticks its world ran from the newest tick heard before t to the first report heard at or after `at`, at 1 ms a
+  /// tick. For a supervisor's takeover: the plant lives through the module's ticks, not the wall clock, and a
+  /// lockstep world runs at most 10 ticks past what its silent leader heard (the plan lease). Lockstep soak run 37
+  /// (finding 67): a standby supervisor stood still twice, 1007 and 1212 ms, right after its leader's SIGKILL (Fast
+  /// DDS's 1 s interprocess lock on a killed peer's shared-memory port, docs/soak.md finding 48), and took over 2.6 s
+  /// after the kill on the wall clock while its world waited. An upper bound (the report comes after the takeover); a
+  /// world restarted meanwhile (another world instance) leaves the wall clock.
+  double in_module_time(const std::string& module, double at, double t, long tick_at_fault) const {
+    if (at < 0.0) return at;
+    const auto m = h_.modules.find(module);
+    if (m == h_.modules.end()) return at;
+    long before = tick_at_fault;
+    long after = -1;
+    int world_before = -1, world_after = -1;
+    for (const ModuleSample& s : m->second) {
+      if (s.t <= t) {
+        if (tick_at_fault < 0) before = s.tick;
+        world_before = s.world;
+      }
+      if (s.t >= at) {
+        after = s.tick;
+        world_after = s.world;
+        break;
+      }
+    }
+    if (before < 0 || after < before || world_before != world_after) return at;
+    return std::min(at, t + static_cast<double>(after - before) * kTickS);
+  }
   /// Whether `label` served arm `robot` just before t (from the world's serving events).
   bool served_before(const std::string& module, const std::string& robot, const std::string& label, double t) const {
     std::string owner;
@@ -412,7 +441,7 @@ class Judge {
                 "no replacement robot for " + arm + " was active");
         } else if (f.fault.target == Target::Supervisor) {
           judge(inv, f, f.had_standby ? "kill supervisor: another serves" : "kill supervisor (no warm standby): another serves",
-                serving_primary(module + "/supervisor", f.label, f.t), f.t,
+                in_module_time(module, serving_primary(module + "/supervisor", f.label, f.t), f.t, f.module_tick), f.t,
                 f.had_standby ? b_.supervisor_s : b_.supervisor_cold_s, "no other supervisor of " + module + " served");
         } else if (f.fault.target == Target::Coordinator) {
           judge(inv, f, f.had_standby ? "kill coordinator: another serves" : "kill coordinator (no standby): another serves",

@@ -180,12 +180,6 @@ void WorldCore::begin_tick(long k, int64_t /*now_ns*/, std::array<SampleOut, 2>&
   const double hn = std::min(contact.normal[0], contact.normal[1]);
   status_normal_min_ = std::min(status_normal_min_, hn);
   report_normal_min_ = std::min(report_normal_min_, hn);
-  for (int j = 0; j < 2; ++j) {
-    if (link_[static_cast<size_t>(j)].release) {
-      link_[static_cast<size_t>(j)].release = false;
-      if (!failed_) set_brake(j, false, "a robot answers again");
-    }
-  }
   // Tracking error as the world sees it (from the plan the robots follow), and the windows after switches.
   TickRecord& rec = history_[static_cast<size_t>(k) % kHistory];
   for (int j = 0; j < 2; ++j) {
@@ -303,9 +297,10 @@ WorldCore::Verdict WorldCore::on_command(int j, long tick, const model::JointVec
   L.heard = at_ns;
   if (tick != k_) {
     // An older tick is a late answer or a repeat: dropped. From a braked arm's robot it means a
-    // controller is back: lockstep waits for it again from the next tick.
+    // controller is back: lockstep waits for its answers from the next tick on, the arm braked until they came
+    // kLockstepReleaseTicks in a row (the release trial, in apply).
     ++stale;
-    if (L.braked && !o_.realtime && tick + 64 > k_) L.release = true;
+    if ((L.braked || L.stopping) && !o_.realtime && !failed_ && tick + 64 > k_) L.trial = true;
     mark_late(L, tick);
     return Verdict::Stale;
   }
@@ -359,8 +354,12 @@ void WorldCore::apply(int j, const model::JointVec& tau, int32_t strength, int64
     L.strength = strength;
   } else if ((L.braked && !load_paused_) || L.stopping) {
     // The trial: still braked (or still driven by the world; end_tick puts the drive's torque back).
-    if (o_.realtime && ++L.release_run < kReleaseTrialTicks) return;
+    if (++L.release_run < (o_.realtime ? kReleaseTrialTicks : kLockstepReleaseTicks)) {
+      if (!o_.realtime) L.trial = true;  // answered in step: lockstep waits for the next one too
+      return;
+    }
     L.release_run = 0;
+    L.trial = false;
     log(o_.arm_ids[static_cast<size_t>(j)] + " follows " + name +
         (L.last_at > 0 ? " after " + ms_text(static_cast<double>(at_ns - L.last_at) * 1e-6) +
                              (L.stopping ? " driven by the world" : " braked")
@@ -428,13 +427,24 @@ void WorldCore::apply(int j, const model::JointVec& tau, int32_t strength, int64
 
 
 bool WorldCore::lockstep_done() const {
-  return (have_[0] || link_[0].braked || link_[0].stopping) && (have_[1] || link_[1].braked || link_[1].stopping);
+  // A braked arm, or one the world drives, is not waited for, unless a robot is on its release trial.
+  auto done = [this](size_t a) {
+    const ArmLink& L = link_[a];
+    return have_[a] || ((L.braked || L.stopping) && !L.trial);
+  };
+  return done(0) && done(1);
 }
 
 bool WorldCore::lockstep_waited(double waited_s, double timeout_s, int64_t now_ns) {
   bool give_up = false;
   for (int j = 0; j < 2; ++j) {
-    const ArmLink& L = link_[static_cast<size_t>(j)];
+    ArmLink& L = link_[static_cast<size_t>(j)];
+    if ((L.braked || L.stopping) && L.trial && !have_[static_cast<size_t>(j)] && waited_s > brake_after_s_) {
+      // The robot on its release trial fell silent: the arm stays braked, and the trial starts over if it answers.
+      L.trial = false;
+      L.release_run = 0;
+      continue;
+    }
     if (have_[static_cast<size_t>(j)] || L.braked || L.stopping) continue;
     const Fallback& f = fallback_[static_cast<size_t>(j)];
     if (f.has && (L.owner_gone || waited_s > kFailoverLockstepS)) {

@@ -113,11 +113,14 @@ class LockstepPacer {
     }
     if (a.n < static_cast<int>(a.strengths.size())) a.strengths[static_cast<size_t>(a.n++)] = strength;
   }
-  /// Whether tick 0 may end (its commands are in): every arm heard from `standbys` + 1 robots, or `waited` (since
-  /// the tick's samples went out) is past start_answers_s (start_short() then says so).
-  bool start_answers_in(double waited) {
+  /// Whether tick 0 may end; asked once each arm has an answer (`now`: the caller's clock): every arm heard from
+  /// `standbys` + 1 robots, or start_answers_s passed since the first time it was asked (start_short() then says
+  /// so). Counted from the first answers, not from the samples: robots answer only once they have the plan, which
+  /// may take a while on a busy machine (finding 54: 0.3-0.5 s), and the standbys then come about as late.
+  bool start_answers_in(double now) {
     if (start_[0].n >= start_expected_ && start_[1].n >= start_expected_) return true;
-    if (waited <= r_.start_answers_s) return false;
+    if (start_first_ < 0.0) start_first_ = now;
+    if (now - start_first_ <= r_.start_answers_s) return false;
     start_short_ = true;
     return true;
   }
@@ -156,6 +159,7 @@ class LockstepPacer {
   };
   std::array<StartArm, 2> start_{};
   int start_expected_ = 1;
+  double start_first_ = -1.0;  // when tick 0 first had an answer on each arm
   bool start_short_ = false;
 };
 

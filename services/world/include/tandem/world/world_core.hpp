@@ -193,6 +193,12 @@ class WorldCore {
   /// answer applied a command computed against a path that had moved on, and the object slipped (found by
   /// tandem soak).
   static constexpr int kReleaseTrialTicks = 100;
+  /// Lockstep: the same trial, this many ticks in a row, with the world waiting for the robot's answers meanwhile
+  /// (ArmLink::trial). Its first answer to a braked arm comes from a law it has just reset (a fresh robot, or one
+  /// that missed ticks); from its second on it continues from the brake's holding torque that the samples carry
+  /// (RobotCore::on_sample), so the release is bumpless. Releasing on a first (late) answer slipped the object 3-4
+  /// ticks later (lockstep soak run 37, m4 and m1, finding 68).
+  static constexpr int kLockstepReleaseTicks = 10;
   /// A robot stronger than the one an arm follows (a primary back after a stall, restarted or plugged as
   /// primary) takes the arm over only after it has answered this many ticks in a row (in shadow meanwhile):
   /// its law's memory is then warm again. Taking over on its first answer after a 1 s stall applied a command
@@ -305,9 +311,9 @@ class WorldCore {
     long last_tick = -1;      // tick of the last applied command
     int64_t last_at = 0;      // when it was applied
     bool braked = false;
-    bool release = false;     // lockstep: a robot answered while braked: wait for it again from the next tick
+    bool trial = false;       // lockstep: a robot answered while braked: wait for its answers (the release trial)
     bool start_brake = false; // real time: braked from power-on until its robot first answers a tick in time
-    int release_run = 0;      // real time: ticks in a row a robot answered while the arm was braked (the trial)
+    int release_run = 0;      // ticks in a row a robot answered while the arm was braked (the release trial)
     int32_t challenger = 0;   // a robot stronger than the owner that answers (it takes over after a warm-up)
     long challenger_tick = -1;
     int challenger_run = 0;

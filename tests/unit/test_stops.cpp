@@ -296,6 +296,56 @@ TEST_CASE("lockstep: a braked arm's robot that answers late is waited for, and r
   CHECK(released_at == WorldCore::kLockstepReleaseTicks);
 }
 
+TEST_CASE("a rejoined robot's first answer does not end a release trial: a warm answer does, and nothing slips", "[stops]") {
+  // Lockstep soak run 38: an arm released 10 answers into its trial, two robots of the arm answering, slipped 6 ticks
+  // later; the releasing answer may have been a rejoined robot's first, from a law just reset.
+  for (const bool realtime : {true, false}) {
+    Rig rig(false, false, realtime);
+    rig.run_to(kPeakTick);
+    rig.robot[0].reset();
+    rig.run_to(kPeakTick + 1500);
+    REQUIRE(rig.w.braked(0));
+    auto answer = [](RobotCore& rc, int32_t strength, Rig& r) {
+      tmo::ArmSensors s;
+      s.q = r.out[0].q;
+      s.qd = r.out[0].qd;
+      s.h = r.out[0].h;
+      rc.world_plan(r.w.plan_rank(), r.w.plan_version(), r.w.plan_since(), r.k);
+      const bool other = r.out[0].applied_from != strength && (r.out[0].applied_from != 0 || r.out[0].braked);
+      const auto tau = rc.on_sample(r.k, s, r.out[0].braked, other ? &r.out[0].tau_applied : nullptr);
+      if (tau) r.w.on_command(0, r.k, *tau, strength, r.k * kMs, false);
+      return tau;
+    };
+    // A standby joins and answers every tick of the trial but its last.
+    RobotCore standby(rig.m, 0, false, 0.1);
+    standby.offer_plan(*rig.last_plan);
+    const int trial = realtime ? WorldCore::kReleaseTrialTicks : WorldCore::kLockstepReleaseTicks;
+    rig.during = [&](Rig& r) { (void)answer(standby, 50, r); };
+    for (int n = 0; n < trial - 1; ++n) rig.tick();
+    REQUIRE(rig.w.braked(0));
+    // The primary, restarted, answers first at what would be the trial's last tick: its law was just reset.
+    RobotCore primary(rig.m, 0, false, 0.1);
+    primary.offer_plan(*rig.last_plan);
+    rig.during = [&](Rig& r) {
+      (void)answer(primary, 100, r);
+      (void)answer(standby, 50, r);
+    };
+    rig.tick();
+    INFO((realtime ? "real time" : "lockstep") << "\n" << rig.log);
+    CHECK(rig.w.braked(0));
+    // The next tick both answer again, the primary first and now warm: it releases the arm from the holding torque.
+    const tmo::JointVec holding = rig.w.holding_torque(0);
+    rig.tick();
+    CHECK_FALSE(rig.w.braked(0));
+    CHECK((primary.last_tau() - holding).norm() < 0.05 * holding.norm() + 1.0);
+    rig.during = nullptr;
+    rig.robot[0] = std::make_unique<RobotCore>(std::move(primary));
+    rig.run_to(rig.k + 4000);
+    CHECK(rig.slips() == 0);
+    CHECK(rig.contact_lost() == 0);
+  }
+}
+
 TEST_CASE("the leading supervisor dies at random ticks: its replica takes over and the references stay continuous", "[stops]") {
   std::mt19937 rng(20261124);
   std::uniform_int_distribution<long> when(200, 4500);

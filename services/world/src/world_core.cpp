@@ -282,6 +282,23 @@ WorldCore::Verdict WorldCore::on_command(int j, long tick, const model::JointVec
     ++rejected;
     return Verdict::Rejected;
   }
+  if (L.braked || L.stopping) {
+    // Which robots compute the ticks of the release trial: a robot's answer comes from a law warm with the brake's
+    // holding torque only when it computed the tick before too (RobotCore::on_sample), whether or not that answer
+    // was the one taken.
+    auto& seen = L.trial_answers;
+    auto it = std::find_if(seen.begin(), seen.end(), [strength](const TrialAnswer& a) { return a.strength == strength; });
+    if (it == seen.end()) {
+      it = std::min_element(seen.begin(), seen.end(), [](const TrialAnswer& a, const TrialAnswer& b) { return a.last < b.last; });
+      *it = TrialAnswer{strength, -2, 0};
+    }
+    if (tick == it->last + 1) {
+      ++it->run;
+    } else if (tick != it->last) {
+      it->run = 1;
+    }
+    it->last = std::max(it->last, tick);
+  }
   if (have_[static_cast<size_t>(j)] && tick == k_ && !(strength > L.strength && !L.braked)) {
     // A second command for an arm that has this tick's already (a repeat, or a standby's answer after the
     // owner's). The first one stands, unless a stronger robot's comes: it takes the arm over at once.
@@ -354,7 +371,13 @@ void WorldCore::apply(int j, const model::JointVec& tau, int32_t strength, int64
     L.strength = strength;
   } else if ((L.braked && !load_paused_) || L.stopping) {
     // The trial: still braked (or still driven by the world; end_tick puts the drive's torque back).
-    if (++L.release_run < (o_.realtime ? kReleaseTrialTicks : kLockstepReleaseTicks)) {
+    // Released by an answer of a robot that computed the tick before as well: a robot's first answer comes from a
+    // law just reset (lockstep soak run 38: a release 10 answers into the trial, the last of them, perhaps, a
+    // rejoined robot's first; the object slipped 6 ticks later).
+    const bool warm = std::any_of(L.trial_answers.begin(), L.trial_answers.end(), [this, strength](const TrialAnswer& a) {
+      return a.strength == strength && a.last == k_ && a.run >= 2;
+    });
+    if (++L.release_run < (o_.realtime ? kReleaseTrialTicks : kLockstepReleaseTicks) || !warm) {
       if (!o_.realtime) L.trial = true;  // answered in step: lockstep waits for the next one too
       return;
     }

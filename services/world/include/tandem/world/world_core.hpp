@@ -304,6 +304,11 @@ class WorldCore {
   std::vector<Switch> switches;
 
  private:
+  struct TrialAnswer {
+    int32_t strength = 0;
+    long last = -2;
+    int run = 0;
+  };
   struct ArmLink {
     std::string owner;
     int32_t strength = 0;
@@ -314,6 +319,9 @@ class WorldCore {
     bool trial = false;       // lockstep: a robot answered while braked: wait for its answers (the release trial)
     bool start_brake = false; // real time: braked from power-on until its robot first answers a tick in time
     int release_run = 0;      // ticks in a row a robot answered while the arm was braked (the release trial)
+    /// While braked or driven: the robots (by strength) that answered, the newest tick each answered, and how many
+    /// ticks in a row up to it.
+    std::array<TrialAnswer, 4> trial_answers{};
     int32_t challenger = 0;   // a robot stronger than the owner that answers (it takes over after a warm-up)
     long challenger_tick = -1;
     int challenger_run = 0;

@@ -292,12 +292,10 @@ WorldCore::Verdict WorldCore::on_command(int j, long tick, const model::JointVec
       it = std::min_element(seen.begin(), seen.end(), [](const TrialAnswer& a, const TrialAnswer& b) { return a.last < b.last; });
       *it = TrialAnswer{strength, -2, 0};
     }
-    if (tick == it->last + 1) {
-      ++it->run;
-    } else if (tick != it->last) {
-      it->run = 1;
+    if (tick > it->last) {  // (an older answer, a repeat or one overtaken, changes nothing)
+      it->run = tick == it->last + 1 ? it->run + 1 : 1;
+      it->last = tick;
     }
-    it->last = std::max(it->last, tick);
   }
   if (have_[static_cast<size_t>(j)] && tick == k_ && !(strength > L.strength && !L.braked)) {
     // A second command for an arm that has this tick's already (a repeat, or a standby's answer after the

@@ -312,7 +312,7 @@ TEST_CASE("a rejoined robot's first answer does not end a release trial: a warm 
       s.h = r.out[0].h;
       rc.world_plan(r.w.plan_rank(), r.w.plan_version(), r.w.plan_since(), r.k);
       const bool other = r.out[0].applied_from != strength && (r.out[0].applied_from != 0 || r.out[0].braked);
-      const auto tau = rc.on_sample(r.k, s, r.out[0].braked, other ? &r.out[0].tau_applied : nullptr);
+      auto tau = rc.on_sample(r.k, s, r.out[0].braked, other ? &r.out[0].tau_applied : nullptr);
       if (tau) r.w.on_command(0, r.k, *tau, strength, r.k * kMs, false);
       return tau;
     };

@@ -58,6 +58,20 @@ History quiet_history(double seconds) {
   return h;
 }
 
+// The SIGKILL of m1's leading supervisor at 20.0 s (`warm`: a standby held its plan).
+FaultRecord kill_supervisor(bool warm) {
+  FaultRecord f;
+  f.fault.index = 1;
+  f.fault.kind = FaultKind::Kill;
+  f.fault.target = Target::Supervisor;
+  f.t = 20.0;
+  f.label = "m1/supervisor";
+  f.module = "m1";
+  f.pid = 111;
+  f.had_standby = warm;
+  return f;
+}
+
 FaultRecord kill_left(double t) {
   FaultRecord f;
   f.fault.index = 1;
@@ -575,22 +589,10 @@ TEST_CASE("soak report: index.html renders the summary as HTML tables and lists,
 }
 
 TEST_CASE("soak checker: a supervisor kill with no warm standby is judged by the lost-plan bound") {
-  auto kill_leader = [](bool warm) {
-    FaultRecord f;
-    f.fault.index = 1;
-    f.fault.kind = FaultKind::Kill;
-    f.fault.target = Target::Supervisor;
-    f.t = 20.0;
-    f.label = "m1/supervisor";
-    f.module = "m1";
-    f.pid = 111;
-    f.had_standby = warm;
-    return f;
-  };
   // Another supervisor serves 6.2 s later (run 13: the standby found the plan lost, the module restarted).
   auto history = [&](bool warm, double after) {
     History h = quiet_history(60.0);
-    h.faults.push_back(kill_leader(warm));
+    h.faults.push_back(kill_supervisor(warm));
     add_event(h, {20.0 + after, Event::Type::Serving, "m1/supervisor@50", "primary"});
     return h;
   };
@@ -621,15 +623,7 @@ TEST_CASE("soak checker: a supervisor's takeover is judged in module time: a loc
     for (ModuleSample& s : h.modules["m1"]) {
       if (s.t > 20.0) s.tick = std::min(s.tick, 20000 + ran) + std::max(0L, s.tick - 22700);
     }
-    FaultRecord f;
-    f.fault.index = 1;
-    f.fault.kind = FaultKind::Kill;
-    f.fault.target = Target::Supervisor;
-    f.t = 20.0;
-    f.label = "m1/supervisor";
-    f.module = "m1";
-    f.pid = 111;
-    f.had_standby = true;
+    FaultRecord f = kill_supervisor(true);
     f.module_tick = 20000;
     h.faults.push_back(f);
     add_event(h, {22.6, Event::Type::Serving, "m1/supervisor@50", "primary"});
@@ -654,16 +648,7 @@ TEST_CASE("soak checker: a supervisor's takeover is judged in module time: a loc
   }
   // The wall clock bounds it: a report heard long after the takeover does not make it later than it was.
   History late = quiet_history(60.0);
-  FaultRecord f;
-  f.fault.index = 1;
-  f.fault.kind = FaultKind::Kill;
-  f.fault.target = Target::Supervisor;
-  f.t = 20.0;
-  f.label = "m1/supervisor";
-  f.module = "m1";
-  f.pid = 111;
-  f.had_standby = true;
-  late.faults.push_back(f);  // no tick noted at the fault: the newest bucket before it (tick 20000)
+  late.faults.push_back(kill_supervisor(true));  // no tick noted at the fault: the newest bucket before it (tick 20000)
   add_event(late, {20.06, Event::Type::Serving, "m1/supervisor@50", "primary"});
   const Verdict v = check(late, Bounds{});
   CHECK(find(v, "recovery") == nullptr);

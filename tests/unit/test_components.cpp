@@ -530,6 +530,7 @@ struct OverloadRun {
   long slips = 0, contact_lost = 0;
   double object_y = 0.0;
   bool paused_at_end = true;
+  bool failed = false;
   std::string log;
 };
 
@@ -538,10 +539,15 @@ struct OverloadRun {
 // hold, resume 200 ticks after the release.
 // `world_stall_s`: the world itself is starved for that long right after the hold begins (its wall clock jumps,
 // its ticks do not), as under a hog on every core.
-OverloadRun run_overload(const tandem::world::OverloadRule& rule, bool starve_when_held = false, double world_stall_s = 0.0) {
+// `kill_left_when_paused`: test only, an arm with no brakes (WorldOptions::brakes off); the left robot dies once
+// both arms are braked for load.
+OverloadRun run_overload(const tandem::world::OverloadRule& rule, bool starve_when_held = false, double world_stall_s = 0.0,
+                         bool kill_left_when_paused = false) {
   const ts::ModuleSetup& m = sosm();
   tandem::world::WorldOptions o = world_options(true);
   o.overload = rule;
+  o.brakes = !kill_left_when_paused;
+  o.drop_is_failure = kill_left_when_paused;  // the robots here hold the object: a drop is real
   WorldCore w(m, o);
   OverloadRun run;
   w.set_log([&](const std::string& l) { run.log += l + "\n"; });
@@ -586,6 +592,7 @@ OverloadRun run_overload(const tandem::world::OverloadRule& rule, bool starve_wh
       if (!tau) continue;
       // Starved: once the world holds, the left robot sends nothing at all until its arm is braked.
       if (starve_when_held && j == 0 && run.held && !run.braked_both) continue;
+      if (kill_left_when_paused && j == 0 && run.braked_both) continue;
       const bool late = j == 0 && k >= 1500 && k < 2500 && k % 3 == 0;
       w.on_command(j, k, *tau, 100, now, late);
     }
@@ -600,6 +607,7 @@ OverloadRun run_overload(const tandem::world::OverloadRule& rule, bool starve_wh
   run.contact_lost = w.plant().counters().contact_lost;
   run.object_y = w.plant().state().c(1);
   run.paused_at_end = w.paused_for_load();
+  run.failed = w.failed();
   return run;
 }
 }  // namespace
@@ -618,6 +626,18 @@ TEST_CASE("overload: late commands stop the path, both arms are braked once stil
   CHECK(run.contact_lost == 0);
   CHECK(run.object_y == Approx(0.8).margin(2e-3));  // the object is still held at its height
   CHECK_FALSE(run.paused_at_end);
+}
+
+TEST_CASE("test only, no brakes: a robot killed while its module is paused for load lets its arm fall, and the drop fails the module", "[components]") {
+  // The soak's drop test kills a robot of a module with no brakes: on a busy CI machine the module was paused for
+  // load at the kill, its arms braked, and nothing fell (2026-11-27). An arm with no brakes has nothing to hold it.
+  const OverloadRun run = run_overload(tandem::world::OverloadRule{}, false, 0.0, true);
+  INFO(run.log);
+  REQUIRE(run.braked_both);
+  CHECK(run.log.find("test only: no brakes, and no command for") != std::string::npos);
+  CHECK(run.contact_lost > 0);
+  CHECK(run.failed);
+  CHECK(run.log.find("module failed") != std::string::npos);
 }
 
 TEST_CASE("overload: braking at once, without stopping the path first, makes the moving object slip", "[components]") {

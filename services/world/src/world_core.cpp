@@ -533,6 +533,15 @@ bool WorldCore::end_tick(int64_t now_ns) {
     }
     if (o_.realtime && expect_[a] && !L.braked && had) L.late_run = 0;
     if (had) L.miss_run = 0;
+    if (!o_.brakes && o_.realtime && !had && !failed_ && L.last_tick >= 0 &&
+        static_cast<double>(now_ns - L.heard) * 1e-9 > brake_after_s_) {
+      // Test only (no brakes): an arm whose controller is gone goes limp, as its drives would with nobody to
+      // command them: zero torque, and it falls with what it holds. Braked for load or not: an arm with no brakes
+      // has nothing to hold it (the drop test killed a robot while its module was paused for load, and nothing fell).
+      if (L.braked) set_brake(j, false, "test only: no brakes, and no command for " + ms_text(static_cast<double>(now_ns - L.heard) * 1e-6));
+      tau_[a].setZero();
+      continue;
+    }
     if (had || L.braked) continue;
     if (o_.realtime) {
       // A late or missing command (counted). For a tick or two the arm keeps its previous torque; from the
@@ -543,9 +552,6 @@ bool WorldCore::end_tick(int64_t now_ns) {
       ++L.miss_run;
       const double quiet = static_cast<double>(now_ns - L.heard) * 1e-9;
       if (L.last_tick >= 0 && quiet > brake_after_s_ && o_.brakes) begin_stop(j, "no command for " + ms_text(quiet * 1e3), now_ns);
-      // Test only (no brakes): an arm whose controller is gone goes limp, as its drives would with nobody to
-      // command them: zero torque, and it falls with what it holds.
-      if (L.last_tick >= 0 && quiet > brake_after_s_ && !o_.brakes) tau_[a].setZero();
       if (o_.brakes && (L.stopping || load_pending_ || L.miss_run > kDriveAfterMisses)) {
         tau_[a] = drive_torque(j);
         applied_from_[a] = -1;

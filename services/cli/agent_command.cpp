@@ -277,7 +277,9 @@ class AgentRun {
         return 2;
       }
       agent_.poll();
-      if (agent_.core().take_killed()) runtime::clean_stale_shm(started_, static_cast<int>(d_.domain_id));
+      // Killed children's shared-memory files, once no live process has used them for a minute (ShmSweeper).
+      const std::time_t wall = std::time(nullptr);
+      if (agent_.core().take_killed() || sweeper_.due(wall)) sweeper_.sweep(wall);
       if (Clock::now() - published >= std::chrono::milliseconds(100)) {
         agent_.publish(state_);
         own_.msg().detail("runs " + std::to_string(agent_.core().running()) + " process(es)");
@@ -289,6 +291,7 @@ class AgentRun {
       if (o_.once && core.served() && core.running() == 0 &&
           (core.run_over() || core.silent(agent_.now()) > d_.host_timeout)) {
         std::printf("tandem agent %s: the run is over; exiting (--once)\n", o_.host.c_str());
+        final_clean();
         agent_.publish(state_);
         own_.set(runtime::Lifecycle::Finalized, "run over");
         return 0;
@@ -314,6 +317,9 @@ class AgentRun {
     return false;
   }
 
+  // Its children are gone: their shared-memory files that no live process uses go now, without the sweeper's minute.
+  void final_clean() { runtime::clean_stale_shm(started_, static_cast<int>(d_.domain_id)); }
+
   int stop() {
     std::printf("tandem agent %s: stopping; %d process(es) left\n", o_.host.c_str(), agent_.core().running());
     agent_.stop_all(SIGTERM);
@@ -323,6 +329,7 @@ class AgentRun {
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
       if (Clock::now() - asked > std::chrono::seconds(7)) agent_.stop_all(SIGKILL);
     }
+    final_clean();
     agent_.publish(state_);
     own_.set(runtime::Lifecycle::Finalized, "stopped");
     std::printf("tandem agent %s: stopped\n", o_.host.c_str());
@@ -334,6 +341,7 @@ class AgentRun {
   const runtime::HostSpec& spec_;
   Agent& agent_;
   const std::time_t started_ = std::time(nullptr) - 1;
+  runtime::ShmSweeper sweeper_{started_, static_cast<int>(d_.domain_id)};
   bus::Reader<msg::AgentRequest, msg::AgentRequestPubSubType> requests_;
   bus::Writer<msg::AgentState, msg::AgentStatePubSubType> state_;
   bus::Reader<msg::AgentState, msg::AgentStatePubSubType> others_;

@@ -108,6 +108,7 @@ bool UpRun::join_domain() {
   // discovery: server. The launcher starts the Discovery Server first (a child like the others: it dies with
   // the launcher) and makes itself and every process it starts a client of it.
   launcher_started_ = std::time(nullptr) - 1;
+  sweeper_.emplace(launcher_started_, -1);
   if (!start_discovery(d_, discovery_server_, discovery_profile_)) return false;
   server_stop_.emplace(discovery_server_, 1.0);
   // Over UDP only, whatever the deployment's transport: nothing another process does can wedge the launcher's
@@ -357,10 +358,14 @@ void UpRun::step() {
                 d_.record.c_str());
     recording_failed_ = true;
   }
-  // Shared-memory files of killed children, once the others had 2 s to let go of them (unmapped ones only).
+  // Shared-memory files of killed children, once no live process has used them for a minute (runtime::ShmSweeper:
+  // removed 2 s after the kill, a segment could still be named in the port of a stalled listener, which then
+  // wedged for good).
+  const std::time_t wall = std::time(nullptr);
+  if (sweeper_ && sweeper_->due(wall)) sweeper_->sweep(wall);
   if (L_.shm_dirty() && now_s() - L_.killed_at() > 2.0) {
     L_.shm_cleaned();
-    runtime::clean_stale_shm(launcher_started_);
+    if (sweeper_) sweeper_->sweep(wall);
     // And the port files of the participant ids no child holds now, unless a live process still has them open: a
     // newcomer given such an id then makes fresh ones (soak finding 59: after about a thousand kills, newcomers
     // that reopened a killed process's port files were heard by nobody, and modules could no longer start).

@@ -17,6 +17,7 @@
 
 #include "live_view.hpp"
 #include "tandem/launcher/helper_process.hpp"
+#include "tandem/runtime/shm_clean.hpp"
 #include "up_parts.hpp"
 
 namespace tandem::cli::up {
@@ -66,6 +67,7 @@ class UpRun {
   // Declared in the order they come to life, so that they go in the reverse one: the helpers' processes stop
   // before the participant goes, and the Discovery Server's profile is removed after the server has stopped.
   std::time_t launcher_started_ = 0;  ///< shared-memory files of this run are newer
+  std::optional<runtime::ShmSweeper> sweeper_;  ///< killed children's files, once unused for a minute
   pid_t discovery_server_ = -1;
   std::string discovery_profile_;
   struct RemoveFile {

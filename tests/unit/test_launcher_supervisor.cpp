@@ -2,6 +2,11 @@
 // Executor stands for the processes and a recording Outbox for the log and the DDS requests; no DDS, no processes.
 #include <catch2/catch.hpp>
 
+#include <fcntl.h>
+#include <sys/mman.h>
+#include <unistd.h>
+#include <utime.h>
+
 #include <algorithm>
 #include <csignal>
 #include <cstdio>
@@ -589,6 +594,44 @@ TEST_CASE("launcher supervisor: a child gets the longest-free participant id wit
   ids.clear();
   for (const auto& c : plain.children()) ids.push_back(c.participant_id);
   CHECK(ids == std::vector<int>{20, 21, 22, 23});
+}
+
+TEST_CASE("launcher: a killed process's segment is removed only after a minute unused, never while mapped", "[launcher]") {
+  // Fast DDS 2.9 wedges a listener for good on a descriptor that names a removed segment (soak finding 50): a
+  // segment goes only once no live process has used it for ShmSweeper::kQuietS, seen at every sweep in between.
+  const std::time_t now = std::time(nullptr);
+  const std::string tag = std::to_string(::getpid());
+  const std::string dead = "/dev/shm/fastrtps_7e57dead" + tag, mapped = "/dev/shm/fastrtps_7e57a11e" + tag;
+  for (const auto& p : {dead, mapped}) {
+    std::FILE* f = std::fopen(p.c_str(), "w");
+    REQUIRE(f != nullptr);
+    std::fputs("segment", f);
+    std::fclose(f);
+    const struct utimbuf t {now - 10, now - 10};  // made 10 s ago, by a process killed since
+    REQUIRE(::utime(p.c_str(), &t) == 0);
+  }
+  const int fd = ::open(mapped.c_str(), O_RDONLY);  // a live process (this one) has it mapped
+  REQUIRE(fd >= 0);
+  void* map = ::mmap(nullptr, 4096, PROT_READ, MAP_SHARED, fd, 0);
+  ::close(fd);
+  REQUIRE(map != MAP_FAILED);
+  auto exists = [](const std::string& p) { return ::access(p.c_str(), F_OK) == 0; };
+  // Only this test's files (a filter for tests): other runs on the machine may have files of their own.
+  tandem::runtime::ShmSweeper sweeper(now - 100, -1, tandem::runtime::ShmSweeper::kQuietS, "fastrtps_7e57");
+  CHECK(sweeper.sweep(now) == 0);  // first seen unused: noted
+  CHECK(sweeper.waiting() >= 1);
+  CHECK(sweeper.sweep(now + 30) == 0);
+  CHECK_FALSE(sweeper.due(now + 32));  // a sweep 2 s ago
+  CHECK(sweeper.due(now + 35));
+  CHECK(exists(dead));
+  sweeper.sweep(now + 61);  // unused for 61 s: removed (other runs' files are older than `since`)
+  CHECK_FALSE(exists(dead));
+  CHECK(exists(mapped));  // mapped: kept, however long
+  ::munmap(map, 4096);
+  sweeper.sweep(now + 100);  // unused from now on: its minute starts now
+  CHECK(exists(mapped));
+  sweeper.sweep(now + 170);
+  CHECK_FALSE(exists(mapped));
 }
 
 TEST_CASE("launcher: the port files of free participant ids are removed unless a live process holds them", "[launcher]") {

@@ -749,3 +749,25 @@ TEST_CASE("soak checker: a fault's recovery is not judged when the launcher park
   CHECK_FALSE(replacement_violation(run(20.2)));  // parked 0.2 s after the kill: its restart was dropped by design
   CHECK(replacement_violation(run(35.0)));        // parked only after the bound: the violation stands
 }
+
+TEST_CASE("soak report: a process's share of a core over its last window, beside its first, from cumulative CPU time", "[soak]") {
+  // A world that used 10% of a core for 5 minutes, then 60% (a wedged listener spinning), sampled every 2 s; a
+  // robot that lived 60 s only (not judged); a process with no CPU reading (skipped).
+  std::vector<RssSample> s;
+  double cpu = 0.0;
+  for (double t = 0.0; t <= 600.0; t += 2.0) {
+    s.push_back({t, "m1/world", 42, 30.0, cpu});
+    cpu += t < 300.0 ? 0.2 : 1.2;
+  }
+  for (double t = 100.0; t <= 160.0; t += 2.0) s.push_back({t, "m1/left", 43, 10.0, t});
+  for (double t = 0.0; t <= 600.0; t += 2.0) s.push_back({t, "m1/right", 44, 10.0, -1.0});
+  for (double t = 0.0; t <= 600.0; t += 2.0) s.push_back({t, "coordinator", 45, 20.0, 0.05 * t});
+  const std::vector<CpuShare> c = cpu_shares(s, 120.0);
+  REQUIRE(c.size() == 2);
+  CHECK(c[0].label == "m1/world");  // the busiest first
+  CHECK(c[0].pid == 42);
+  CHECK(c[0].share == Approx(0.6).margin(1e-9));
+  CHECK(c[0].first_share == Approx(0.1).margin(1e-9));
+  CHECK(c[1].label == "coordinator");
+  CHECK(c[1].share == Approx(0.05).margin(1e-9));
+}

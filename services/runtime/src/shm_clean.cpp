@@ -8,6 +8,9 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <iterator>
+#include <map>
+#include <utility>
 
 namespace tandem::runtime {
 namespace {
@@ -97,14 +100,26 @@ int port_of(const std::string& name) {
 }
 }  // namespace
 
-int clean_stale_shm(std::time_t since, int domain, bool ignore_self) {
+namespace {
+/// One pass over the Fast DDS files of this run (see clean_stale_shm). With `unused_since`, a file is removed
+/// only once it has been seen unused at every pass for `quiet_s`; the map is kept up to date.
+int sweep_files(std::time_t since, int domain, bool ignore_self, std::time_t now,
+                std::map<std::string, std::time_t>* unused_since, double quiet_s, const std::string& only) {
   const std::set<std::string> files = fastdds_shm_files();
+  if (unused_since != nullptr) {
+    for (auto it = unused_since->begin(); it != unused_since->end();) {  // gone meanwhile
+      it = files.count(it->first) == 0 ? unused_since->erase(it) : std::next(it);
+    }
+  }
   if (files.empty()) return 0;
   const std::set<std::string> used = in_use(ignore_self);
-  const std::time_t now = std::time(nullptr);
   int removed = 0;
   for (const auto& name : files) {
-    if (used.count(name) != 0) continue;
+    if (name.rfind(only, 0) != 0) continue;
+    if (used.count(name) != 0) {
+      if (unused_since != nullptr) unused_since->erase(name);
+      continue;
+    }
     // Port files are reused by the next participant that gets the same participant id: only the domain's own
     // (RTPS port mapping: 7400 + 250 * domain + offset), and only when asked for.
     const int port = port_of(name);
@@ -113,10 +128,30 @@ int clean_stale_shm(std::time_t since, int domain, bool ignore_self) {
     struct stat st {};
     // A file younger than 2 s may belong to a process that is creating it right now (not yet mapped).
     if (::stat(path.c_str(), &st) != 0 || st.st_mtime < since || st.st_mtime > now - 2) continue;
+    if (unused_since != nullptr) {
+      const auto [at, fresh] = unused_since->emplace(name, now);
+      if (fresh || static_cast<double>(now - at->second) < quiet_s) continue;
+      unused_since->erase(at);
+    }
     if (::unlink(path.c_str()) == 0) ++removed;
   }
   return removed;
 }
+}  // namespace
+
+int clean_stale_shm(std::time_t since, int domain, bool ignore_self) {
+  return sweep_files(since, domain, ignore_self, std::time(nullptr), nullptr, 0.0, {});
+}
+
+ShmSweeper::ShmSweeper(std::time_t since, int domain, double quiet_s, std::string only)
+    : since_(since), domain_(domain), quiet_s_(quiet_s), only_(std::move(only)) {}
+
+int ShmSweeper::sweep(std::time_t now) {
+  last_ = now;
+  return sweep_files(since_, domain_, false, now, &unused_since_, quiet_s_, only_);
+}
+
+bool ShmSweeper::due(std::time_t now) const { return !unused_since_.empty() && now - last_ >= kEveryS; }
 
 std::pair<int, int> participant_ports(int domain, int id) {
   const int meta = 7400 + 250 * domain + 10 + 2 * id;

@@ -338,11 +338,38 @@ std::string summary_text(const RunInfo& info, const History& h, const Bounds& b,
   for (const auto& [k, s] : v.rss_slope) slopes.emplace_back(s, k);
   std::sort(slopes.rbegin(), slopes.rend());
   for (size_t i = 0; i < slopes.size() && i < 12; ++i) o << "| " << slopes[i].second << " | " << f2(slopes[i].first, "%.3f") << " |\n";
+  o << "\n## Busiest processes (share of one core over the last 2 minutes of each process that lived that long, "
+       "beside its first 2 minutes)\n\n";
+  o << "| process | pid | last 2 min | first 2 min |\n|---|---:|---:|---:|\n";
+  const std::vector<CpuShare> cpu = cpu_shares(h.rss, 120.0);
+  for (size_t i = 0; i < cpu.size() && i < 8; ++i) {
+    o << "| " << cpu[i].label << " | " << cpu[i].pid << " | " << f2(100.0 * cpu[i].share, "%.0f") << "% | "
+      << f2(100.0 * cpu[i].first_share, "%.0f") << "% |\n";
+  }
   o << "\n## Plots\n\n";
   for (const char* f : {"faults", "normal_force", "late_ticks", "tasks", "recovery", "rss"}) {
     o << "![" << f << "](" << f << ".svg)\n\n";
   }
   return o.str();
+}
+
+std::vector<CpuShare> cpu_shares(const std::vector<RssSample>& samples, double window_s) {
+  std::map<std::pair<std::string, long long>, std::vector<const RssSample*>> by;
+  for (const RssSample& s : samples) {
+    if (s.cpu_s >= 0.0) by[{s.label, s.pid}].push_back(&s);
+  }
+  auto share = [](const RssSample* a, const RssSample* b) { return b->t > a->t ? (b->cpu_s - a->cpu_s) / (b->t - a->t) : 0.0; };
+  std::vector<CpuShare> out;
+  for (const auto& [key, v] : by) {
+    if (v.back()->t - v.front()->t < window_s) continue;
+    const auto from_end = std::lower_bound(v.begin(), v.end(), v.back()->t - window_s,
+                                           [](const RssSample* s, double t) { return s->t < t; });
+    const auto to_start = std::lower_bound(v.begin(), v.end(), v.front()->t + window_s,
+                                           [](const RssSample* s, double t) { return s->t < t; });
+    out.push_back({key.first, key.second, share(*from_end, v.back()), share(v.front(), *to_start)});
+  }
+  std::sort(out.begin(), out.end(), [](const CpuShare& a, const CpuShare& b) { return a.share > b.share; });
+  return out;
 }
 
 std::string write_report(const std::string& dir, const RunInfo& info, const History& h, const Bounds& b,
@@ -389,8 +416,8 @@ std::string write_report(const std::string& dir, const RunInfo& info, const Hist
   write_file(dir + "/summary.txt", kv.str());
   // The recording itself (not needed to read the report; for a closer look or another checker).
   std::ostringstream rss, mod, ev, fl;
-  rss << "t,process,pid,rss_mib\n";
-  for (const RssSample& s : h.rss) rss << s.t << "," << s.label << "," << s.pid << "," << s.mib << "\n";
+  rss << "t,process,pid,rss_mib,cpu_s\n";
+  for (const RssSample& s : h.rss) rss << s.t << "," << s.label << "," << s.pid << "," << s.mib << "," << s.cpu_s << "\n";
   mod << "t,module,world,tick,normal_min,slips,contact_lost,late,failovers,braked,hold,load_paused\n";
   for (const auto& [m, series] : h.modules) {
     for (const ModuleSample& s : series) {

@@ -72,6 +72,22 @@ double rss_mib(long long pid) {
   return -1.0;
 }
 
+double cpu_seconds(long long pid) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/stat");
+  std::string line;
+  if (!std::getline(in, line)) return -1.0;
+  const auto close = line.rfind(')');  // the command name may hold spaces
+  if (close == std::string::npos) return -1.0;
+  std::istringstream rest(line.substr(close + 2));
+  std::string field;
+  unsigned long long utime = 0, stime = 0;
+  for (int i = 3; i <= 15 && rest >> field; ++i) {  // fields 14 and 15: utime and stime, in clock ticks
+    if (i == 14) utime = std::stoull(field);
+    if (i == 15) stime = std::stoull(field);
+  }
+  return static_cast<double>(utime + stime) / static_cast<double>(::sysconf(_SC_CLK_TCK));
+}
+
 std::string machine_text() {
   utsname u{};
   ::uname(&u);
@@ -373,10 +389,10 @@ class Observer : public NemesisActions {
     for (const auto& [label, p] : nemesis_.processes()) {
       if (p.state >= 3 || !pid_alive(p.pid)) continue;
       const double mib = rss_mib(p.pid);
-      if (mib > 0) h_.rss.push_back({t, label, p.pid, mib});
+      if (mib > 0) h_.rss.push_back({t, label, p.pid, mib, cpu_seconds(p.pid)});
     }
     const double mib = rss_mib(launcher_);
-    if (mib > 0) h_.rss.push_back({t, "launcher", launcher_, mib});
+    if (mib > 0) h_.rss.push_back({t, "launcher", launcher_, mib, cpu_seconds(launcher_)});
   }
 
   // ---- the nemesis's actions (NemesisActions) -----------------------------------------------------------

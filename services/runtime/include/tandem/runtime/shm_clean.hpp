@@ -4,6 +4,7 @@
 #pragma once
 
 #include <ctime>
+#include <map>
 #include <set>
 #include <string>
 #include <utility>
@@ -27,6 +28,37 @@ std::set<std::string> shm_used_by_self();
 /// end of a run the launcher (or the soak) still holds the port files of the peers it sent to, which are dead by
 /// then and would otherwise stay. Returns how many were removed.
 int clean_stale_shm(std::time_t since, int domain = -1, bool ignore_self = false);
+
+/// During a run: removes the Fast DDS files of this run (as clean_stale_shm) only once no live process has had them
+/// mapped or open for quiet_s, seen at every sweep in between. Why not at once: Fast DDS 2.9's shared-memory
+/// listener that pops a buffer descriptor naming a segment that no longer exists retries it for ever (the
+/// descriptor stays at the head of its port; soak finding 50: 8000 failed shm_open a second, the port deaf for
+/// good). A killed sender's descriptors can still wait in the port of a listener that is stopped or starved
+/// (a stalled process, a busy core: the domain's shared multicast port is read by every participant), and
+/// removing the sender's segment 2 s after the kill, as the launcher did, wedged such listeners one by one over a
+/// long soak: each burnt part of a core and heard nothing new (findings 59 and 69). quiet_s is far above any stall
+/// the soak injects; segments of killed processes thus live about a minute more (a few hundred KiB each).
+class ShmSweeper {
+ public:
+  static constexpr double kQuietS = 60.0;
+  static constexpr std::time_t kEveryS = 5;  ///< between sweeps while files wait (see due())
+  /// `only`: a name prefix the files must have (tests; empty: every Fast DDS file).
+  ShmSweeper(std::time_t since, int domain, double quiet_s = kQuietS, std::string only = {});
+  /// One pass at `now`: files unused now are noted, and those unused at every pass since quiet_s ago removed.
+  /// Returns how many were removed.
+  int sweep(std::time_t now);
+  /// Files wait for their quiet time and the last sweep is kEveryS old.
+  bool due(std::time_t now) const;
+  size_t waiting() const { return unused_since_.size(); }
+
+ private:
+  std::time_t since_;
+  int domain_;
+  double quiet_s_;
+  std::string only_;
+  std::time_t last_ = 0;
+  std::map<std::string, std::time_t> unused_since_;
+};
 
 /// The shared-memory port numbers of participant `id` in `domain` (its metatraffic and user unicast ports,
 /// 7400 + 250 domain + 10 + 2 id and + 11: the RTPS port mapping).

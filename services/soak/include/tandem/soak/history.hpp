@@ -82,7 +82,9 @@ struct RssSample {
   std::string label;
   long long pid = 0;
   double mib = 0.0;
+  double cpu_s = -1.0;  ///< CPU time the process has used so far, user and system [s] (-1: unknown)
 };
+
 
 struct History {
   double duration_s = 0.0;       ///< planned length

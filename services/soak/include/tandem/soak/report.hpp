@@ -2,6 +2,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "tandem/soak/checker.hpp"
 #include "tandem/soak/history.hpp"
@@ -14,6 +15,16 @@ struct RunInfo {
   double wall_s = 0.0;
   int modules = 0, processes_seen = 0;
 };
+
+/// A process's share of a core over the last `window_s` of its samples (from cpu_s), for the processes that lived
+/// that long: the busiest first. A listener wedged on a removed segment spins (soak finding 71); this shows it.
+struct CpuShare {
+  std::string label;
+  long long pid = 0;
+  double share = 0.0;  ///< of one core, over its last window
+  double first_share = 0.0;  ///< the same over its first window
+};
+std::vector<CpuShare> cpu_shares(const std::vector<RssSample>& samples, double window_s);
 
 /// Writes the report into `dir` (created if missing). Returns the path of summary.md. Throws std::runtime_error
 /// if a file cannot be written.

@@ -611,6 +611,23 @@ TEST_CASE("soak checker: a supervisor kill with no warm standby is judged by the
   v = check(history(false, 16.0), b);
   REQUIRE(find(v, "recovery") != nullptr);
   CHECK_THAT(find(v, "recovery")->text, Catch::Contains("within 15.0 s"));
+  // The module restarted for its lost plan: its new primary supervisor has the killed one's label and another pid
+  // (lockstep soak run 41). It serves; the killed process itself (its pid, or no pid known) never counts.
+  auto same_label = [&](long long pid) {
+    History h = quiet_history(60.0);
+    h.faults.push_back(kill_supervisor(false));
+    Event e{23.0, Event::Type::Serving, "m1/supervisor", "primary"};
+    e.pid = pid;
+    add_event(h, e);
+    add_event(h, {50.0, Event::Type::Serving, "m1/supervisor@50", "primary"});
+    return check(h, b);
+  };
+  CHECK(find(same_label(222), "recovery") == nullptr);
+  for (const long long stale : {111LL, 0LL}) {
+    v = same_label(stale);
+    REQUIRE(find(v, "recovery") != nullptr);
+    CHECK_THAT(find(v, "recovery")->text, Catch::Contains("after 30.0 s"));
+  }
 }
 
 TEST_CASE("soak checker: a supervisor's takeover is judged in module time: a lockstep world that waited holds, ticks run on do not") {

@@ -362,9 +362,14 @@ class Judge {
     return false;
   }
   /// First time after t at which a process whose label starts with `prefix`, other than `label`, serves.
-  double serving_primary(const std::string& prefix, const std::string& label, double t) const {
+  /// First time at or after t at which a process under `prefix` other than the killed one (`label`, `pid`) said it
+  /// serves as the primary. A process with the killed one's label and another pid is another process: a module
+  /// restarted after its lost plan starts a new primary supervisor under the same label (lockstep soak run 41: "no
+  /// other supervisor of m1 served within 15.0 s (it came after 45.5 s)", while the restarted module's served at once).
+  double serving_primary(const std::string& prefix, const std::string& label, double t, long long pid) const {
     for (const Event& e : h_.events) {
-      if (e.t < t || e.type != Event::Type::Serving || e.subject == label || e.subject.rfind(prefix, 0) != 0) continue;
+      if (e.t < t || e.type != Event::Type::Serving || e.subject.rfind(prefix, 0) != 0) continue;
+      if (e.subject == label && (e.pid == 0 || e.pid == pid)) continue;
       if (e.text == "primary") return e.t;
     }
     return -1.0;
@@ -441,11 +446,11 @@ class Judge {
                 "no replacement robot for " + arm + " was active");
         } else if (f.fault.target == Target::Supervisor) {
           judge(inv, f, f.had_standby ? "kill supervisor: another serves" : "kill supervisor (no warm standby): another serves",
-                in_module_time(module, serving_primary(module + "/supervisor", f.label, f.t), f.t, f.module_tick), f.t,
+                in_module_time(module, serving_primary(module + "/supervisor", f.label, f.t, f.pid), f.t, f.module_tick), f.t,
                 f.had_standby ? b_.supervisor_s : b_.supervisor_cold_s, "no other supervisor of " + module + " served");
         } else if (f.fault.target == Target::Coordinator) {
           judge(inv, f, f.had_standby ? "kill coordinator: another serves" : "kill coordinator (no standby): another serves",
-                serving_primary("coordinator", f.label, f.t), f.t, f.had_standby ? b_.coordinator_s : b_.coordinator_cold_s,
+                serving_primary("coordinator", f.label, f.t, f.pid), f.t, f.had_standby ? b_.coordinator_s : b_.coordinator_cold_s,
                 "no other coordinator served");
         } else if (f.fault.target == Target::World) {
           const std::string task = task_on(module, f.t);
@@ -466,7 +471,7 @@ class Judge {
         double found = heard_again(f.label, f.pid, f.t + f.fault.duration_s, until);
         // A coordinator stalled past its standby's takeover leaves by design (crash-only): recovered when
         // another coordinator serves.
-        if (found < 0.0 && f.fault.target == Target::Coordinator) found = serving_primary("coordinator", f.label, f.t);
+        if (found < 0.0 && f.fault.target == Target::Coordinator) found = serving_primary("coordinator", f.label, f.t, f.pid);
         judge(inv, f, "stall: heard again", found, f.t, f.fault.duration_s + b_.stall_extra_s,
               f.label + " was not heard again (nor replaced)");
         break;

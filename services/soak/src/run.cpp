@@ -320,6 +320,7 @@ class Observer : public NemesisActions {
       const std::string serving = runtime::role_name(s.serving());
       if ((s.role() == "supervisor" || s.role() == "coordinator") && (serving != p.serving || p.pid != pid)) {
         h_.events.push_back({t, Event::Type::Serving, label, serving});
+        h_.events.back().pid = pid;
       }
       ProcessView now;
       now.role = s.role();

@@ -49,6 +49,7 @@ struct Event {
   std::string subject, text;
   std::map<std::string, std::string> owners;  ///< Owners: arm -> the robot's label it follows ("" while none)
   long tick = -1;                             ///< Owners: the world's tick in the report that showed them
+  long long pid = 0;                          ///< Serving: the process that said it (0: not known)
   /// Owners: arm -> the world's own count of the ticks from the previous owner's last command to the tick it
   /// followed this one (WorldCore::Owner::handover_ticks; -1: not said)
   std::map<std::string, long> handover;

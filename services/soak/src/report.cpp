@@ -342,6 +342,7 @@ std::string summary_text(const RunInfo& info, const History& h, const Bounds& b,
        "beside its first 2 minutes)\n\n";
   o << "| process | pid | last 2 min | first 2 min |\n|---|---:|---:|---:|\n";
   const std::vector<CpuShare> cpu = cpu_shares(h.rss, 120.0);
+  if (cpu.empty()) o << "| (no process lived two minutes) | | | |\n";
   for (size_t i = 0; i < cpu.size() && i < 8; ++i) {
     o << "| " << cpu[i].label << " | " << cpu[i].pid << " | " << f2(100.0 * cpu[i].share, "%.0f") << "% | "
       << f2(100.0 * cpu[i].first_share, "%.0f") << "% |\n";

@@ -173,24 +173,30 @@ std::vector<std::string> Supervisor::admit(const std::vector<std::string>& order
 bool Supervisor::launch(Child& c, const char* note, double now) {
   // The participant id left longest ago (see services/dds/src/participant.cpp); none left: Fast DDS picks.
   c.participant_id = -1;
+  bool reused_ports = false;
   if (!free_ids_.empty()) {
     // The longest-free id whose old port files are gone (removed, or never made); none such: the longest-free id.
     auto pick = free_ids_.begin();
     if (has_old_ports_) {
       const auto fresh = std::find_if(free_ids_.begin(), free_ids_.end(), [this](int id) { return !has_old_ports_(id); });
       if (fresh != free_ids_.end()) pick = fresh;
+      reused_ports = fresh == free_ids_.end();
     }
     c.participant_id = *pick;
     free_ids_.erase(pick);
   }
+  // Said in the log: a newcomer that reopens a killed process's port files is the suspect of soak findings 59 and 69
+  // (new readers heard nothing for tens of seconds), and this tells those starts from the others.
+  std::string said = note;
+  if (reused_ports) said += " (participant id " + std::to_string(c.participant_id) + ": every free id still had port files)";
   c.running = true;
   c.started = now;
   c.heard = false;
   if (c.host.empty()) {
     c.pid = exec_.start(c);
-    logf("  started %-22s pid %d%s\n", c.label.c_str(), c.pid, note);
+    logf("  started %-22s pid %d%s\n", c.label.c_str(), c.pid, said.c_str());
   } else if (hosts_ != nullptr && hosts_->lost(c.host)) {
-    logf("  cannot start %-18s on %s: the host is lost%s\n", c.label.c_str(), c.host.c_str(), note);
+    logf("  cannot start %-18s on %s: the host is lost%s\n", c.label.c_str(), c.host.c_str(), said.c_str());
     c.pid = -1;
     mark_exited(c, 127);
   } else {
@@ -200,7 +206,7 @@ bool Supervisor::launch(Child& c, const char* note, double now) {
     c.signal = 0;
     (void)exec_.start(c);
     c.sent = now;
-    logf("  started %-22s on %s%s\n", c.label.c_str(), c.host.c_str(), note);
+    logf("  started %-22s on %s%s\n", c.label.c_str(), c.host.c_str(), said.c_str());
   }
   children_.push_back(c);
   return c.running && (c.pid > 0 || !c.host.empty());

@@ -359,8 +359,8 @@ void UpRun::step() {
     recording_failed_ = true;
   }
   // Shared-memory files of killed children, once no live process has used them for a minute (runtime::ShmSweeper:
-  // removed 2 s after the kill, a segment could still be named in the port of a stalled listener, which then
-  // wedged for good).
+  // removed 2 s after the kill, a segment could still be named in the port of a stalled listener, which would then
+  // wedge for good: docs/soak.md, finding 71).
   const std::time_t wall = std::time(nullptr);
   if (sweeper_ && sweeper_->due(wall)) sweeper_->sweep(wall);
   if (L_.shm_dirty() && now_s() - L_.killed_at() > 2.0) {

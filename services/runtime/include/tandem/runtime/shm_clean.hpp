@@ -35,9 +35,10 @@ int clean_stale_shm(std::time_t since, int domain = -1, bool ignore_self = false
 /// descriptor stays at the head of its port; soak finding 50: 8000 failed shm_open a second, the port deaf for
 /// good). A killed sender's descriptors can still wait in the port of a listener that is stopped or starved
 /// (a stalled process, a busy core: the domain's shared multicast port is read by every participant), and
-/// removing the sender's segment 2 s after the kill, as the launcher did, wedged such listeners one by one over a
-/// long soak: each burnt part of a core and heard nothing new (findings 59 and 69). quiet_s is far above any stall
-/// the soak injects; segments of killed processes thus live about a minute more (a few hundred KiB each).
+/// removing the sender's segment 2 s after the kill, as the launcher did, could wedge such a listener for good
+/// (docs/soak.md, finding 71; whether it caused the wear-out of findings 59 and 69 is not shown). quiet_s is far
+/// above any stall the soak injects; segments of killed processes thus live about a minute more (a few hundred KiB
+/// each).
 class ShmSweeper {
  public:
   static constexpr double kQuietS = 60.0;

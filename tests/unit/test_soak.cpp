@@ -96,6 +96,14 @@ const Violation* find(const Verdict& v, const std::string& invariant) {
   return nullptr;
 }
 
+/// The first recovery of `kind` the checker measured [s]; -1 if none.
+double recovery_s(const Verdict& v, const std::string& kind) {
+  for (const auto& r : v.recoveries) {
+    if (r.kind == kind) return r.seconds;
+  }
+  return -1.0;
+}
+
 }  // namespace
 
 TEST_CASE("soak schedule: the same seed gives the same schedule, another seed another") {
@@ -294,13 +302,8 @@ TEST_CASE("soak checker: failover and restart are measured from the recording, l
   add_event(h, {21.8, Event::Type::State, "m1/left@49", "2 222"});
   Verdict v = check(h, Bounds{});
   CHECK(v.ok());
-  bool failover = false, restart = false;
-  for (const auto& r : v.recoveries) {
-    if (r.kind == "kill robot: arm served again (standby)") failover = r.seconds == Approx(0.021);
-    if (r.kind == "kill robot: replacement up") restart = r.seconds == Approx(1.8);
-  }
-  CHECK(failover);
-  CHECK(restart);
+  CHECK(recovery_s(v, "kill robot: arm served again (standby)") == Approx(0.021));
+  CHECK(recovery_s(v, "kill robot: replacement up") == Approx(1.8));
 
   History late = quiet_history(60.0);
   late.faults.push_back(kill_left(20.0));
@@ -336,12 +339,7 @@ TEST_CASE("soak checker: an arm's failover is judged in module time (ticks), in 
     add_event(h, {21.8, Event::Type::State, "m1/left@49", "2 222"});
     return check(h, Bounds{});
   };
-  auto failover_s = [](const Verdict& v) {
-    for (const auto& r : v.recoveries) {
-      if (r.kind == "kill robot: arm served again (standby)") return r.seconds;
-    }
-    return -1.0;
-  };
+  auto failover_s = [](const Verdict& v) { return recovery_s(v, "kill robot: arm served again (standby)"); };
   // Lockstep, 50 ticks of module time: 0.05 s, held (on the wall clock it would be 0.9 s).
   const Verdict lock50 = run(false, 20050);
   CHECK(find(lock50, "recovery") == nullptr);
@@ -605,9 +603,7 @@ TEST_CASE("soak checker: a supervisor kill with no warm standby is judged by the
   // None: the lost-plan path's bound, which holds 6.2 s and still fails a module that never comes back.
   v = check(history(false, 6.2), b);
   CHECK(find(v, "recovery") == nullptr);
-  bool cold = false;
-  for (const auto& r : v.recoveries) cold = cold || (r.kind == "kill supervisor (no warm standby): another serves" && r.seconds == Approx(6.2));
-  CHECK(cold);
+  CHECK(recovery_s(v, "kill supervisor (no warm standby): another serves") == Approx(6.2));
   v = check(history(false, 16.0), b);
   REQUIRE(find(v, "recovery") != nullptr);
   CHECK_THAT(find(v, "recovery")->text, Catch::Contains("within 15.0 s"));
@@ -646,12 +642,7 @@ TEST_CASE("soak checker: a supervisor's takeover is judged in module time: a loc
     add_event(h, {22.6, Event::Type::Serving, "m1/supervisor@50", "primary"});
     return check(h, Bounds{});
   };
-  auto takeover_s = [](const Verdict& v) {
-    for (const auto& r : v.recoveries) {
-      if (r.kind == "kill supervisor: another serves") return r.seconds;
-    }
-    return -1.0;
-  };
+  auto takeover_s = [](const Verdict& v) { return recovery_s(v, "kill supervisor: another serves"); };
   // The world waited after 10 ticks: 0.01 s of module time, held (2.6 s on the wall clock would be a violation).
   const Verdict waited = run(10, false);
   CHECK(find(waited, "recovery") == nullptr);
@@ -693,9 +684,7 @@ TEST_CASE("soak checker: a coordinator kill with no standby coordinator is judge
   CHECK_THAT(find(warm, "recovery")->text, Catch::Contains("within 5.0 s"));
   const Verdict cold = check(history(false, 5.1), Bounds{});
   CHECK(find(cold, "recovery") == nullptr);
-  bool judged = false;
-  for (const auto& r : cold.recoveries) judged = judged || (r.kind == "kill coordinator (no standby): another serves" && r.seconds == Approx(5.1));
-  CHECK(judged);
+  CHECK(recovery_s(cold, "kill coordinator (no standby): another serves") == Approx(5.1));
   const Verdict never = check(history(false, 11.0), Bounds{});
   REQUIRE(find(never, "recovery") != nullptr);
   CHECK_THAT(find(never, "recovery")->text, Catch::Contains("within 10.0 s"));

@@ -5,6 +5,8 @@
 #include <cstdio>
 #include <functional>
 
+#include "tandem/model/grasp.hpp"
+
 namespace tandem::world {
 
 namespace {
@@ -33,6 +35,9 @@ WorldCore::WorldCore(const sim::ModuleSetup& m, const WorldOptions& o)
       plant_.set_brake(j, true);
     }
   }
+  const model::ObjectParams& obj = m.plant.object;
+  drive_acc_max_ = kDriveFeedbackShare *
+                   std::max(0.0, model::stop_deceleration_bound(m.reference_force, m.safe_grasp_force, obj.mass, obj.mu_s, m.plant.g0));
   o_.overload.window = std::clamp(o_.overload.window, 1, 256);
   o_.overload.probe_every = std::max(o_.overload.probe_every, 1);
   jitter_ = static_cast<double>(std::hash<std::string>{}(o.arm_ids[0]) % 1000) / 1000.0;
@@ -108,7 +113,21 @@ void WorldCore::set_brake(int j, bool on, const std::string& why) {
       why + ")");
 }
 
-model::JointVec WorldCore::drive_torque(int j) const {
+model::Vec3 WorldCore::drive_acceleration(int j, const model::ArmReference& ref, const model::Vec3& x,
+                                          const model::Vec3& xd) {
+  const size_t a = static_cast<size_t>(j);
+  if (drive_tick_[a] != k_ && drive_tick_[a] != k_ - 1) drive_offset_[a] = x - ref.x;  // a new run: bumpless
+  drive_tick_[a] = k_;
+  model::Vec3 fb = kDriveKd * (ref.xd - xd) + kDriveKp * (ref.x + drive_offset_[a] - x);
+  // Bounded: at most drive_acc_max_ along the faces' plane, and a rotation that moves a stick tip no faster.
+  const double lin = fb.head<2>().norm();
+  if (lin > drive_acc_max_) fb.head<2>() *= drive_acc_max_ / lin;
+  const double stick = std::max({m_.geometry.stick_length[0], m_.geometry.stick_length[1], 1e-3});
+  fb(2) = std::clamp(fb(2), -drive_acc_max_ / stick, drive_acc_max_ / stick);
+  return ref.xdd + fb;
+}
+
+model::JointVec WorldCore::drive_torque(int j) {
   const size_t a = static_cast<size_t>(j);
   const model::ArmReference ref = follower_.reference(j, k_);
   const model::Vec3 h(contact_.h[a](0), contact_.h[a](1), 0.0);
@@ -120,9 +139,8 @@ model::JointVec WorldCore::drive_torque(int j) const {
     const model::Vec3 q = qv, qd = qdv;
     const model::Mat3 J = model::jacobian(ap, q);
     const model::Vec3 x = model::forward_kinematics(ap, q);
-    // Task-space computed torque: x'' = x_d'' + Kd (x_d' - x') + Kp (x_d - x), q'' = J^-1 (x'' - J' q').
-    const model::Vec3 acc = ref.xdd + kDriveKd * (ref.xd - J * qd) + kDriveKp * (ref.x - x) -
-                            model::jacobian_dot(ap, q, qd) * qd;
+    // Task-space computed torque: q'' = J^-1 (x'' - J' q'), x'' from drive_acceleration.
+    const model::Vec3 acc = drive_acceleration(j, ref, x, J * qd) - model::jacobian_dot(ap, q, qd) * qd;
     const model::Vec3 qdd = J.partialPivLu().solve(acc);
     const model::Vec3 tau = model::inertia(ap, q) * qdd + model::nonlinear_terms(ap, q, qd) + J.transpose() * h;
     return model::JointVec(tau.cwiseMax(-ap.tau_max).cwiseMin(ap.tau_max));
@@ -131,7 +149,7 @@ model::JointVec WorldCore::drive_torque(int j) const {
   // self-motion (the null space of J), so that the stop does not let the free joint drift.
   const model::TaskJacobian J = arm.jacobian(qv);
   const model::Vec3 x = arm.forward_kinematics(qv);
-  const model::Vec3 acc = ref.xdd + kDriveKd * (ref.xd - J * qdv) + kDriveKp * (ref.x - x) - arm.jacobian_dot(qv, qdv) * qdv;
+  const model::Vec3 acc = drive_acceleration(j, ref, x, J * qdv) - arm.jacobian_dot(qv, qdv) * qdv;
   const model::Mat3 JJt = J * J.transpose();
   const model::TaskJacobian W = JJt.partialPivLu().solve(J);  // (J J^T)^-1 J: its transpose is J^+
   model::JointVec qdd = W.transpose() * acc;
@@ -184,9 +202,12 @@ void WorldCore::begin_tick(long k, int64_t /*now_ns*/, std::array<SampleOut, 2>&
   TickRecord& rec = history_[static_cast<size_t>(k) % kHistory];
   for (int j = 0; j < 2; ++j) {
     if (follower_.has_plan()) {
-      ep_[static_cast<size_t>(j)] = (follower_.reference(j, k).x.head<2>() - plant_.end_effector(j).head<2>()).norm();
+      const model::Vec3 ref = follower_.reference(j, k).x, x = plant_.end_effector(j);
+      ep_[static_cast<size_t>(j)] = (ref.head<2>() - x.head<2>()).norm();
+      ephi_[static_cast<size_t>(j)] = ref(2) - x(2);
     }
     rec.ep[static_cast<size_t>(j)] = ep_[static_cast<size_t>(j)];
+    rec.ephi[static_cast<size_t>(j)] = ephi_[static_cast<size_t>(j)];
   }
   rec.hn_min = hn;
   for (auto it = windows_.begin(); it != windows_.end();) {
@@ -412,7 +433,7 @@ void WorldCore::apply(int j, const model::JointVec& tau, int32_t strength, int64
       failover_last_ms = gap_ms;
       failover_max_ms = std::max(failover_max_ms, gap_ms);
     }
-    char line[256];
+    char line[320];
     std::snprintf(line, sizeof line, "%s now follows %s (was %s): %s %.1f ms after the last command of the old one",
                   o_.arm_ids[static_cast<size_t>(j)].c_str(), name.c_str(), L.owner.c_str(),
                   failover ? "failover" : "takeover", gap_ms);
@@ -688,7 +709,7 @@ void WorldCore::fail(const std::string& why) {
 std::string WorldCore::flight_record(long ticks) const {
   std::string out;
   const long first = std::max(0L, std::max(k_ - ticks + 1, k_ - static_cast<long>(kHistory) + 1));
-  char line[256];
+  char line[320];
   const auto efforts = [](const model::JointVec& tau) {
     std::string t;
     char v[32];
@@ -701,8 +722,10 @@ std::string WorldCore::flight_record(long ticks) const {
   for (long k = first; k <= k_; ++k) {
     const TickRecord& r = history_[static_cast<size_t>(k) % kHistory];
     std::snprintf(line, sizeof line,
-                  "  tick %ld: h_n %.2f %.2f N, h_t %.2f %.2f N, e_p %.2e %.2e m; left %c from %d tau%s; right %c from %d tau%s\n",
-                  k, r.hn[0], r.hn[1], r.ht[0], r.ht[1], r.ep[0], r.ep[1], r.how[0], r.from[0], efforts(r.tau[0]).c_str(),
+                  "  tick %ld: h_n %.2f %.2f N, h_t %.2f %.2f N, e_p %.2e %.2e m, e_phi %.1e %.1e rad; left %c from %d tau%s; "
+                  "right %c from %d tau%s\n",
+                  k, r.hn[0], r.hn[1], r.ht[0], r.ht[1], r.ep[0], r.ep[1], r.ephi[0], r.ephi[1], r.how[0], r.from[0],
+                  efforts(r.tau[0]).c_str(),
                   r.how[1], r.from[1], efforts(r.tau[1]).c_str());
     out += line;
   }

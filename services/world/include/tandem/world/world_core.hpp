@@ -210,8 +210,13 @@ class WorldCore {
   static constexpr int kDriveAfterMisses = 3;
   /// The world's drive: computed torque (eq. 21-22 with the plant's own model, exact here) and a PD on the
   /// whole pose (x, y, phi) towards the plan's eq. (15) reference, which carries the grasp preload: w = 50
-  /// rad/s, critically damped. Memoryless, so it can serve a single tick as well as a whole stop.
+  /// rad/s, critically damped. Bumpless: it keeps the offset from the plan that the arm had when the drive took
+  /// it (a robot's law may leave one: its orientation loop is soft), and its correction is bounded by
+  /// kDriveFeedbackShare of the stop's deceleration bound (eq. 14, model::stop_deceleration_bound) at the
+  /// stick tips. Without both, an arm 0.1 rad off in orientation got 3000 N m on joint 1 at the stop's first
+  /// tick and the object was dropped (lockstep soak run 43, finding 73).
   static constexpr double kDriveKp = 2500.0, kDriveKd = 100.0;
+  static constexpr double kDriveFeedbackShare = 0.5;
   /// A stop of an arm without a controller brakes it once the object is still, or after this long.
   static constexpr double kStopMaxS = 10.0;
   /// The plan counts as stopped when it is paused and settled, or slower than the still speed now and within
@@ -272,7 +277,10 @@ class WorldCore {
   /// The arm has no live controller and the world drives it to rest along the plan (then brakes it).
   bool stopping(int j) const { return link_[static_cast<size_t>(j)].stopping; }
   /// Torque of the world's drive for arm j now (computed torque towards the plan's reference).
-  model::JointVec drive_torque(int j) const;
+  /// The drive's torque for arm j this tick (see kDriveKp); its first tick of a run takes the arm's offset.
+  model::JointVec drive_torque(int j);
+  /// The drive's task acceleration: the plan's, plus the bounded PD on the error from the plan plus the offset.
+  model::Vec3 drive_acceleration(int j, const model::ArmReference& ref, const model::Vec3& x, const model::Vec3& xd);
   /// Torque a brake takes to hold arm j still now: g(q) + J^T h.
   model::JointVec holding_torque(int j) const;
   bool paused_for_load() const { return load_paused_ || load_pending_; }
@@ -362,12 +370,17 @@ class WorldCore {
   model::ArmEfforts tau_{model::JointVec::Zero(3), model::JointVec::Zero(3)};  // sized to the arms in the constructor
   model::ContactReading contact_{};  // the contacts at the start of the tick (the plant does not move until step)
   std::array<double, 2> ep_{0.0, 0.0};
+  std::array<double, 2> ephi_{0.0, 0.0};  ///< orientation error from the plan [rad] (the flight record)
+  std::array<model::Vec3, 2> drive_offset_{model::Vec3::Zero(), model::Vec3::Zero()};  ///< x - x_ref at the drive's start
+  std::array<long, 2> drive_tick_{-2, -2};  ///< the last tick the drive served each arm
+  double drive_acc_max_ = 0.0;  ///< the drive's largest correction at a stick tip [m/s^2] (kDriveFeedbackShare)
   long k_ = 0;
   double t_ = 0.0;
   double brake_after_s_;
   // The last 256 ticks' tracking error per arm and lowest normal force, and the open windows after a switch.
   struct TickRecord {
     std::array<double, 2> ep{0.0, 0.0};
+    std::array<double, 2> ephi{0.0, 0.0};
     double hn_min = 0.0;
     // The flight recorder a drop prints (fail()): what each contact carried and what each arm got.
     std::array<double, 2> hn{0.0, 0.0}, ht{0.0, 0.0};  ///< normal and tangential force per contact [N]

@@ -1182,12 +1182,18 @@ TEST_CASE("the world's stop of an arm off its plan keeps the offset: bounded tor
         if (back) rig.mute_until[a] = kPeakTick + stop_after + 3;
         else rig.robot[a].reset();
         tmo::JointVec drive_max = tmo::JointVec::Zero(3);
+        double offset_braked = 0.0;  // the orientation offset when the brake engaged
         while (rig.k < kPeakTick + 1500) {
+          const bool was_braked = rig.w.braked(j);
           rig.tick();
           if (rig.out[a].applied_from == -1) drive_max = drive_max.cwiseMax(rig.out[a].tau_applied.cwiseAbs());
+          if (rig.w.braked(j) && !was_braked) {
+            offset_braked = rig.sup[0]->plan().reference(j, rig.k).x(2) - rig.w.plant().end_effector(j)(2);
+          }
         }
         INFO((realtime ? "real time" : "lockstep") << (back ? ", back after the stop began" : ", killed") << ", arm " << j << ", wrist bias " << bias << " N m, offset " << offset
-                                                   << " rad, drive max " << drive_max.transpose() << "\n" << rig.log);
+                                                   << " rad (" << offset_braked << " when braked), drive max "
+                                                   << drive_max.transpose() << "\n" << rig.log);
         REQUIRE(slips_before == 0);
         REQUIRE(std::abs(offset) > 0.003);  // the arm is off its plan when the stop begins
         if (back) {
@@ -1195,6 +1201,8 @@ TEST_CASE("the world's stop of an arm off its plan keeps the offset: bounded tor
         } else {
           CHECK(rig.log.find("object at rest after") != std::string::npos);
           CHECK(rig.w.braked(j));
+          // The drive held the arm where it was relative to the plan (a drive that pulled it back would not).
+          if (scale < 1.0) CHECK(std::abs(offset_braked - offset) < 0.25 * std::abs(offset));
         }
         // The drive never went near the actuator limits (3000, 1500, 500 N m); the old one hit 3000 N m on joint 1.
         const tmo::Vec3 limit = rig.m.plant.arms[a].tau_max;

@@ -1,5 +1,6 @@
 #include <sys/stat.h>
 
+#include <cstdint>
 #include <cstdlib>
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
 #include <fastdds/dds/domain/qos/DomainParticipantQos.hpp>
@@ -15,6 +16,8 @@
 namespace tandem::dds {
 
 namespace {
+
+constexpr uint32_t kUdpReceiveBuffer = 4u << 20;  // [bytes] per UDP socket, requested (see Participant::Participant)
 
 // Fast DDS 2.9.1 matches a newly discovered secured participant's handshake endpoints through shared scratch
 // proxies without a lock (SecurityManager::match_builtin_endpoints). Two participants discovered at once on two
@@ -80,6 +83,11 @@ Participant::Participant(int domain_id, const std::string& name, Transport trans
         std::make_shared<eprosima::fastdds::rtps::SharedMemTransportDescriptor>());
   }
   auto udp = std::make_shared<eprosima::fastdds::rtps::UDPv4TransportDescriptor>();
+  // Larger socket receive buffers than the system default (208 KiB on Debian): in a lockstep soak of four modules
+  // the launcher's discovery socket dropped 16k datagrams and a world's 372 (ss -uam, "d" counter) in bursts when
+  // processes came and went about once a second, and newcomers then went unheard. The kernel caps the request at
+  // net.core.rmem_max (docs/benchmarks.md, "Soak").
+  udp->receiveBufferSize = kUdpReceiveBuffer;
   qos.transport().user_transports.push_back(udp);
   // DDS-Security (docs/security.md): the deployment's keys (TANDEM_SECURITY_DIR, made by `tandem keys`) and this
   // process's identity (TANDEM_IDENTITY), set by runtime::use_security or handed down by the launcher.

@@ -36,8 +36,9 @@ WorldCore::WorldCore(const sim::ModuleSetup& m, const WorldOptions& o)
     }
   }
   const model::ObjectParams& obj = m.plant.object;
-  drive_acc_max_ = kDriveFeedbackShare *
-                   std::max(0.0, model::stop_deceleration_bound(m.reference_force, m.safe_grasp_force, obj.mass, obj.mu_s, m.plant.g0));
+  // A grasp with no margin (h_ref <= h_sg: the scenario's own checks refuse it) still gets a damped drive.
+  const double a_stop = model::stop_deceleration_bound(m.reference_force, m.safe_grasp_force, obj.mass, obj.mu_s, m.plant.g0);
+  drive_acc_max_ = kDriveFeedbackShare * (a_stop > 0.0 ? a_stop : 1.0);
   o_.overload.window = std::clamp(o_.overload.window, 1, 256);
   o_.overload.probe_every = std::max(o_.overload.probe_every, 1);
   jitter_ = static_cast<double>(std::hash<std::string>{}(o.arm_ids[0]) % 1000) / 1000.0;
@@ -116,7 +117,13 @@ void WorldCore::set_brake(int j, bool on, const std::string& why) {
 model::Vec3 WorldCore::drive_acceleration(int j, const model::ArmReference& ref, const model::Vec3& x,
                                           const model::Vec3& xd) {
   const size_t a = static_cast<size_t>(j);
-  if (drive_tick_[a] != k_ && drive_tick_[a] != k_ - 1) drive_offset_[a] = x - ref.x;  // a new run: bumpless
+  if (drive_tick_[a] != k_ && drive_tick_[a] != k_ - 1) {
+    // A new run: bumpless. The offset along the approach axis is left out: it is squeeze the grasp lost (the
+    // reference carries the preload), and the drive brings it back, within the bound below.
+    drive_offset_[a] = x - ref.x;
+    const model::Vec2 n = model::approach_axis(ref.x(2));
+    drive_offset_[a].head<2>() -= n * n.dot(drive_offset_[a].head<2>());
+  }
   drive_tick_[a] = k_;
   model::Vec3 fb = kDriveKd * (ref.xd - xd) + kDriveKp * (ref.x + drive_offset_[a] - x);
   // Bounded: at most drive_acc_max_ along the faces' plane, and a rotation that moves a stick tip no faster.

@@ -211,9 +211,10 @@ class WorldCore {
   /// The world's drive: computed torque (eq. 21-22 with the plant's own model, exact here) and a PD on the
   /// whole pose (x, y, phi) towards the plan's eq. (15) reference, which carries the grasp preload: w = 50
   /// rad/s, critically damped. Bumpless: it keeps the offset from the plan that the arm had when the drive took
-  /// it (a robot's law may leave one: its orientation loop is soft), and its correction is bounded by
-  /// kDriveFeedbackShare of the stop's deceleration bound (eq. 14, model::stop_deceleration_bound) at the
-  /// stick tips. Without both, an arm 0.1 rad off in orientation got 3000 N m on joint 1 at the stop's first
+  /// it, along the contact face and in orientation (a robot's law may leave one: its orientation loop is soft),
+  /// but not along the approach axis (that offset is squeeze the grasp would lose); and its correction is bounded
+  /// by kDriveFeedbackShare of the stop's deceleration bound (eq. 14, model::stop_deceleration_bound) in the plane,
+  /// and by that over the longer stick in rotation. Without both, an arm 0.1 rad off in orientation got 3000 N m on joint 1 at the stop's first
   /// tick and the object was dropped (lockstep soak run 43, finding 73).
   static constexpr double kDriveKp = 2500.0, kDriveKd = 100.0;
   static constexpr double kDriveFeedbackShare = 0.5;
@@ -276,8 +277,8 @@ class WorldCore {
   bool braked(int j) const { return link_[static_cast<size_t>(j)].braked; }
   /// The arm has no live controller and the world drives it to rest along the plan (then brakes it).
   bool stopping(int j) const { return link_[static_cast<size_t>(j)].stopping; }
-  /// Torque of the world's drive for arm j now (computed torque towards the plan's reference).
-  /// The drive's torque for arm j this tick (see kDriveKp); its first tick of a run takes the arm's offset.
+  /// The world's drive for arm j this tick: computed torque towards the plan's reference (see kDriveKp). Not a
+  /// pure query: the first call of a run of driven ticks takes the arm's offset from the plan.
   model::JointVec drive_torque(int j);
   /// The drive's task acceleration: the plan's, plus the bounded PD on the error from the plan plus the offset.
   model::Vec3 drive_acceleration(int j, const model::ArmReference& ref, const model::Vec3& x, const model::Vec3& xd);

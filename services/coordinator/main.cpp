@@ -117,6 +117,14 @@ class CoordinatorProcess {
       carry_out(t);
       if (!core_.end() && core_.heartbeat_due(t)) heartbeat(t);
       if (!core_.end()) states_.wait(0.02);
+      if (t - last_match_log_ >= 60.0) {
+        // How many writers each input is matched with: a count that keeps growing beyond the deployment's live
+        // processes means proxies of killed processes that discovery never removed (docs/soak.md, finding 74).
+        last_match_log_ = t;
+        std::printf("%s: matched: status from %d writers, task states from %d, queue states from %d\n", who_.c_str(),
+                    status_in_.matched(), states_.matched(), state_in_.matched());
+        std::fflush(stdout);
+      }
     }
     return finish();
   }
@@ -195,6 +203,7 @@ class CoordinatorProcess {
   const runtime::Deployment& d_;
   std::string who_;
   bus::Participant part_;
+  double last_match_log_ = 0.0;
   bus::Reader<msg::TaskState, msg::TaskStatePubSubType> states_;
   bus::Reader<msg::ProcessStatus, msg::ProcessStatusPubSubType> status_in_;
   bus::Reader<msg::CoordinatorState, msg::CoordinatorStatePubSubType> state_in_;

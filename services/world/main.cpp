@@ -210,6 +210,20 @@ class WorldProcess {
     st.latency_p99_us(interval_worst_us_);  // the worst of the interval (at most 200 arm-ticks)
     interval_worst_us_ = 0.0;
     status_.publish();
+    log_matches();
+  }
+
+  // Once a minute: how many remote endpoints each per-tick topic is matched with. A count that keeps growing beyond
+  // the module's live robots means proxies of killed processes that discovery never removed (docs/soak.md, finding 74).
+  void log_matches() {
+    const auto now = std::chrono::steady_clock::now();
+    if (now - last_match_log_ < std::chrono::seconds(60)) return;
+    last_match_log_ = now;
+    std::printf("tandem-world %s: matched at tick %ld: samples to %d and %d readers, commands from %d and %d writers, "
+                "plans from %d writers\n",
+                opt_.module.c_str(), k_, sensors0_.matched(), sensors1_.matched(), torques0_.matched(), torques1_.matched(),
+                plans_.matched());
+    std::fflush(stdout);
   }
 
   void say_first_tick() const {  // for start-up measurements (bench/scale.sh)
@@ -461,6 +475,7 @@ class WorldProcess {
   const sim::ModuleSetup& m_;
   world::WorldCore core_;
   bus::Participant part_;
+  std::chrono::steady_clock::time_point last_match_log_ = std::chrono::steady_clock::now();
   SensorWriter sensors0_, sensors1_;
   Inbox inbox_;
   TorqueReader torques0_, torques1_;

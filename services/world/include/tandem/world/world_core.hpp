@@ -214,8 +214,8 @@ class WorldCore {
   /// it, along the contact face and in orientation (a robot's law may leave one: its orientation loop is soft),
   /// but not along the approach axis (that offset is squeeze the grasp would lose); and its correction is bounded
   /// by kDriveFeedbackShare of the stop's deceleration bound (eq. 14, model::stop_deceleration_bound) in the plane,
-  /// and by that over the longer stick in rotation. Without both, an arm 0.1 rad off in orientation got 3000 N m on joint 1 at the stop's first
-  /// tick and the object was dropped (lockstep soak run 43, finding 73).
+  /// and by that over the longer stick in rotation. Without both, an arm 0.1 rad off in orientation got 3000 N m
+  /// on joint 1 at the stop's first tick and the object was dropped (lockstep soak run 43, finding 73).
   static constexpr double kDriveKp = 2500.0, kDriveKd = 100.0;
   static constexpr double kDriveFeedbackShare = 0.5;
   /// A stop of an arm without a controller brakes it once the object is still, or after this long.

@@ -5,10 +5,12 @@
 #include <catch2/catch.hpp>
 
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <string>
 
+#include "tandem/dds/bus.hpp"
 #include "tandem/runtime/deployment.hpp"
 #include "tandem/soak/run.hpp"
 
@@ -157,4 +159,29 @@ TEST_CASE("deployment: the soak's derived deployment loads from a report directo
   }
   CHECK(s.domain_id == d.domain_id);
   CHECK(s.coordinator_standby == d.coordinator_standby);
+}
+
+TEST_CASE("a Discovery Server client announces itself every 5 s and its lease ends after 12 s; a simple "
+          "participant announces every 1 s (soak finding 74)", "[deployment]") {
+  namespace dds = tandem::dds;
+  const char* before = std::getenv("ROS_DISCOVERY_SERVER");
+  const std::string saved = before != nullptr ? before : "";
+  // Domain 199: this test's own; the server's port is one nothing listens on (the client only pings it).
+  ::setenv("ROS_DISCOVERY_SERVER", "127.0.0.1:19999", 1);
+  {
+    dds::Participant client(199, "test/ds-client", dds::Transport::Udp);
+    const auto dc = client.get()->get_qos().wire_protocol().builtin.discovery_config;
+    // (Fast DDS turns the participant into a client of that server below the DDS layer; get_qos still says SIMPLE.)
+    CHECK(dc.leaseDuration_announcementperiod.seconds == 5);
+    CHECK(dc.leaseDuration.seconds == 12);
+    // The lease holds more than two announcement periods: one lost announcement does not end a live client.
+    CHECK(dc.leaseDuration.seconds > 2 * dc.leaseDuration_announcementperiod.seconds);
+  }
+  ::unsetenv("ROS_DISCOVERY_SERVER");
+  {
+    dds::Participant simple(199, "test/simple", dds::Transport::Udp);
+    const auto dc = simple.get()->get_qos().wire_protocol().builtin.discovery_config;
+    CHECK(dc.leaseDuration_announcementperiod.seconds == 1);
+  }
+  if (!saved.empty()) ::setenv("ROS_DISCOVERY_SERVER", saved.c_str(), 1);
 }

@@ -18,6 +18,9 @@ namespace tandem::dds {
 namespace {
 
 constexpr uint32_t kUdpReceiveBuffer = 4u << 20;  // [bytes] per UDP socket, requested (see Participant::Participant)
+// A Discovery Server client's announcement period and lease [s] (see Participant::Participant).
+constexpr int32_t kServerClientAnnouncementS = 5;
+constexpr int32_t kServerClientLeaseS = 12;
 
 // Fast DDS 2.9.1 matches a newly discovered secured participant's handshake endpoints through shared scratch
 // proxies without a lock (SecurityManager::match_builtin_endpoints). Two participants discovered at once on two
@@ -69,6 +72,21 @@ Participant::Participant(int domain_id, const std::string& name, Transport trans
   // And then every second instead of every 3 s: a pair that missed each other's first announcements (seen
   // once in a few runs: a launcher that never heard its world in a 4 s run) finds each other within a second.
   qos.wire_protocol().builtin.discovery_config.leaseDuration_announcementperiod = eprosima::fastrtps::Duration_t(1, 0);
+  if (const char* server = std::getenv("ROS_DISCOVERY_SERVER"); server != nullptr && *server != '\0') {
+    // A client of the deployment's Discovery Server (Fast DDS 2.9.1) announces itself to the server only, and the
+    // server runs its relay routine on every announcement it receives. Each pass re-sends, under a new sequence
+    // number, every participant announcement that some client has not acknowledged yet, and a client's endpoints
+    // are relayed to a peer only once that peer has acknowledged the newest copy. Killed clients never acknowledge
+    // until their lease ends, and at one announcement a second from each of ~30 clients the passes came every
+    // ~30 ms: faster than a busy world acknowledges, so from then on the world (and the launcher) learnt no new
+    // robot at all and modules wore away (docs/soak.md, finding 74: a capture showed the same four announcements
+    // re-sent every 30-130 ms with new numbers, never acknowledged). Announce every 5 s (6 passes a second instead
+    // of 33), and end a killed client's lease after 12 s instead of 20 s, so that fewer dead clients keep
+    // announcements pending. Any message of a live client renews its lease at the server (acknowledgements too).
+    auto& dc = qos.wire_protocol().builtin.discovery_config;
+    dc.leaseDuration_announcementperiod = eprosima::fastrtps::Duration_t(kServerClientAnnouncementS, 0);
+    dc.leaseDuration = eprosima::fastrtps::Duration_t(kServerClientLeaseS, 0);
+  }
   // A participant id chosen by the launcher (TANDEM_PARTICIPANT_ID), not the lowest free one: the lowest free id
   // is the one a killed process just left, and with it its shared-memory port, which the others still hold open
   // from before; a newcomer that recreated that port heard nobody (seen in soaks: a restarted process cut off

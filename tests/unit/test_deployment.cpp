@@ -164,13 +164,30 @@ TEST_CASE("deployment: the soak's derived deployment loads from a report directo
 TEST_CASE("a Discovery Server client announces itself every 5 s and its lease ends after 12 s; a simple "
           "participant announces every 1 s (soak finding 74)", "[deployment]") {
   namespace dds = tandem::dds;
-  const char* before = std::getenv("ROS_DISCOVERY_SERVER");
-  const std::string saved = before != nullptr ? before : "";
-  // Domain 199: this test's own; the server's port is one nothing listens on (the client only pings it).
+  // ROS_DISCOVERY_SERVER as it was, whatever happens below.
+  struct EnvGuard {
+    std::string saved;
+    bool had = false;
+    EnvGuard() {
+      if (const char* v = std::getenv("ROS_DISCOVERY_SERVER")) {
+        saved = v;
+        had = true;
+      }
+    }
+    ~EnvGuard() {
+      if (had) {
+        ::setenv("ROS_DISCOVERY_SERVER", saved.c_str(), 1);
+      } else {
+        ::unsetenv("ROS_DISCOVERY_SERVER");
+      }
+    }
+  } guard;
+  // Domain 231: no other test uses it (the distributed tests take 100-219); nothing listens on the server's port
+  // (a client only pings it).
   ::setenv("ROS_DISCOVERY_SERVER", "127.0.0.1:19999", 1);
   {
-    dds::Participant client(199, "test/ds-client", dds::Transport::Udp);
-    const auto dc = client.get()->get_qos().wire_protocol().builtin.discovery_config;
+    dds::Participant client(231, "test/ds-client", dds::Transport::Udp);
+    const auto& dc = client.get()->get_qos().wire_protocol().builtin.discovery_config;
     // (Fast DDS turns the participant into a client of that server below the DDS layer; get_qos still says SIMPLE.)
     CHECK(dc.leaseDuration_announcementperiod.seconds == 5);
     CHECK(dc.leaseDuration.seconds == 12);
@@ -179,9 +196,8 @@ TEST_CASE("a Discovery Server client announces itself every 5 s and its lease en
   }
   ::unsetenv("ROS_DISCOVERY_SERVER");
   {
-    dds::Participant simple(199, "test/simple", dds::Transport::Udp);
-    const auto dc = simple.get()->get_qos().wire_protocol().builtin.discovery_config;
+    dds::Participant simple(231, "test/simple", dds::Transport::Udp);
+    const auto& dc = simple.get()->get_qos().wire_protocol().builtin.discovery_config;
     CHECK(dc.leaseDuration_announcementperiod.seconds == 1);
   }
-  if (!saved.empty()) ::setenv("ROS_DISCOVERY_SERVER", saved.c_str(), 1);
 }

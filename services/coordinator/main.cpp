@@ -118,8 +118,8 @@ class CoordinatorProcess {
       if (!core_.end() && core_.heartbeat_due(t)) heartbeat(t);
       if (!core_.end()) states_.wait(0.02);
       if (t - last_match_log_ >= 60.0) {
-        // How many writers each input is matched with: a count that keeps growing beyond the deployment's live
-        // processes means proxies of killed processes that discovery never removed (docs/soak.md, finding 74).
+        // How many writers each input is matched with, once a minute: counts that stay low while processes come
+        // mean this coordinator no longer learns of newcomers (docs/soak.md, finding 74).
         last_match_log_ = t;
         std::printf("%s: matched: status from %d writers, task states from %d, queue states from %d\n", who_.c_str(),
                     status_in_.matched(), states_.matched(), state_in_.matched());

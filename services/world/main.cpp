@@ -213,8 +213,9 @@ class WorldProcess {
     log_matches();
   }
 
-  // Once a minute: how many remote endpoints each per-tick topic is matched with. A count that keeps growing beyond
-  // the module's live robots means proxies of killed processes that discovery never removed (docs/soak.md, finding 74).
+  // Once a minute: how many remote endpoints each per-tick topic is matched with. Counts that stay low while new
+  // robots come mean this world no longer learns of newcomers (docs/soak.md, finding 74: the Discovery Server's
+  // re-send storm showed as "samples to 0 and 0 readers").
   void log_matches() {
     const auto now = std::chrono::steady_clock::now();
     if (now - last_match_log_ < std::chrono::seconds(60)) return;

@@ -72,8 +72,11 @@ Participant::Participant(int domain_id, const std::string& name, Transport trans
   // And then every second instead of every 3 s: a pair that missed each other's first announcements (seen
   // once in a few runs: a launcher that never heard its world in a 4 s run) finds each other within a second.
   qos.wire_protocol().builtin.discovery_config.leaseDuration_announcementperiod = eprosima::fastrtps::Duration_t(1, 0);
-  if (const char* server = std::getenv("ROS_DISCOVERY_SERVER"); server != nullptr && *server != '\0') {
-    // A client of the deployment's Discovery Server (Fast DDS 2.9.1) announces itself to the server only, and the
+  // A client of the deployment's Discovery Server (Fast DDS reads ROS_DISCOVERY_SERVER at participant creation).
+  const char* server = std::getenv("ROS_DISCOVERY_SERVER");
+  const bool server_client = server != nullptr && *server != '\0';
+  if (server_client) {
+    // Such a client (Fast DDS 2.9.1) announces itself to the server only, and the
     // server runs its relay routine on every announcement it receives. Each pass re-sends, under a new sequence
     // number, every participant announcement that some client has not acknowledged yet, and a client's endpoints
     // are relayed to a peer only once that peer has acknowledged the newest copy. Killed clients never acknowledge
@@ -134,9 +137,7 @@ Participant::Participant(int domain_id, const std::string& name, Transport trans
     props.emplace_back("dds.sec.access.builtin.Access-Permissions.permissions", d + "permissions.p7s");
     props.emplace_back("dds.sec.crypto.plugin", "builtin.AES-GCM-GMAC");
     secured_ = true;
-    if (const char* server = std::getenv("ROS_DISCOVERY_SERVER"); server == nullptr || *server == '\0') {
-      single_discovery_thread(qos, *udp);
-    }
+    if (!server_client) single_discovery_thread(qos, *udp);
     security = std::string(" with DDS-Security identity '") + id + "' (keys in " + dir +
                ": missing, expired or not signed by its CA? make them with `tandem keys`)";
   }

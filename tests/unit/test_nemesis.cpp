@@ -359,3 +359,53 @@ TEST_CASE("nemesis: a coordinator kill records whether an active standby coordin
   CHECK(h.faults[1].label == "coordinator@r12");
   CHECK(h.faults[1].had_standby);
 }
+
+TEST_CASE("nemesis: a run is over only once no fault waits for a target, and kTailS after the last that waited") {
+  // Finding 75: a robot kill fell due while no robot served an arm (the module paused for load); the run ended
+  // with the kill still waiting, as though the schedule had none. Now the run goes on until it fires.
+  Schedule s;
+  s.duration_s = 20;
+  s.faults = {fault(15.0, FaultKind::Kill, Target::Robot)};
+  History h;
+  Recorder act;
+  Nemesis n(s, {"m1"}, h, act);
+  add_module(n, "m1", 100, 0.0);
+  n.on_owners("m1", {});  // paused for load: the world reports no robot serving either arm
+  run(n, 0.0, 19.0);
+  CHECK_FALSE(n.over(19.0));  // before the duration
+  run(n, 19.0, 30.0);
+  CHECK(h.faults.empty());
+  CHECK(n.waiting() == 1);
+  CHECK_FALSE(n.over(30.0));  // past the duration, but the kill waits
+  n.on_owners("m1", {{"left", "m1/left"}, {"right", "m1/right"}});  // resumed at 30 s
+  run(n, 30.0, 30.05);
+  REQUIRE(h.faults.size() == 1);
+  CHECK_FALSE(h.faults[0].skipped);
+  CHECK(h.faults[0].t == Approx(30.0).margin(0.011));
+  CHECK(act.of("kill").size() == 1);
+  CHECK(n.waiting() == 0);
+  CHECK_FALSE(n.over(30.0 + Nemesis::kTailS - 0.1));  // its effect is still being recorded
+  CHECK(n.over(30.0 + Nemesis::kTailS + 0.01));
+
+  // A run whose faults all fired on time is over at its duration.
+  History h2;
+  Recorder act2;
+  Nemesis n2(s, {"m1"}, h2, act2);
+  add_module(n2, "m1", 100, 0.0);
+  run(n2, 0.0, 19.99);
+  CHECK(h2.faults.size() == 1);
+  CHECK_FALSE(n2.over(19.99));
+  CHECK(n2.over(20.0));
+
+  // A fault that never finds a target is skipped after kTargetWaitS, and then the run ends too (bounded).
+  History h3;
+  Recorder act3;
+  Nemesis n3(s, {"m1"}, h3, act3);
+  add_module(n3, "m1", 100, 0.0);
+  n3.on_owners("m1", {});
+  run(n3, 0.0, 15.0 + Nemesis::kTargetWaitS + 0.05);
+  REQUIRE(h3.faults.size() == 1);
+  CHECK(h3.faults[0].skipped);
+  CHECK_FALSE(n3.over(15.0 + Nemesis::kTargetWaitS + 1.0));
+  CHECK(n3.over(15.0 + Nemesis::kTargetWaitS + Nemesis::kTailS + 0.1));
+}

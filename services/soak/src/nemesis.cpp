@@ -34,9 +34,11 @@ void Nemesis::step(double t) {
     const Fault& f = **it;
     if (t - f.at_s >= kTargetWaitS) {
       fire(f, t);  // recorded as skipped if there is still no target
+      last_waited_ = t;
       it = waiting_.erase(it);
     } else if (t - last_fired_ >= kWaitedGapS && !candidates(f.target, t, f.kind).empty()) {
       fire(f, t);
+      last_waited_ = t;
       waiting_.erase(it);
       break;  // one at a time
     } else {
@@ -52,6 +54,11 @@ void Nemesis::step(double t) {
       ++i;
     }
   }
+}
+
+bool Nemesis::over(double t) const {
+  if (t < sched_.duration_s || !waiting_.empty()) return false;
+  return last_waited_ < sched_.duration_s || t - last_waited_ >= kTailS;
 }
 
 void Nemesis::hog_ended(long long pid, int exit_code, double t) {

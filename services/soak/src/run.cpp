@@ -154,6 +154,10 @@ class Observer : public NemesisActions {
   }
 
   /// Stops injecting: every stalled process continues, every hog stops.
+  /// Whether the run may end now (soak::Nemesis::over: the duration is over and no fault waits for a target).
+  bool over(double t) const { return nemesis_.over(t); }
+  size_t waiting_faults() const { return nemesis_.waiting(); }
+
   void calm() {
     stopping_ = true;
     nemesis_.calm(now());
@@ -637,9 +641,17 @@ int run(const runtime::Deployment& d, const Schedule& sched, const RunOptions& o
     soak.setup(*part);
     double last_progress = 0.0, last_log = -10.0;
     const double progress_every = o.duration_s > 300 ? 30.0 : 10.0;
+    bool told_overtime = false;
     while (!stop) {
       const double t = soak.now();
-      if (t >= o.duration_s) break;
+      if (soak.over(t)) break;
+      if (t >= o.duration_s && !told_overtime) {
+        told_overtime = true;
+        std::printf("tandem soak: %.0f s planned are over; %zu fault(s) still wait for a target, the run goes on until "
+                    "each has fired or waited %.0f s\n",
+                    o.duration_s, soak.waiting_faults(), soak::Nemesis::kTargetWaitS);
+        std::fflush(stdout);
+      }
       soak.step();
       if (t - last_log >= 5.0) {
         soak.sample_logs(t);

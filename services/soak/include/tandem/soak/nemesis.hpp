@@ -73,6 +73,7 @@ class Nemesis {
   static constexpr double kWaitedGapS = 1.0;    ///< a fault that waited fires at least this long after the last
   static constexpr double kSettleS = 3.0;       ///< a module is left alone this long after its world turns active
   static constexpr double kSilentS = 1.5;       ///< a process not heard this long is not a candidate
+  static constexpr double kTailS = 5.0;         ///< a run goes on this long after a fault that waited past its end
 
   /// `modules`: the deployment's modules in order; fault records go to `history.faults`.
   Nemesis(const Schedule& schedule, std::vector<std::string> modules, History& history, NemesisActions& actions);
@@ -103,6 +104,12 @@ class Nemesis {
   // ---- for the host's report and progress ----
   const std::map<std::string, ProcessView>& processes() const { return procs_; }
   size_t waiting() const { return waiting_.size(); }
+  /// Whether the run may end at `t`: the schedule's duration is over and no fault still waits for a target. A run
+  /// whose faults wait past its end (every module paused for load, or a module being drained, when a robot kill
+  /// falls due) goes on until each has fired or been skipped (at most kTargetWaitS), then kTailS more so that
+  /// the last one's effect is recorded. Without this the CI soak ended with a robot kill still waiting
+  /// (docs/soak.md, finding 75), as though the schedule had never held one.
+  bool over(double t) const;
   /// Targets a fault of this kind could hit now (process labels; modules for unplug module). A kill of a world or an
   /// unplug of a module needs two modules up (one always runs), unless the others are parked for load by the
   /// launcher: they are the deployment's still, and come back when the machine is calm (on a machine that fits one
@@ -147,6 +154,7 @@ class Nemesis {
   size_t next_fault_ = 0;
   std::vector<const Fault*> waiting_;  ///< due faults that wait for a target, in schedule order
   double last_fired_ = -1e9;           ///< when the last fault was carried out (or skipped)
+  double last_waited_ = -1e9;          ///< when the last fault that had waited was carried out (or skipped)
   bool stopping_ = false;
 };
 

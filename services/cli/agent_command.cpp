@@ -63,8 +63,11 @@ std::vector<std::string> local_addresses() {
 /// Processes of this machine: fork/exec (launcher::spawn), kill, waitpid.
 class OsProcesses : public launcher::Processes {
  public:
+  explicit OsProcesses(const runtime::Deployment& d) : d_(d) {}
   int start(const Spec& s) override {
     launcher::SpawnOptions opt;
+    // A module's process: a client of its module's Discovery Server only (runtime::discovery_env).
+    if (!s.module.empty()) opt.discovery = runtime::discovery_env(d_, s.module);
     opt.rt_priority = s.rt_priority;
     opt.participant_id = s.participant_id;
     opt.identity = s.identity;
@@ -77,6 +80,9 @@ class OsProcesses : public launcher::Processes {
     if (::waitpid(pid, &st, WNOHANG) != pid) return -1;
     return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
   }
+
+ private:
+  const runtime::Deployment& d_;
 };
 
 launcher::AgentRequestIn from_wire(const msg::AgentRequest& r) {
@@ -107,7 +113,7 @@ launcher::AgentRequestIn from_wire(const msg::AgentRequest& r) {
 class Agent {
  public:
   Agent(const runtime::Deployment& d, std::string host, std::string address)
-      : d_(d), host_(std::move(host)), address_(std::move(address)),
+      : d_(d), host_(std::move(host)), address_(std::move(address)), procs_(d),
         core_(procs_, launcher::self_dir(), d.host_timeout, now()) {
     core_.set_log([this](const std::string& line) { std::printf("tandem agent %s: %s\n", host_.c_str(), line.c_str()); });
   }

@@ -65,8 +65,9 @@ size_t done_in(const msg::CoordinatorState& cs) {
 }
 
 pid_t spawn(const std::string& exe, const std::vector<std::string>& args, int rt_priority, int participant_id,
-            const std::string& identity, bool own_group) {
-  return launcher::spawn("tandem up", exe, args, launcher::SpawnOptions{rt_priority, participant_id, identity, own_group});
+            const std::string& identity, bool own_group, const std::string& discovery) {
+  return launcher::spawn("tandem up", exe, args,
+                         launcher::SpawnOptions{rt_priority, participant_id, identity, own_group, discovery});
 }
 
 launcher::ModuleSpec module_spec(const runtime::ModuleDeployment& cfg, bool* case_found) {
@@ -190,7 +191,7 @@ std::string write_discovery_profile() {
 
 }  // namespace
 
-bool start_discovery(const Deployment& d, pid_t& pid, std::string& profile) {
+bool start_discovery(const Deployment& d, std::vector<pid_t>& pids, std::string& profile) {
   if (d.discovery == "server" && d.discovery_start == "external") {
     std::printf("  discovery server             %s (external)\n", runtime::discovery_text(d).c_str());
     runtime::use_discovery(d);
@@ -200,24 +201,29 @@ bool start_discovery(const Deployment& d, pid_t& pid, std::string& profile) {
       std::fprintf(stderr, "tandem up: discovery: server needs %s (Debian package fastdds-tools)\n", exe.c_str());
       return false;
     }
-    std::vector<std::string> args{"-i", "0", "-l", d.discovery_address, "-p", std::to_string(runtime::discovery_port_of(d))};
     profile = write_discovery_profile();
     if (profile.empty()) {
       std::fprintf(stderr, "tandem up: note: cannot write the Discovery Server's UDP-only profile in /tmp (%s); it runs "
                            "with Fast DDS's default transports\n", std::strerror(errno));
-    } else {
-      args.insert(args.end(), {"-x", profile});
     }
-    pid = spawn(exe, args);
-    if (pid < 0) return false;
-    std::printf("  started discovery server     pid %d on %s:%d\n", pid, d.discovery_address.c_str(),
-                runtime::discovery_port_of(d));
+    // One server per module (discovery_servers: module): each relays its own module's churn to its own processes.
+    const auto servers = runtime::discovery_servers(d);
+    for (const runtime::DiscoveryServer& s : servers) {
+      std::vector<std::string> args{"-i", std::to_string(s.id), "-l", s.address, "-p", std::to_string(s.port)};
+      if (!profile.empty()) args.insert(args.end(), {"-x", profile});
+      const pid_t pid = spawn(exe, args);
+      if (pid < 0) return false;
+      pids.push_back(pid);
+      std::printf("  started discovery server     pid %d on %s:%d%s\n", pid, s.address.c_str(), s.port,
+                  s.module.empty() ? "" : (" (" + s.module + ")").c_str());
+    }
     runtime::use_discovery(d);
     std::this_thread::sleep_for(std::chrono::milliseconds(300));  // listening before the first client comes
-    if (::waitpid(pid, nullptr, WNOHANG) == pid) {
+    for (size_t i = 0; i < pids.size(); ++i) {
+      if (::waitpid(pids[i], nullptr, WNOHANG) != pids[i]) continue;
       std::fprintf(stderr, "tandem up: the Discovery Server exited at start: is %s an address of this machine, and "
                            "port %d free? (discovery_start: external uses one that runs already)\n",
-                   d.discovery_address.c_str(), runtime::discovery_port_of(d));
+                   servers[i].address.c_str(), servers[i].port);
       return false;
     }
   }

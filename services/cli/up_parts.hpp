@@ -37,8 +37,10 @@ launcher::SupervisorConfig supervisor_config(const Deployment& d, const std::str
 size_t done_in(const msg::CoordinatorState& cs);
 /// Starts a process on this machine (launcher::spawn); with rt_priority > 0 the child runs SCHED_FIFO at that
 /// priority, and so do the threads it creates (Fast DDS's receive and event threads inherit it).
+/// `discovery`: ROS_DISCOVERY_SERVER for the child ("": this process's, inherited).
 pid_t spawn(const std::string& exe, const std::vector<std::string>& args, int rt_priority = 0,
-            int participant_id = -1, const std::string& identity = "", bool own_group = true);
+            int participant_id = -1, const std::string& identity = "", bool own_group = true,
+            const std::string& discovery = "");
 /// A module of the deployment (or plugged from a scenario) as the supervisor runs it: its scenario read once.
 launcher::ModuleSpec module_spec(const runtime::ModuleDeployment& cfg, bool* case_found = nullptr);
 
@@ -92,6 +94,9 @@ class CommandLines {
     if (c.role == "robot") return runtime::identity_name("robot", c.module, slot_of(c));
     return runtime::identity_name(c.role, c.module);
   }
+  /// ROS_DISCOVERY_SERVER of a module's process: its module's Discovery Server only, with one per module
+  /// (runtime::discovery_env); "" (the launcher's own: every server) for a coordinator and with simple discovery.
+  std::string discovery(const Child& c) const { return c.module.empty() ? "" : runtime::discovery_env(d_, c.module); }
   int rt_priority(const Child& c) const { return c.role == "coordinator" ? 0 : rt_priority_; }
   /// SCHED_FIFO priority for the per-tick processes (0: normal scheduling); set once before any start.
   int rt_priority_ = 0;
@@ -137,7 +142,7 @@ class LocalExecutor : public launcher::Executor {
   int start(const Child& c) override {
     const std::vector<std::string> args = lines_.args(c);
     return spawn(lines_.exe(c), args, lines_.rt_priority(c), c.participant_id, lines_.identity(c),
-                 launcher::own_group_for(c.role, args));
+                 launcher::own_group_for(c.role, args), lines_.discovery(c));
   }
   void signal(const Child& c, int sig) override { ::kill(c.pid, sig); }
   void signal_spawn(const std::string& /*host*/, unsigned long long /*spawn_id*/, const std::string& /*label*/,
@@ -248,10 +253,12 @@ void reap_local(launcher::Supervisor& s, bool block = false);
 /// This launcher's run, in every request to the agents: random, so that two runs (two `tandem up`, even with one
 /// pid in two containers) never take each other's processes.
 unsigned long long new_run();
-/// discovery: server. Starts the Discovery Server (a child like the others: it dies with the launcher; `pid`), over
-/// UDP only (its profile written to `profile`, which the caller removes), or uses an external one, and makes this
-/// process and every process it starts a client of it. False (said why) if it cannot run.
-bool start_discovery(const Deployment& d, pid_t& pid, std::string& profile);
+/// discovery: server. Starts the Discovery Servers, one per module or one (runtime::discovery_servers; children like
+/// the others: they die with the launcher; `pids`), over UDP only (their profile written to `profile`, which the
+/// caller removes), or uses an external one, and makes this process and every process it starts a client of all of
+/// them (a module's processes are then told their module's server only: CommandLines::discovery). False (said
+/// why) if one cannot run.
+bool start_discovery(const Deployment& d, std::vector<pid_t>& pids, std::string& profile);
 
 /// What the run's summary reads besides the supervisor: the summaries heard, the coordinator's last queue state and
 /// the start-up CPU per role.

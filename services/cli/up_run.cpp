@@ -109,8 +109,9 @@ bool UpRun::join_domain() {
   // the launcher) and makes itself and every process it starts a client of it.
   launcher_started_ = std::time(nullptr) - 1;
   sweeper_.emplace(launcher_started_, -1);
-  if (!start_discovery(d_, discovery_server_, discovery_profile_)) return false;
-  server_stop_.emplace(discovery_server_, 1.0);
+  const bool started = start_discovery(d_, discovery_servers_, discovery_profile_);
+  for (const pid_t pid : discovery_servers_) server_stops_.emplace_back(pid, 1.0);  // stopped even if one failed
+  if (!started) return false;
   // Over UDP only, whatever the deployment's transport: nothing another process does can wedge the launcher's
   // receiving. Over shared memory a killed sender can leave a buffer in the launcher's port that names a segment that
   // no longer exists, and Fast DDS 2.9's listener then retries it for ever (eProsima/Fast-DDS#2398, #5732): the
@@ -425,14 +426,14 @@ int UpRun::finish() {
   // live process uses (runtime::clean_stale_shm; also done during the run, after each killed child).
   bool killed = false;
   for (const auto& c : L_.children()) killed = killed || c.status >= 128;
-  if (killed || discovery_server_ > 0) {
-    server_stop_->stop();
+  if (killed || !discovery_servers_.empty()) {
+    for (auto& server : server_stops_) server.stop();
     std::this_thread::sleep_for(std::chrono::milliseconds(2100));  // the last files are 2 s old (clean_stale_shm)
     // Every child is gone. (ignore_self: files this process holds do not count; the launcher joins over UDP and
     // holds none of the deployment's now.)
     int removed = runtime::clean_stale_shm(launcher_started_, static_cast<int>(d_.domain_id), true);
     // The Discovery Server is a participant of domain 0 (its shared-memory port stays when it stops).
-    if (discovery_server_ > 0) removed += runtime::clean_stale_shm(launcher_started_, 0, true);
+    if (!discovery_servers_.empty()) removed += runtime::clean_stale_shm(launcher_started_, 0, true);
     if (removed > 0) std::printf("removed %d shared-memory file(s) left by killed processes\n", removed);
   }
   if (d_.coordinator && !L_.coordinator_done()) failed = true;

@@ -9,6 +9,7 @@
 #include <atomic>
 #include <chrono>
 #include <fstream>
+#include <list>
 #include <memory>
 #include <optional>
 #include <set>
@@ -68,13 +69,13 @@ class UpRun {
   // before the participant goes, and the Discovery Server's profile is removed after the server has stopped.
   std::time_t launcher_started_ = 0;  ///< shared-memory files of this run are newer
   std::optional<runtime::ShmSweeper> sweeper_;  ///< killed children's files, once unused for a minute
-  pid_t discovery_server_ = -1;
+  std::vector<pid_t> discovery_servers_;
   std::string discovery_profile_;
   struct RemoveFile {
     std::string& path;
     ~RemoveFile();
   } remove_profile_{discovery_profile_};
-  std::optional<launcher::HelperProcess> server_stop_;
+  std::list<launcher::HelperProcess> server_stops_;  ///< one per Discovery Server
   std::unique_ptr<bus::Participant> part_;
   std::unique_ptr<bus::Reader<msg::RobotSummary, msg::RobotSummaryPubSubType>> robot_sum_;
   std::unique_ptr<bus::Reader<msg::WorldSummary, msg::WorldSummaryPubSubType>> world_sum_;

@@ -34,6 +34,7 @@ void check_same(const Deployment& a, const Deployment& b) {
   CHECK(a.discovery_port == b.discovery_port);
   CHECK(a.discovery_address == b.discovery_address);
   CHECK(a.discovery_start == b.discovery_start);
+  CHECK(a.discovery_servers == b.discovery_servers);
   CHECK(a.host_timeout == b.host_timeout);
   REQUIRE(a.hosts.size() == b.hosts.size());
   for (size_t i = 0; i < a.hosts.size(); ++i) {
@@ -200,4 +201,56 @@ TEST_CASE("a Discovery Server client announces itself every 5 s and its lease en
     const auto& dc = simple.get()->get_qos().wire_protocol().builtin.discovery_config;
     CHECK(dc.leaseDuration_announcementperiod.seconds == 1);
   }
+}
+
+TEST_CASE("deployment: one Discovery Server per module; a module's processes name only their own, in its place",
+          "[deployment]") {
+  // Soak finding 74: one server relayed every module's churn to every process. Server i serves module i; a client
+  // names server k by its place in ROS_DISCOVERY_SERVER (k ';' before it), so the place is the server's id.
+  const TempDir tmp;
+  const std::string mods = std::string("modules:\n") + "  - {name: a, scenario: " + TANDEM_SOURCE_DIR +
+                           "/config/scenarios/paper.yaml, case: SOSM}\n  - {name: b, scenario: " + TANDEM_SOURCE_DIR +
+                           "/config/scenarios/paper.yaml, case: SOSM}\n  - {name: c, scenario: " + TANDEM_SOURCE_DIR +
+                           "/config/scenarios/paper.yaml, case: SOSM}\n";
+  auto load = [&](const std::string& head) {
+    const std::string path = tmp.path + "/d.yaml";
+    std::ofstream(path) << "name: ds\ndomain_id: 40\n" << head << mods;
+    return tandem::runtime::load_deployment(path);
+  };
+  namespace rt = tandem::runtime;
+  const Deployment per = load("discovery: server\n");
+  CHECK(per.discovery_servers == "module");
+  const auto servers = rt::discovery_servers(per);
+  REQUIRE(servers.size() == 3);
+  for (int i = 0; i < 3; ++i) {
+    CHECK(servers[static_cast<size_t>(i)].id == i);
+    CHECK(servers[static_cast<size_t>(i)].port == 11851 + i * rt::kDiscoveryPortStride);  // 11811 + domain 40
+    CHECK(servers[static_cast<size_t>(i)].module == std::string(1, static_cast<char>('a' + i)));
+  }
+  CHECK(rt::discovery_env(per) == "127.0.0.1:11851;127.0.0.1:12107;127.0.0.1:12363");
+  CHECK(rt::discovery_env(per, "a") == "127.0.0.1:11851");
+  CHECK(rt::discovery_env(per, "b") == ";127.0.0.1:12107");
+  CHECK(rt::discovery_env(per, "c") == ";;127.0.0.1:12363");
+  CHECK(rt::discovery_text(per) == "127.0.0.1:11851 and 2 more (one server per module, ports 256 apart)");
+  // One server for all: every process names server 0.
+  const Deployment one = load("discovery: server\ndiscovery_servers: one\n");
+  REQUIRE(rt::discovery_servers(one).size() == 1);
+  CHECK(rt::discovery_env(one, "b") == "127.0.0.1:11851");
+  CHECK(rt::discovery_env(one) == "127.0.0.1:11851");
+  CHECK(rt::discovery_text(one) == "127.0.0.1:11851");
+  // An external server is one server: the default follows, and asking for one per module is refused by name.
+  const Deployment ext = load("discovery: server\ndiscovery_start: external\n");
+  CHECK(ext.discovery_servers == "one");
+  CHECK(rt::discovery_servers(ext).size() == 1);
+  CHECK_THROWS_WITH(load("discovery: server\ndiscovery_start: external\ndiscovery_servers: module\n"),
+                    Catch::Contains("discovery_servers") && Catch::Contains("needs discovery_start: launcher"));
+  CHECK_THROWS_WITH(load("discovery: server\ndiscovery_servers: two\n"), Catch::Contains("discovery_servers"));
+  // Ports past 65535 are refused, naming the way out.
+  CHECK_THROWS_WITH(load("discovery: server\ndiscovery_port: 65300\n"),
+                    Catch::Contains("discovery_servers: one, or a lower discovery_port"));
+  // Simple discovery: no server, no variable.
+  const Deployment simple = load("");
+  CHECK(rt::discovery_servers(simple).empty());
+  CHECK(rt::discovery_env(simple, "a").empty());
+  CHECK(rt::discovery_text(simple) == "simple");
 }

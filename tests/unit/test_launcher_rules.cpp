@@ -240,6 +240,7 @@ TEST_CASE("agent: a re-sent start runs once, a signal before its start makes it 
   a.on_request(req(K::Start, 7, 1), 0.2);  // the launcher re-sends until acknowledged
   REQUIRE(p.started.size() == 1);
   CHECK(p.started[0].exe == "/opt/tandem/bin/tandem-robot");  // from its own directory, never from the wire
+  CHECK(p.started[0].module == "m1");  // from its label: it is told its module's Discovery Server only
   CHECK(a.running() == 1);
   // A signal for a start that has not arrived yet: the start, when it comes, never runs.
   AgentRequestIn kill = req(K::Signal, 7, 2);

@@ -168,6 +168,7 @@ void AgentCore::start(const AgentRequestIn& r) {
   s.participant_id = r.participant_id;
   s.identity = r.identity;
   s.own_group = own_group_for(r.role, r.args);
+  if (r.role != "coordinator") s.module = r.label.substr(0, r.label.find('/'));
   c.pid = p_.start(s);
   c.running = c.pid > 0;
   c.status = c.running ? -1 : 127;

@@ -27,10 +27,12 @@ pid_t spawn(const std::string& who, const std::string& exe, const std::vector<st
   std::vector<std::string> env_text;
   for (char** e = environ; *e != nullptr; ++e) {
     if (std::strncmp(*e, "TANDEM_PARTICIPANT_ID=", 22) != 0 && std::strncmp(*e, "TANDEM_IDENTITY=", 16) != 0 &&
-        std::strncmp(*e, "TANDEM_RT_PRIORITY=", 19) != 0) {
+        std::strncmp(*e, "TANDEM_RT_PRIORITY=", 19) != 0 &&
+        (opt.discovery.empty() || std::strncmp(*e, "ROS_DISCOVERY_SERVER=", 21) != 0)) {
       env_text.emplace_back(*e);
     }
   }
+  if (!opt.discovery.empty()) env_text.push_back("ROS_DISCOVERY_SERVER=" + opt.discovery);
   if (opt.participant_id >= 0) env_text.push_back("TANDEM_PARTICIPANT_ID=" + std::to_string(opt.participant_id));
   // DDS-Security: the child's identity (its slot's key; TANDEM_SECURITY_DIR is inherited from the parent).
   if (!opt.identity.empty()) env_text.push_back("TANDEM_IDENTITY=" + opt.identity);

@@ -113,6 +113,16 @@ Deployment load_deployment(const std::string& path) {
              "expected an IPv4 address (the Discovery Server's), got '" + d.discovery_address + "'");
   }
   top.choice("discovery_start", d.discovery_start, {"launcher", "external"});
+  if (top.has("discovery_servers")) {
+    top.choice("discovery_servers", d.discovery_servers, {"module", "one"});
+    if (d.discovery_servers == "module" && d.discovery_start == "external") {
+      top.fail(root["discovery_servers"], "discovery_servers",
+               "module (one server per module) needs discovery_start: launcher; an external Discovery Server is one "
+               "server (discovery_servers: one)");
+    }
+  } else if (d.discovery_start == "external") {
+    d.discovery_servers = "one";
+  }
   top.num("host_timeout", d.host_timeout, 0.2, 60.0);
   if (top.has("hosts")) {
     sim::yaml::MapReader hr = top.child("hosts");
@@ -218,6 +228,16 @@ Deployment load_deployment(const std::string& path) {
     d.modules.push_back(m);
   }
   if (d.modules.empty()) top.fail(mods, "modules", "list at least one module");
+  if (d.discovery == "server" && d.discovery_servers == "module") {
+    // Server ids are a byte (Fast DDS's GUID prefix), and every port must be a port.
+    const int last = discovery_port_of(d) + static_cast<int>(d.modules.size() - 1) * kDiscoveryPortStride;
+    if (d.modules.size() > 256 || last > 65535) {
+      top.fail(mods, "modules",
+               std::to_string(d.modules.size()) + " modules need Discovery Server ports up to " + std::to_string(last) +
+                   " (one server per module, " + std::to_string(kDiscoveryPortStride) +
+                   " apart, at most 256): use discovery_servers: one, or a lower discovery_port");
+    }
+  }
   if (top.has("security")) {
     sim::yaml::MapReader se = top.child("security");
     se.text("keys", d.security_keys, true);
@@ -342,6 +362,7 @@ std::string deployment_yaml(const Deployment& d) {
   if (d.discovery_port > 0) out << YAML::Key << "discovery_port" << YAML::Value << d.discovery_port;
   out << YAML::Key << "discovery_address" << YAML::Value << d.discovery_address;
   out << YAML::Key << "discovery_start" << YAML::Value << d.discovery_start;
+  out << YAML::Key << "discovery_servers" << YAML::Value << d.discovery_servers;
   out << YAML::Key << "host_timeout" << YAML::Value << d.host_timeout;
   if (!d.hosts.empty()) {
     out << YAML::Key << "hosts" << YAML::Value << YAML::BeginMap;
@@ -411,6 +432,43 @@ std::string deployment_yaml(const Deployment& d) {
   }
   out << YAML::EndMap;
   return std::string(out.c_str()) + "\n";
+}
+
+std::vector<DiscoveryServer> discovery_servers(const Deployment& d) {
+  std::vector<DiscoveryServer> out;
+  if (d.discovery != "server") return out;
+  if (d.discovery_servers != "module") {
+    out.push_back({0, d.discovery_address, discovery_port_of(d), ""});
+    return out;
+  }
+  for (size_t i = 0; i < d.modules.size(); ++i) {
+    const int id = static_cast<int>(i);
+    out.push_back({id, d.discovery_address, discovery_port_of(d) + id * kDiscoveryPortStride, d.modules[i].name});
+  }
+  return out;
+}
+
+std::string discovery_env(const Deployment& d, const std::string& module) {
+  // A client names server k by its place in the list: k ';' before it (empty places are no server).
+  std::string out;
+  int place = 0;
+  for (const DiscoveryServer& s : discovery_servers(d)) {
+    if (!module.empty() && !s.module.empty() && s.module != module) continue;
+    for (; place < s.id; ++place) out += ';';
+    out += s.address + ":" + std::to_string(s.port);
+  }
+  return out;
+}
+
+std::string discovery_text(const Deployment& d) {
+  const auto servers = discovery_servers(d);
+  if (servers.empty()) return "simple";
+  std::string out = servers.front().address + ":" + std::to_string(servers.front().port);
+  if (servers.size() > 1) {
+    out += " and " + std::to_string(servers.size() - 1) + " more (one server per module, ports " +
+           std::to_string(kDiscoveryPortStride) + " apart)";
+  }
+  return out;
 }
 
 }  // namespace tandem::runtime

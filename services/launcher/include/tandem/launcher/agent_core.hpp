@@ -33,6 +33,7 @@ class Processes {
     int participant_id = -1;
     std::string identity;
     bool own_group = true;  ///< launcher::SpawnOptions::own_group
+    std::string module;     ///< the module of the process ("" for a coordinator), from its label
   };
   /// Starts a process; its pid, or <= 0 if it could not be started.
   virtual int start(const Spec& s) = 0;

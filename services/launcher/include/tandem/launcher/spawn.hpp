@@ -16,6 +16,9 @@ struct SpawnOptions {
   /// The child leads a session, and so a scheduling autogroup, of its own, at the niceness it inherits
   /// (sched_group.hpp); false: it stays in its parent's session and group (see own_group_for).
   bool own_group = true;
+  /// ROS_DISCOVERY_SERVER for the child ("": the parent's, inherited): a module's processes are clients of their
+  /// module's Discovery Server only (runtime::discovery_env).
+  std::string discovery;
 };
 
 /// Whether a role process gets an autogroup of its own: the control plane (supervisors, coordinators) always, and

@@ -82,6 +82,11 @@ struct Deployment {
   int discovery_port = 0;  ///< 0: 11811 + domain_id
   std::string discovery_address = "127.0.0.1";
   std::string discovery_start = "launcher";  ///< launcher | external
+  /// module: one Discovery Server per module (server i serves module i's processes; the launcher, coordinators,
+  /// the CLI and the soak are clients of all of them), so that a module's churn is relayed to its own processes
+  /// only (docs/failure-model.md, "The Discovery Server under churn"); one: a single server for every process.
+  /// The default: module when the launcher starts the servers, one with discovery_start: external.
+  std::string discovery_servers = "module";
   /// Multi-host: the hosts (empty: every process runs on the launcher's machine, started by the launcher). With
   /// hosts, every role process is started by its host's agent, and a host whose agent is silent for host_timeout
   /// seconds is lost: its processes count as failed.
@@ -117,23 +122,43 @@ inline dds::Transport transport_of(const Deployment& d) {
   return d.transport == "udp" ? dds::Transport::Udp : dds::Transport::SharedMemory;
 }
 
-/// The Discovery Server port of a deployment (discovery: server).
+/// The Discovery Server port of a deployment (discovery: server): its first server's.
 inline int discovery_port_of(const Deployment& d) {
   return d.discovery_port > 0 ? d.discovery_port : 11811 + static_cast<int>(d.domain_id);
 }
 
-/// How the deployment's processes discover each other, as said to users: "ADDRESS:PORT" of its Discovery Server,
-/// or "simple".
-inline std::string discovery_text(const Deployment& d) {
-  return d.discovery == "server" ? d.discovery_address + ":" + std::to_string(discovery_port_of(d)) : "simple";
-}
+/// Port distance between a deployment's per-module Discovery Servers: more than the domain ids (0-232), so that
+/// deployments on different domains never share a port.
+constexpr int kDiscoveryPortStride = 256;
+
+/// One Discovery Server of a deployment: Fast DDS server id `id` (its GUID prefix; a client names it by its place
+/// in ROS_DISCOVERY_SERVER), at address:port; `module`: the module whose processes it serves ("": all).
+struct DiscoveryServer {
+  int id = 0;
+  std::string address;
+  int port = 0;
+  std::string module;
+};
+
+/// The Discovery Servers of a `discovery: server` deployment (none for simple discovery): one per module in the
+/// modules' order (ids 0, 1, ...; ports discovery_port_of + id * kDiscoveryPortStride), or one.
+std::vector<DiscoveryServer> discovery_servers(const Deployment& d);
+
+/// ROS_DISCOVERY_SERVER for a process of `module` ("": a process of the whole deployment, such as the launcher,
+/// a coordinator, the CLI, the soak): with a server per module, the module's own server only (in its place, so
+/// that its id matches), or every server; "" for simple discovery.
+std::string discovery_env(const Deployment& d, const std::string& module = "");
+
+/// How the deployment's processes discover each other, as said to users: "ADDRESS:PORT" of its Discovery Server
+/// (the first, with "and N more, one per module"), or "simple".
+std::string discovery_text(const Deployment& d);
 
 /// For `discovery: server`: makes the participants this process creates from now on (and the processes it
-/// starts) clients of the deployment's Discovery Server (Fast DDS reads ROS_DISCOVERY_SERVER at participant
-/// creation). Nothing for `discovery: simple`.
+/// starts, unless told otherwise: launcher::SpawnOptions::discovery) clients of every Discovery Server of the
+/// deployment (Fast DDS reads ROS_DISCOVERY_SERVER at participant creation). Nothing for `discovery: simple`.
 inline void use_discovery(const Deployment& d) {
   if (d.discovery != "server") return;
-  ::setenv("ROS_DISCOVERY_SERVER", discovery_text(d).c_str(), 1);
+  ::setenv("ROS_DISCOVERY_SERVER", discovery_env(d).c_str(), 1);
 }
 
 /// Multi-host: the host a process of module `m` runs on ("" without hosts:). role: world | supervisor | robot;

@@ -146,7 +146,8 @@ std::vector<DiscoveryServer> discovery_servers(const Deployment& d);
 
 /// ROS_DISCOVERY_SERVER for a process of `module` ("": a process of the whole deployment, such as the launcher,
 /// a coordinator, the CLI, the soak): with a server per module, the module's own server only (in its place, so
-/// that its id matches), or every server; "" for simple discovery.
+/// that its id matches), or every server; "" for simple discovery, and for a module with no server of its own (one
+/// plugged in live from a scenario: its processes inherit the launcher's list, every server).
 std::string discovery_env(const Deployment& d, const std::string& module = "");
 
 /// How the deployment's processes discover each other, as said to users: "ADDRESS:PORT" of its Discovery Server

@@ -207,6 +207,9 @@ bool start_discovery(const Deployment& d, std::vector<pid_t>& pids, std::string&
                            "with Fast DDS's default transports\n", std::strerror(errno));
     }
     // One server per module (discovery_servers: module): each relays its own module's churn to its own processes.
+    // A Fast DDS 2.9.1 server takes every entry of an inherited ROS_DISCOVERY_SERVER as a remote server to link
+    // with: started from a shell that has it, the modules' servers would relay to each other (or to a stranger).
+    ::unsetenv("ROS_DISCOVERY_SERVER");
     const auto servers = runtime::discovery_servers(d);
     for (const runtime::DiscoveryServer& s : servers) {
       std::vector<std::string> args{"-i", std::to_string(s.id), "-l", s.address, "-p", std::to_string(s.port)};

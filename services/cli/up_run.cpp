@@ -427,6 +427,7 @@ int UpRun::finish() {
   bool killed = false;
   for (const auto& c : L_.children()) killed = killed || c.status >= 128;
   if (killed || !discovery_servers_.empty()) {
+    for (auto& server : server_stops_) (void)::kill(server.pid(), SIGTERM);  // all at once, then each waited for
     for (auto& server : server_stops_) server.stop();
     std::this_thread::sleep_for(std::chrono::milliseconds(2100));  // the last files are 2 s old (clean_stale_shm)
     // Every child is gone. (ignore_self: files this process holds do not count; the launcher joins over UDP and

@@ -236,8 +236,13 @@ class RobotProcess {
       status_.set(runtime::Lifecycle::Active, "controlling");
       if (runtime::raise_to_realtime_from_env() < 0) std::fprintf(stderr, "tandem-robot: could not raise to SCHED_FIFO once active\n");
     }
-    if (done >= 0 && done / 100 != reported_tick_ / 100) {
+    // Every 100 ticks, and at least every 250 ms: in lockstep 100 ticks can take seconds (a slow or waiting module),
+    // and observers tell a live robot from a dead or stalled one by its status (soak runs 50 and 51: robots resumed
+    // after a stall were heard only at their next 100th tick, 2.1-3.5 s later).
+    const auto wall = Clock::now();
+    if (done >= 0 && (done / 100 != reported_tick_ / 100 || wall - last_status_ > std::chrono::milliseconds(250))) {
       reported_tick_ = done;
+      last_status_ = wall;
       robot_wire::fill_status(core_, status_);
       status_.msg().latency_p99_us(interval_worst_us_);  // worst control step + write of the interval
       interval_worst_us_ = 0.0;
@@ -333,6 +338,7 @@ class RobotProcess {
   std::string why_;
   double interval_worst_us_ = 0.0;
   long reported_tick_ = -1;
+  Clock::time_point last_status_ = Clock::now();  ///< the last status published from pass()
   bool activated_ = false;
   bool stopping_ = false;  // under mu_: set once the robot leaves; the receiving thread computes nothing more
   bool ready_ = false;     // under mu_: the torque writer exists; until then samples are dropped

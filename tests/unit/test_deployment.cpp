@@ -232,6 +232,18 @@ TEST_CASE("deployment: one Discovery Server per module; a module's processes nam
   CHECK(rt::discovery_env(per, "b") == ";127.0.0.1:12107");
   CHECK(rt::discovery_env(per, "c") == ";;127.0.0.1:12363");
   CHECK(rt::discovery_text(per) == "127.0.0.1:11851 and 2 more (one server per module, ports 256 apart)");
+  // A slot inside the deployment's own RTPS ports (domain 18: 7400 + 250 * 18 = 11900, 250 ports) is skipped: the
+  // second server goes to the third slot, and the ids stay 0, 1, 2.
+  {
+    const std::string path = tmp.path + "/d18.yaml";
+    std::ofstream(path) << "name: ds\ndomain_id: 18\ndiscovery: server\n" << mods;
+    const auto s18 = rt::discovery_servers(tandem::runtime::load_deployment(path));
+    REQUIRE(s18.size() == 3);
+    CHECK(s18[0].port == 11829);
+    CHECK(s18[1].port == 11829 + 2 * rt::kDiscoveryPortStride);  // 12085 would be inside [11900, 12150)
+    CHECK(s18[1].id == 1);
+    CHECK(s18[2].port == 11829 + 3 * rt::kDiscoveryPortStride);
+  }
   // One server for all: every process names server 0.
   const Deployment one = load("discovery: server\ndiscovery_servers: one\n");
   REQUIRE(rt::discovery_servers(one).size() == 1);

@@ -408,4 +408,19 @@ TEST_CASE("nemesis: a run is over only once no fault waits for a target, and kTa
   CHECK(h3.faults[0].skipped);
   CHECK_FALSE(n3.over(15.0 + Nemesis::kTargetWaitS + 1.0));
   CHECK(n3.over(15.0 + Nemesis::kTargetWaitS + Nemesis::kTailS + 0.1));
+
+  // A fault due just before the end that no step has taken yet keeps the run going until a step takes it.
+  Schedule late;
+  late.duration_s = 20;
+  late.faults = {fault(19.995, FaultKind::Kill, Target::Robot)};
+  History h4;
+  Recorder act4;
+  Nemesis n4(late, {"m1"}, h4, act4);
+  add_module(n4, "m1", 100, 0.0);
+  run(n4, 0.0, 19.99);
+  CHECK(h4.faults.empty());
+  CHECK_FALSE(n4.over(20.0));
+  n4.step(20.0);
+  REQUIRE(h4.faults.size() == 1);
+  CHECK(n4.over(20.0));
 }

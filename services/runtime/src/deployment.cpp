@@ -230,7 +230,7 @@ Deployment load_deployment(const std::string& path) {
   if (d.modules.empty()) top.fail(mods, "modules", "list at least one module");
   if (d.discovery == "server" && d.discovery_servers == "module") {
     // Server ids are a byte (Fast DDS's GUID prefix), and every port must be a port.
-    const int last = discovery_port_of(d) + static_cast<int>(d.modules.size() - 1) * kDiscoveryPortStride;
+    const int last = discovery_servers(d).back().port;
     if (d.modules.size() > 256 || last > 65535) {
       top.fail(mods, "modules",
                std::to_string(d.modules.size()) + " modules need Discovery Server ports up to " + std::to_string(last) +
@@ -441,9 +441,16 @@ std::vector<DiscoveryServer> discovery_servers(const Deployment& d) {
     out.push_back({0, d.discovery_address, discovery_port_of(d), ""});
     return out;
   }
+  // Slot j at discovery_port_of + j * stride, skipping a slot inside the deployment's own RTPS ports (Fast DDS's
+  // default mapping: 7400 + 250 domain, 250 ports; with the default base that is domain 18 + j or so): a server
+  // there would take a port one of the deployment's participants may need.
+  const int rtps_lo = 7400 + 250 * static_cast<int>(d.domain_id), rtps_hi = rtps_lo + 250;
+  int slot = 0;
   for (size_t i = 0; i < d.modules.size(); ++i) {
-    const int id = static_cast<int>(i);
-    out.push_back({id, d.discovery_address, discovery_port_of(d) + id * kDiscoveryPortStride, d.modules[i].name});
+    int port = discovery_port_of(d) + slot * kDiscoveryPortStride;
+    while (slot > 0 && port >= rtps_lo && port < rtps_hi) port = discovery_port_of(d) + ++slot * kDiscoveryPortStride;
+    ++slot;
+    out.push_back({static_cast<int>(i), d.discovery_address, port, d.modules[i].name});
   }
   return out;
 }

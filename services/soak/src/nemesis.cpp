@@ -57,7 +57,8 @@ void Nemesis::step(double t) {
 }
 
 bool Nemesis::over(double t) const {
-  if (t < sched_.duration_s || !waiting_.empty()) return false;
+  // A fault due before the end that no step has taken yet is not over either (over() may be asked before step()).
+  if (t < sched_.duration_s || !waiting_.empty() || next_fault_ < sched_.faults.size()) return false;
   return last_waited_ < sched_.duration_s || t - last_waited_ >= kTailS;
 }
 

@@ -550,6 +550,9 @@ std::string derived_deployment(const std::string& file, const runtime::Deploymen
   // A task takes about 4 s in real time (two 1.5 s moves and the hand-over), less in lockstep (it runs as fast
   // as the machine allows): enough for every module to stay busy.
   const size_t modules = std::max<size_t>(1, d.modules.size());
+  // For the longest run: one whose faults wait past its end goes on up to kTargetWaitS + kTailS more (Nemesis::over);
+  // a queue that ran out would end the deployment by itself, a violation.
+  duration_s += Nemesis::kTargetWaitS + Nemesis::kTailS;
   generated = static_cast<size_t>(std::ceil(duration_s / 3.0 * static_cast<double>(modules) * (timing == "lockstep" ? 2.5 : 1.3))) + 8;
   out.tasks.reserve(out.tasks.size() + generated);
   for (size_t i = 1; i <= generated; ++i) {

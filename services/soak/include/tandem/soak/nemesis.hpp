@@ -107,7 +107,8 @@ class Nemesis {
   /// Whether the run may end at `t`: the schedule's duration is over and no fault still waits for a target. A run
   /// whose faults wait past its end (every module paused for load, or a module being drained, when a robot kill
   /// falls due) goes on until each has fired or been skipped (at most kTargetWaitS), then kTailS more so that
-  /// the last one's effect is recorded. Without this the CI soak ended with a robot kill still waiting
+  /// the last one's effect is recorded (a fault fired that late is carried out; a recovery whose bound ends after the
+  /// run's stop is not judged, soak::check). Without this the CI soak ended with a robot kill still waiting
   /// (docs/soak.md, finding 75), as though the schedule had never held one.
   bool over(double t) const;
   /// Targets a fault of this kind could hit now (process labels; modules for unplug module). A kill of a world or an

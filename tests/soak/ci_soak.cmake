@@ -30,6 +30,16 @@ foreach(kind kill_robot kill_standby kill_supervisor kill_coordinator kill_world
     message(FATAL_ERROR "no '${kind}' fault was carried out:\n${summary}")
   endif()
 endforeach()
+# The deployment's Discovery Servers (one per module, runtime::discovery_servers) stopped with it: none of this
+# domain's (first port 11811 + domain_id, the next 256 apart) is left running.
+file(READ ${SRC}/deploy/soak-small.yaml deploy_text)
+string(REGEX MATCH "domain_id: ([0-9]+)" _ "${deploy_text}")
+math(EXPR port0 "11811 + ${CMAKE_MATCH_1}")
+math(EXPR port1 "${port0} + 256")
+execute_process(COMMAND pgrep -f "fast-discovery-server .* -p (${port0}|${port1})( |$)" RESULT_VARIABLE prc OUTPUT_VARIABLE pout)
+if(prc EQUAL 0)
+  message(FATAL_ERROR "a Discovery Server of the soak's deployment is still running (ports ${port0}, ${port1}): ${pout}")
+endif()
 foreach(f summary.md index.html faults.svg normal_force.svg late_ticks.svg tasks.svg recovery.svg rss.svg schedule.yaml)
   if(NOT EXISTS ${WORK}/ci-soak/${f})
     message(FATAL_ERROR "the report lacks ${f}")

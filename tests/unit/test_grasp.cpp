@@ -393,6 +393,63 @@ TEST_CASE("time scale: pause and resume keep the reference C1, tau by finite dif
   CHECK(ts.at(2.4).tau == ts.at(2.2).tau);
 }
 
+TEST_CASE("time scale: a stop that cuts into a resume keeps the path's acceleration continuous (finding 77)", "[grasp]") {
+  const tm::ObjectPath path(Vec3(-0.15, 0.8, 0.0), 0.0, {tm::ObjectPath::Segment{Vec3(0.15, 0.8, 0.0), 1.5}});
+  tm::TimeScale ts;
+  ts.retarget(0.5, 0.0, 0.3);   // paused from t = 0.5
+  ts.retarget(1.0, 1.0, 0.3);   // resumed at t = 1.0
+  ts.retarget(1.12, 0.0, 0.2);  // and stopped again 0.12 s into the resume: the rate is still rising
+  const double h = 1e-7;
+  const auto before = ts.at(1.12 - h), after = ts.at(1.12 + h);
+  REQUIRE(before.rate_dot > 1.0);  // the resume's ramp was rising at the cut (the old stop started flat: a step)
+  CHECK(after.rate_dot == Approx(before.rate_dot).margin(1e-4));
+  CHECK(after.rate == Approx(before.rate).margin(1e-6));
+  const tm::PoseSample pa = tm::sample_scaled(path, before), pb = tm::sample_scaled(path, after);
+  CHECK(max_abs(pb.acc - pa.acc) < 1e-3);
+  // Everywhere: dtau/dt = rate and drate/dt = rate_dot by central differences, the rate within [0, 1].
+  double worst_rate = 0.0, worst_rd = 0.0, lo = 1.0, hi = 0.0;
+  for (double t = 0.01; t < 2.0; t += 0.00313) {
+    const auto a = ts.at(t - 1e-6), b = ts.at(t + 1e-6), c = ts.at(t);
+    worst_rate = std::max(worst_rate, std::abs((b.tau - a.tau) / 2e-6 - c.rate));
+    worst_rd = std::max(worst_rd, std::abs((b.rate - a.rate) / 2e-6 - c.rate_dot));
+    lo = std::min(lo, c.rate);
+    hi = std::max(hi, c.rate);
+  }
+  CHECK(worst_rate <= 1e-8);
+  CHECK(worst_rd <= 1e-5);
+  CHECK(lo >= 0.0);
+  CHECK(hi <= 1.0);
+  CHECK(ts.at(1.4).rate == 0.0);
+  CHECK(ts.at(1.9).tau == ts.at(1.4).tau);
+  // A follower that restores the retargets samples the same times bit for bit (it recomputes the start slopes).
+  tm::TimeScale f;
+  REQUIRE(f.restore(ts.export_breaks(64)));
+  for (double t = 0.0; t < 2.0; t += 0.0071) {
+    CHECK(f.at(t).tau == ts.at(t).tau);
+    CHECK(f.at(t).rate_dot == ts.at(t).rate_dot);
+  }
+  // The start slope is bounded: a steep slope towards the target never passes it, against it never leaves [0, 1].
+  tm::TimeScale down;
+  down.retarget(0.0, 0.0, 1.0);  // slowing: at t = 0.5 the rate is 0.5, falling at 1.5/s
+  down.retarget(0.5, 0.2, 2.0);  // a long ramp to 0.2: the slope kept as is would undershoot 0.2
+  tm::TimeScale up;
+  up.retarget(0.0, 0.0, 0.0);
+  up.retarget(0.1, 1.0, 1.0);    // resuming: at t = 0.6 the rate is 0.5, rising at 1.5/s
+  up.retarget(0.6, 0.6, 3.0);    // a long ramp to 0.6: kept as is, the slope would pass 0.6
+  tm::TimeScale cut;
+  cut.retarget(0.0, 0.0, 0.0);
+  cut.retarget(0.1, 1.0, 0.2);   // at t = 0.2 the rate is 0.5, rising at 7.5/s
+  cut.retarget(0.2, 0.0, 1.0);   // a stop: kept as is, the slope would carry the rate over 1
+  double down_lo = 1.0, up_hi = 0.0, cut_hi = 0.0;
+  for (double t = 0.5; t < 3.0; t += 0.001) down_lo = std::min(down_lo, down.at(t).rate);
+  for (double t = 0.6; t < 4.0; t += 0.001) up_hi = std::max(up_hi, up.at(t).rate);
+  for (double t = 0.2; t < 1.5; t += 0.001) cut_hi = std::max(cut_hi, cut.at(t).rate);
+  CHECK(down_lo >= 0.2 - 1e-12);
+  CHECK(up_hi <= 0.6 + 1e-12);
+  CHECK(cut_hi <= 1.0);
+  CHECK(cut_hi > 0.5);  // it went on rising for a while: no step in acceleration
+}
+
 TEST_CASE("time scale: exported retargets restore the same path times, bad ones are refused", "[grasp]") {
   tm::TimeScale a;
   a.retarget(0.7, 0.0, 0.3);

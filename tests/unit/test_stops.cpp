@@ -76,6 +76,7 @@ struct Rig {
   std::array<tmo::JointVec, 2> bias{tmo::JointVec::Zero(3), tmo::JointVec::Zero(3)};  // added to each robot's command
   std::array<long, 2> mute_until{-1, -1};  // a robot standing still (a stall): it answers no sample before this tick
   std::function<void(Rig&)> during;  // called in each tick after the robots' commands, before the world ends it
+  std::function<bool(int, long)> late;  // robot j's answer of tick k comes after the world ended the tick (real time)
   static tandem::world::WorldOptions opts(bool continuous = false, bool realtime = true) {
     tandem::world::WorldOptions o;
     o.continuous = continuous;
@@ -101,20 +102,25 @@ struct Rig {
       ++plan_refusals;
       log += "world refused a plan: " + why + "\n";
     }
+    offer_robots(p);
+    for (size_t i = 0; i < 2; ++i) {
+      if (sup[i] && sup_alive[i] && p.supervisor_id != (i == 0 ? "m1/supervisor" : "m1/supervisor@50")) sup[i]->on_plan(p, k * kMs);
+    }
+    last_plan = p;
+  }
+  void offer_robots(const tp::PlanData& p) {
+    std::string why;
     for (auto& r : robot) {
       if (r && r->offer_plan(p, &why) == tp::PlanFollower::Offer::Rejected) {
         ++plan_refusals;
         log += "robot refused a plan: " + why + "\n";
       }
     }
-    for (size_t i = 0; i < 2; ++i) {
-      if (sup[i] && sup_alive[i] && p.supervisor_id != (i == 0 ? "m1/supervisor" : "m1/supervisor@50")) sup[i]->on_plan(p, k * kMs);
-    }
-    last_plan = p;
   }
   void tick() {
     const int64_t now = k * kMs;
     w.begin_tick(k, now, out);
+    std::array<std::optional<tmo::JointVec>, 2> late_tau;
     const bool report = w.report_due(1L << 40);
     tandem::supervisor::ReportIn in;
     if (report) in = ts::supervisor_input(w.take_report());
@@ -137,13 +143,20 @@ struct Rig {
       if (robot[a]->cut_off()) continue;
       const bool other = out[a].applied_from != 100 && (out[a].applied_from != 0 || out[a].braked);
       const auto tau = robot[a]->on_sample(k, s, out[a].braked, other ? &out[a].tau_applied : nullptr);
-      if (tau) w.on_command(j, k, *tau + bias[a], 100, now + 100000, false);
+      if (tau && late && late(j, k)) {
+        late_tau[a] = *tau + bias[a];
+      } else if (tau) {
+        w.on_command(j, k, *tau + bias[a], 100, now + 100000, false);
+      }
     }
     if (during) during(*this);
     // Lockstep: the world waits for the commands it lacks; a robot that is gone never answers, and the wait ends past
     // the no-command bound (1 s: the world then drives the arm to rest and brakes it).
     if (!realtime && !w.lockstep_done()) (void)w.lockstep_waited(1.5, 10.0, now + 400000);
     w.end_tick(now + 500000);
+    for (int j = 0; j < 2; ++j) {
+      if (late_tau[static_cast<size_t>(j)]) w.on_command(j, k, *late_tau[static_cast<size_t>(j)], 100, now + 1200000, true);
+    }
     if (k > 100) {
       const tmo::ContactReading c = w.plant().contacts();
       min_normal = std::min({min_normal, c.normal[0], c.normal[1]});
@@ -193,11 +206,11 @@ TEST_CASE("the stop's deceleration bound follows from eq. (14) and the grasp's s
   // A slipperier grasp is bounded along the faces: mu_s = 0.3 and h_ref = 1.2 h_sg.
   const double hsg = 2.0 * 9.81 / (2.0 * 0.3);
   CHECK(tmo::stop_deceleration_bound(1.2 * hsg, hsg, 2.0, 0.3, 9.81) == Approx(std::min(0.2 * hsg / 2.0, 0.6 * 1.2 * hsg / 2.0 - 9.81)));
-  // The supervisor's stop ramp at the task's peak speed keeps the ramp's deceleration within half the bound.
+  // The supervisor's stop ramp at the task's peak speed keeps the ramp's deceleration within a quarter of the bound.
   SupervisorCore s(m, SupervisorOptions{"m1/supervisor", 100, false, 0.1}, 0);
   const double v_peak = m.path.sample(2.5).vel.head<2>().norm();
   CHECK(v_peak == Approx(1.875 * 0.4 / 4.0).epsilon(1e-6));  // quintic: peak speed 15/8 of the mean
-  CHECK(1.5 * v_peak / s.stop_ramp(kPeakTick) <= 0.5 * a_max(m) + 1e-9);
+  CHECK(1.5 * v_peak / s.stop_ramp(kPeakTick) <= 0.25 * a_max(m) + 1e-9);
 }
 
 TEST_CASE("the last controller of an arm dies at peak speed: the object is brought to rest without a slip, on each arm", "[stops]") {
@@ -1207,8 +1220,10 @@ TEST_CASE("the world's stop of an arm off its plan keeps the offset: bounded tor
           if (scale < 1.0) CHECK(std::abs(offset_braked - offset) < 0.25 * std::abs(offset));
         }
         // The drive never went near the actuator limits (3000, 1500, 500 N m); the old one hit 3000 N m on joint 1.
+        // (The longest case here, the 0.1 rad one on arm 1, peaks at 483 N m on joint 1 with finding 77's gentler stops,
+        // 419 N m with the stops of before.)
         const tmo::Vec3 limit = rig.m.plant.arms[a].tau_max;
-        for (int i = 0; i < 3; ++i) CHECK(drive_max(i) < 0.15 * limit(i));
+        for (int i = 0; i < 3; ++i) CHECK(drive_max(i) < 0.2 * limit(i));
         CHECK(rig.slips() == 0);
         CHECK(rig.contact_lost() == 0);
         CHECK(rig.min_normal >= rig.m.safe_grasp_force);
@@ -1217,4 +1232,53 @@ TEST_CASE("the world's stop of an arm off its plan keeps the offset: bounded tor
       }
     }
   }
+}
+
+
+// The CI soak's drop (finding 77): a module paused for load, released, and overloaded again while its path was still
+// ramping back to speed. The stop then cut into the resume's ramp: the path's acceleration stepped from +2 m/s^2 to
+// the stop's, the arms (and the object between its two compliant contacts) overshot the plan and then braked harder
+// than the stop asked for; the leading contact's normal force fell under h_sg and the object slid 2 mm. With the
+// time scale's ramps continuous in acceleration and the stop within a quarter of the friction bound, every phase
+// of that sequence keeps the grasp (before: 12 of 135 such runs slipped, 3 of them dropped the object).
+TEST_CASE("an overload stop that cuts into the resume after a pause keeps the grasp (finding 77)", "[stops]") {
+  double worst = 1e300;
+  for (const long first : {600L, 700L, 800L}) {
+    for (long gap = 280; gap <= 400; gap += 20) {
+      Rig rig(false, true);
+      uint64_t next_id = 1;
+      long released = -1, second = -1;
+      bool was_paused = false;
+      // The left robot's answers come late every third tick (the world's overload rule: 11 in 100 ticks), first from
+      // tick `first`, then again `gap` ticks after the release.
+      rig.late = [&](int j, long k) {
+        const bool again = second >= 0 && k >= second && k < second + 300 && rig.w.load_pauses == 1;
+        return j == 0 && k % 3 == 0 && ((k >= first && k < first + 300 && rig.w.load_pauses == 0) || again);
+      };
+      while (second < 0 || rig.k < second + 1200) {
+        REQUIRE(rig.k < 8000);
+        if (rig.k % 50 == 0 && rig.sup[0]->state() != tp::TaskStateCode::Running) {
+          const double x = next_id % 2 == 1 ? 0.15 : -0.15;
+          rig.sup[0]->on_assignment(next_id, "t" + std::to_string(next_id), {x, 0.8, 0.0, 1.5, 0.0, 0.85, 0.0, 1.5});
+          ++next_id;
+        }
+        rig.tick();
+        const bool paused = rig.w.paused_for_load();
+        if (was_paused && !paused && released < 0) {
+          released = rig.k;
+          second = released + gap;
+        }
+        was_paused = paused;
+      }
+      INFO("late from tick " << first << ", again " << gap << " ticks after the release at " << released << "\n" << rig.log);
+      CHECK(rig.w.load_pauses == 2);
+      CHECK(rig.slips() == 0);
+      CHECK(rig.contact_lost() == 0);
+      CHECK_FALSE(rig.w.failed());
+      CHECK(rig.min_normal >= rig.m.safe_grasp_force);
+      worst = std::min(worst, rig.min_normal);
+    }
+  }
+  // Margin: the worst normal force of these runs stays 2 N above h_sg (23.5 N against 19.62 N when written).
+  CHECK(worst >= sosm_module().safe_grasp_force + 2.0);
 }

@@ -42,9 +42,25 @@ PoseSample ObjectPath::sample(double t) const noexcept {
 }
 
 void TimeScale::retarget(double t0, double rate, double ramp) {
-  const Sample s = at(t0);
   if (!breaks_.empty() && t0 < breaks_.back().t0) t0 = breaks_.back().t0;
-  breaks_.push_back({t0, s.tau, s.rate, rate, std::max(ramp, 0.0)});
+  breaks_.push_back(next_break(t0, at(t0), rate, std::max(ramp, 0.0)));
+}
+
+TimeScale::Break TimeScale::next_break(double t0, const Sample& s, double rate, double ramp) noexcept {
+  // The new ramp starts at the rate's slope where the scale stands (a cubic Hermite from (r0, r0') to (r1, 0)):
+  // the path's acceleration p' r' stays continuous, so that a stop that cuts into a resume's ramp asks the
+  // arms for no step in acceleration (they overshoot a step and then brake harder than the stop: soak finding 77).
+  // The slope is bounded so that the rate stays within [0, 1] and never passes its target.
+  const double dr = rate - s.rate;
+  double slope = ramp > 0.0 ? s.rate_dot * ramp : 0.0;  // r0' T
+  if (dr < 0.0) {
+    slope = std::clamp(slope, 3.0 * dr, (1.0 - s.rate) * 27.0 / 4.0);
+  } else if (dr > 0.0) {
+    slope = std::clamp(slope, -s.rate * 27.0 / 4.0, 3.0 * dr);
+  } else {
+    slope = std::clamp(slope, -s.rate * 27.0 / 4.0, (1.0 - s.rate) * 27.0 / 4.0);
+  }
+  return Break{t0, s.tau, s.rate, rate, ramp, ramp > 0.0 ? slope / ramp : 0.0};
 }
 
 std::vector<double> TimeScale::export_breaks(size_t max) const {
@@ -53,24 +69,31 @@ std::vector<double> TimeScale::export_breaks(size_t max) const {
   out.reserve(5 * (breaks_.size() - first));
   for (size_t i = first; i < breaks_.size(); ++i) {
     const Break& b = breaks_[i];
-    out.insert(out.end(), {b.t0, b.tau0, b.r0, b.r1, b.ramp});
+    out.insert(out.end(), {b.t0, b.tau0, b.r0, b.r1, b.ramp});  // (the start slope follows from the breaks before)
   }
   return out;
 }
 
 bool TimeScale::restore(const std::vector<double>& flat) {
   if (flat.size() % 5 != 0) return false;
-  std::vector<Break> next;
+  TimeScale next;
   for (size_t i = 0; i < flat.size(); i += 5) {
     for (size_t j = i; j < i + 5; ++j) {
       if (!std::isfinite(flat[j])) return false;
     }
-    const Break b{flat[i], flat[i + 1], flat[i + 2], flat[i + 3], flat[i + 4]};
+    const Break b{flat[i], flat[i + 1], flat[i + 2], flat[i + 3], flat[i + 4], 0.0};
     const bool rate_ok = b.r0 >= 0.0 && b.r0 <= 1.0 && b.r1 >= 0.0 && b.r1 <= 1.0;  // paused .. normal speed
-    if (!rate_ok || b.ramp < 0.0 || b.t0 < 0.0 || b.tau0 < 0.0 || (!next.empty() && b.t0 < next.back().t0)) return false;
-    next.push_back(b);
+    const std::vector<Break>& before = next.breaks_;
+    if (!rate_ok || b.ramp < 0.0 || b.t0 < 0.0 || b.tau0 < 0.0 || (!before.empty() && b.t0 < before.back().t0)) return false;
+    // The start slope as the maker computed it, from the breaks before (the oldest kept starts flat: it ended long
+    // before any time a follower samples).
+    Sample s = next.at(b.t0);
+    s.tau = b.tau0;
+    s.rate = b.r0;
+    if (before.empty() || b.ramp <= 0.0) s.rate_dot = 0.0;
+    next.breaks_.push_back(next_break(b.t0, s, b.r1, b.ramp));
   }
-  breaks_ = std::move(next);
+  breaks_ = std::move(next.breaks_);
   return true;
 }
 
@@ -88,20 +111,23 @@ TimeScale::Sample TimeScale::at(double t) const noexcept {
   if (b == nullptr) return out;
   const double dt = t - b->t0;
   const double dr = b->r1 - b->r0;
-  if (b->ramp <= 0.0 || dt >= b->ramp) {
-    // Integral of the whole ramp: r0 T + (r1 - r0) T / 2; then the new rate.
-    const double ramp_int = b->ramp > 0.0 ? b->r0 * b->ramp + 0.5 * dr * b->ramp : 0.0;
-    out.tau = b->tau0 + ramp_int + b->r1 * (dt - std::max(b->ramp, 0.0));
+  const double T = b->ramp;
+  const double m0 = b->rd0 * T;  // the start slope, in rate per ramp
+  if (T <= 0.0 || dt >= T) {
+    // Integral of the whole ramp: r0 T + (r1 - r0) T / 2 + r0' T^2 / 12; then the new rate.
+    const double ramp_int = T > 0.0 ? b->r0 * T + 0.5 * dr * T + m0 * T / 12.0 : 0.0;
+    out.tau = b->tau0 + ramp_int + b->r1 * (dt - std::max(T, 0.0));
     out.rate = b->r1;
     out.rate_dot = 0.0;
     return out;
   }
-  const double T = b->ramp;
   const double u = dt / T;
-  // int_0^u (3 s^2 - 2 s^3) ds = u^3 - u^4 / 2
-  out.tau = b->tau0 + b->r0 * dt + dr * T * (u * u * u - 0.5 * u * u * u * u);
-  out.rate = b->r0 + dr * u * u * (3.0 - 2.0 * u);
-  out.rate_dot = dr * 6.0 * u * (1.0 - u) / T;
+  // Cubic Hermite: r = r0 + (r1 - r0) h01(u) + r0' T h10(u), h01 = 3u^2 - 2u^3, h10 = u^3 - 2u^2 + u;
+  // int_0^u h01 = u^3 - u^4 / 2, int_0^u h10 = u^4 / 4 - 2u^3 / 3 + u^2 / 2.
+  const double u2 = u * u, u3 = u2 * u, u4 = u3 * u;
+  out.tau = b->tau0 + b->r0 * dt + dr * T * (u3 - 0.5 * u4) + m0 * T * (0.25 * u4 - 2.0 * u3 / 3.0 + 0.5 * u2);
+  out.rate = b->r0 + dr * u2 * (3.0 - 2.0 * u) + m0 * (u3 - 2.0 * u2 + u);
+  out.rate_dot = (dr * 6.0 * u * (1.0 - u) + m0 * (3.0 * u2 - 4.0 * u + 1.0)) / T;
   return out;
 }
 

@@ -36,8 +36,10 @@ class ObjectPath {
 };
 
 /// Time scaling of a path, for pausing and resuming a module without a jump in the reference: the path is
-/// sampled at tau(t), whose rate r = dtau/dt moves between 0 (paused) and 1 (normal) along a smoothstep
-/// ramp r0 + (r1 - r0)(3u^2 - 2u^3), u = (t - t0)/T, so that r and dr/dt are continuous at the ramp's ends.
+/// sampled at tau(t), whose rate r = dtau/dt moves between 0 (paused) and 1 (normal) along a cubic Hermite
+/// ramp r0 + (r1 - r0)(3u^2 - 2u^3) + r0' T (u^3 - 2u^2 + u), u = (t - t0)/T, r0' the rate's slope where the
+/// retarget cuts in (bounded so that r stays in [0, 1] and does not pass r1): r and dr/dt are continuous at the
+/// ramp's ends, and so is the path's acceleration, even for a stop that cuts into a resume.
 /// tau is integrated in closed form (no drift), and every retarget is kept, so a time before the latest
 /// retarget samples exactly as it did before it (a supervisor answering a repeated tick gives the same).
 class TimeScale {
@@ -55,7 +57,7 @@ class TimeScale {
   /// From time t0 on (t0 not before the latest retarget) the path stands paused at path time tau0: a jump in
   /// path time, for a module whose arms were braked while the path still ran (the object stopped behind its
   /// plan); the next retarget resumes from tau0.
-  void rebase(double t0, double tau0) { breaks_.push_back({t0, tau0, 0.0, 0.0, 0.0}); }
+  void rebase(double t0, double tau0) { breaks_.push_back({t0, tau0, 0.0, 0.0, 0.0, 0.0}); }
   double target() const noexcept { return breaks_.empty() ? 1.0 : breaks_.back().r1; }
   /// True once the latest ramp is over at time t.
   bool settled(double t) const noexcept {
@@ -72,7 +74,9 @@ class TimeScale {
  private:
   struct Break {
     double t0, tau0, r0, r1, ramp;
+    double rd0;  ///< the rate's slope at t0 (from the breaks before; not exported: restore recomputes it)
   };
+  static Break next_break(double t0, const Sample& s, double rate, double ramp) noexcept;
   std::vector<Break> breaks_;
 };
 

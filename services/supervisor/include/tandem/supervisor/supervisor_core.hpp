@@ -67,7 +67,7 @@ class SupervisorCore {
   /// over at least this long, longer when the path is fast: the ramp's peak deceleration 1.5 v / T stays
   /// within kStopMargin of the friction bound (model::stop_deceleration_bound, docs/failure-model.md).
   static constexpr double kHoldRamp = 0.15;
-  static constexpr double kStopMargin = 0.5;
+  static constexpr double kStopMargin = 0.25;
   /// A rebase moves the path back to the braked object only if that brings the reference this much closer.
   static constexpr double kRebaseMin = 5e-4;
   static constexpr long kHoldLeadTicks = 5;

@@ -1192,6 +1192,68 @@ TEST_CASE("governor: a hog of a few seconds parks nothing; a load that does not 
   CHECK(d.module == "m3");
 }
 
+TEST_CASE("governor: modules that pause for load again and again, with short releases between, are overloaded (finding 78)", "[components]") {
+  // The CI soak (finding 78): after m2 came back both modules paused, tried, ran a few hundred ticks and paused again
+  // for 35 s before the governor parked m2. The worlds' status comes more often around a release than while paused,
+  // so counting status samples saw mostly running modules; the share is of time, and a short release between two
+  // pauses is part of the overload.
+  using tandem::launcher::Governor;
+  using Kind = Governor::Decision::Kind;
+  Governor g({"m1", "m2"});
+  double t = 0.0;
+  for (; t < 30.0; t += 0.1) {
+    g.on_load("m1", false, t);
+    g.on_load("m2", false, t);
+  }
+  CHECK(g.decide(t).kind == Kind::None);
+  // Each cycle: paused 1.5 s (status every 0.5 s), released 0.6 s (status every 50 ms).
+  auto cycle = [&] {
+    for (int i = 0; i < 3; ++i, t += 0.5) {
+      g.on_load("m1", true, t);
+      g.on_load("m2", true, t);
+    }
+    for (int i = 0; i < 12; ++i, t += 0.05) {
+      g.on_load("m1", false, t);
+      g.on_load("m2", false, t);
+    }
+  };
+  Governor::Decision d;
+  double parked_at = -1.0;
+  while (t < 70.0 && parked_at < 0.0) {
+    cycle();
+    d = g.decide(t);
+    if (d.kind == Kind::Park) parked_at = t;
+  }
+  INFO("parked at " << parked_at << " s: " << d.why);
+  REQUIRE(d.kind == Kind::Park);
+  CHECK(d.module == "m2");
+  // Once more than half the window is cycling (counted as samples, the same cycles were 20% paused: never parked).
+  CHECK(parked_at <= 30.0 + 0.5 * 20.0 + 2.1 + 1.0);
+  CHECK(d.why.find("were paused for load") != std::string::npos);
+  // A module that recovers for good after a few such cycles is not parked: the release going on is not a pause.
+  Governor h({"m1", "m2"});
+  t = 0.0;
+  for (; t < 30.0; t += 0.1) {
+    h.on_load("m1", false, t);
+    h.on_load("m2", false, t);
+  }
+  for (int c = 0; c < 3; ++c) {
+    for (int i = 0; i < 3; ++i, t += 0.5) {
+      h.on_load("m1", true, t);
+      h.on_load("m2", true, t);
+    }
+    for (int i = 0; i < 12; ++i, t += 0.05) {
+      h.on_load("m1", false, t);
+      h.on_load("m2", false, t);
+    }
+  }
+  for (const double end = t + 40.0; t < end; t += 0.1) {
+    h.on_load("m1", false, t);
+    h.on_load("m2", false, t);
+    CHECK(h.decide(t).kind == Kind::None);
+  }
+}
+
 TEST_CASE("governor: admission parks what the estimate does not fit, and the last running module is never parked", "[components]") {
   using tandem::launcher::Governor;
   Governor g({"a", "b", "c"});

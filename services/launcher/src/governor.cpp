@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <utility>
 
 namespace tandem::launcher {
 
@@ -33,17 +34,33 @@ void Governor::on_load(const std::string& module, bool paused_for_load, double n
   paused_now_[module] = paused_for_load;
   samples_.push_back({now, module, paused_for_load});
   if (paused_for_load) last_paused_ = now;
-  while (!samples_.empty() && samples_.front().t < now - rule_.window_s) samples_.pop_front();
+  // Kept a window and a short release back: a module's state at the window's start is its last sample before it.
+  while (!samples_.empty() && samples_.front().t < now - rule_.window_s - rule_.short_release_s - 5.0) samples_.pop_front();
 }
 
 double Governor::paused_share(double now) const {
-  size_t n = 0, paused = 0;
-  for (const Sample& s : samples_) {
-    if (s.t < now - rule_.window_s || parked_.count(s.module) || unavailable_.count(s.module)) continue;
-    ++n;
-    paused += s.paused ? 1 : 0;
+  const double from = now - rule_.window_s;
+  double covered = 0.0, paused = 0.0;
+  for (const std::string& m : order_) {
+    if (parked_.count(m) || unavailable_.count(m)) continue;
+    // The module's state as a step function of time: each sample holds until the next one (the last until now).
+    std::vector<std::pair<double, bool>> steps;
+    for (const Sample& s : samples_) {
+      if (s.module != m) continue;
+      if (!steps.empty() && steps.back().second == s.paused) continue;
+      steps.emplace_back(s.t, s.paused);
+    }
+    for (size_t i = 0; i < steps.size(); ++i) {
+      const double a = steps[i].first, b = i + 1 < steps.size() ? steps[i + 1].first : now;
+      // A short release between two pauses counts as paused; the release going on now does not (yet).
+      const bool as_paused = steps[i].second || (i > 0 && i + 1 < steps.size() && b - a < rule_.short_release_s);
+      const double lo = std::max(a, from), hi = std::min(b, now);
+      if (hi <= lo) continue;
+      covered += hi - lo;
+      if (as_paused) paused += hi - lo;
+    }
   }
-  return n == 0 ? 0.0 : static_cast<double>(paused) / static_cast<double>(n);
+  return covered <= 0.0 ? 0.0 : paused / covered;
 }
 
 Governor::Decision Governor::decide(double now) {

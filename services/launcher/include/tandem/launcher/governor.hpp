@@ -6,7 +6,9 @@
 //
 // The rule (docs/failure-model.md, "Shedding whole modules"):
 // - overloaded: over the last `window_s`, the running modules spent more than `share` of their time paused for
-//   load (sampled as the launcher hears the worlds' status, about every 100 ms);
+//   load: time-weighted (a world's state holds from one status heard to the next, however often each comes), and
+//   a release shorter than `short_release_s` between two pauses counts as paused (a module that pauses, tries,
+//   runs a few hundred ticks and pauses again is overloaded all along: soak finding 78);
 // - then park one module, the last running one in file order, and decide nothing for `settle_s` (its load
 //   leaves, the others resume);
 // - calm: no running module paused for load for `calm_s`: unpark the first parked one in file order. A module
@@ -26,6 +28,7 @@ namespace tandem::launcher {
 struct GovernorRule {
   double window_s = 20.0;
   double share = 0.5;
+  double short_release_s = 3.0;
   double settle_s = 10.0;
   double calm_s = 30.0;
   double calm_max_s = 240.0;

@@ -508,6 +508,40 @@ TEST_CASE("launcher supervisor: a module unplugged is drained, and the drain re-
   CHECK(f.rec.signals_to("m1/world").at(0).sig == SIGTERM);
 }
 
+TEST_CASE("launcher supervisor: a module paused for load while it drains is stopped at once, its task back to the queue", "[launcher]") {
+  // The CI soak (finding 78): m1 was unplugged while paused for load; its task could not end, so it drained for the
+  // whole 30 s bound while m2 paused for load again and again beside it, and no task was done for 49 s.
+  Fixture f(true);
+  Request r;
+  r.command = Request::Command::Unplug;
+  r.target_kind = Request::Target::Module;
+  r.target = "m1";
+  f.sup.on_world_load("m1", "paused for load (overload: commands late)", 5000, 9.5);
+  f.sup.on_request(r, 10.0);
+  CHECK(f.sup.modules().at("m1").end.text() == "draining");
+  f.sup.on_task_state("m1", 4);  // plan::TaskStateCode::Draining: acknowledged
+  f.sup.on_world_load("m1", "paused for load (overload: commands late)", 5500, 10.0);
+  f.poll(11.0);
+  CHECK(f.sup.modules().at("m1").end.text() == "draining");  // paused 1.5 s: not yet
+  CHECK(f.rec.signals_to("m1/world").empty());
+  f.sup.on_world_load("m1", "paused for load (overload: commands late)", 6500, 11.4);
+  f.poll(11.6);
+  CHECK(f.rec.said("tandem up: module m1 is paused for load while it drains (for 2.1 s): its task cannot end soon; "
+                   "stopping it now (its brakes hold the object), its task goes back to the queue\n"));
+  CHECK(f.sup.modules().at("m1").end.text() == "unplugged");
+  REQUIRE_FALSE(f.rec.signals_to("m1/world").empty());
+  CHECK(f.rec.signals_to("m1/world").at(0).sig == SIGTERM);
+  // A module that resumed before it drained is drained as usual: its pause ended, nothing is forced.
+  Fixture g(true);
+  g.sup.on_world_load("m1", "paused for load (overload: commands late)", 5000, 5.0);
+  g.sup.on_world_load("m1", "", 6000, 9.0);
+  g.sup.on_request(r, 10.0);
+  g.sup.on_task_state("m1", 4);
+  g.poll(13.0);
+  CHECK(g.sup.modules().at("m1").end.text() == "draining");
+  CHECK(g.rec.signals_to("m1/world").empty());
+}
+
 TEST_CASE("launcher supervisor: on another host, starts are re-sent until the agent reports them, and a silent host is lost", "[launcher]") {
   Recorder rec;
   rec.host = "b";

@@ -360,67 +360,65 @@ TEST_CASE("nemesis: a coordinator kill records whether an active standby coordin
   CHECK(h.faults[1].had_standby);
 }
 
+namespace {
+// One module m1 (a primary robot of strength 100 on each arm) under a nemesis with schedule `s`, its history and actions.
+struct OneModule {
+  History h;
+  Recorder act;
+  Nemesis n;
+  explicit OneModule(const Schedule& s) : n(s, {"m1"}, h, act) { add_module(n, "m1", 100, 0.0); }
+};
+}  // namespace
+
 TEST_CASE("nemesis: a run is over only once no fault waits for a target, and kTailS after the last that waited") {
   // Finding 75: a robot kill fell due while no robot served an arm (the module paused for load); the run ended
   // with the kill still waiting, as though the schedule had none. Now the run goes on until it fires.
   Schedule s;
   s.duration_s = 20;
   s.faults = {fault(15.0, FaultKind::Kill, Target::Robot)};
-  History h;
-  Recorder act;
-  Nemesis n(s, {"m1"}, h, act);
-  add_module(n, "m1", 100, 0.0);
-  n.on_owners("m1", {});  // paused for load: the world reports no robot serving either arm
-  run(n, 0.0, 19.0);
-  CHECK_FALSE(n.over(19.0));  // before the duration
-  run(n, 19.0, 30.0);
-  CHECK(h.faults.empty());
-  CHECK(n.waiting() == 1);
-  CHECK_FALSE(n.over(30.0));  // past the duration, but the kill waits
-  n.on_owners("m1", {{"left", "m1/left"}, {"right", "m1/right"}});  // resumed at 30 s
-  run(n, 30.0, 30.05);
-  REQUIRE(h.faults.size() == 1);
-  CHECK_FALSE(h.faults[0].skipped);
-  CHECK(h.faults[0].t == Approx(30.0).margin(0.011));
-  CHECK(act.of("kill").size() == 1);
-  CHECK(n.waiting() == 0);
-  CHECK_FALSE(n.over(30.0 + Nemesis::kTailS - 0.1));  // its effect is still being recorded
-  CHECK(n.over(30.0 + Nemesis::kTailS + 0.01));
+  OneModule a(s);
+  a.n.on_owners("m1", {});  // paused for load: the world reports no robot serving either arm
+  run(a.n, 0.0, 19.0);
+  CHECK_FALSE(a.n.over(19.0));  // before the duration
+  run(a.n, 19.0, 30.0);
+  CHECK(a.h.faults.empty());
+  CHECK(a.n.waiting() == 1);
+  CHECK_FALSE(a.n.over(30.0));  // past the duration, but the kill waits
+  a.n.on_owners("m1", {{"left", "m1/left"}, {"right", "m1/right"}});  // resumed at 30 s
+  run(a.n, 30.0, 30.05);
+  REQUIRE(a.h.faults.size() == 1);
+  CHECK_FALSE(a.h.faults[0].skipped);
+  CHECK(a.h.faults[0].t == Approx(30.0).margin(0.011));
+  CHECK(a.act.of("kill").size() == 1);
+  CHECK(a.n.waiting() == 0);
+  CHECK_FALSE(a.n.over(30.0 + Nemesis::kTailS - 0.1));  // its effect is still being recorded
+  CHECK(a.n.over(30.0 + Nemesis::kTailS + 0.01));
 
   // A run whose faults all fired on time is over at its duration.
-  History h2;
-  Recorder act2;
-  Nemesis n2(s, {"m1"}, h2, act2);
-  add_module(n2, "m1", 100, 0.0);
-  run(n2, 0.0, 19.99);
-  CHECK(h2.faults.size() == 1);
-  CHECK_FALSE(n2.over(19.99));
-  CHECK(n2.over(20.0));
+  OneModule b(s);
+  run(b.n, 0.0, 19.99);
+  CHECK(b.h.faults.size() == 1);
+  CHECK_FALSE(b.n.over(19.99));
+  CHECK(b.n.over(20.0));
 
   // A fault that never finds a target is skipped after kTargetWaitS, and then the run ends too (bounded).
-  History h3;
-  Recorder act3;
-  Nemesis n3(s, {"m1"}, h3, act3);
-  add_module(n3, "m1", 100, 0.0);
-  n3.on_owners("m1", {});
-  run(n3, 0.0, 15.0 + Nemesis::kTargetWaitS + 0.05);
-  REQUIRE(h3.faults.size() == 1);
-  CHECK(h3.faults[0].skipped);
-  CHECK_FALSE(n3.over(15.0 + Nemesis::kTargetWaitS + 1.0));
-  CHECK(n3.over(15.0 + Nemesis::kTargetWaitS + Nemesis::kTailS + 0.1));
+  OneModule c(s);
+  c.n.on_owners("m1", {});
+  run(c.n, 0.0, 15.0 + Nemesis::kTargetWaitS + 0.05);
+  REQUIRE(c.h.faults.size() == 1);
+  CHECK(c.h.faults[0].skipped);
+  CHECK_FALSE(c.n.over(15.0 + Nemesis::kTargetWaitS + 1.0));
+  CHECK(c.n.over(15.0 + Nemesis::kTargetWaitS + Nemesis::kTailS + 0.1));
 
   // A fault due just before the end that no step has taken yet keeps the run going until a step takes it.
   Schedule late;
   late.duration_s = 20;
   late.faults = {fault(19.995, FaultKind::Kill, Target::Robot)};
-  History h4;
-  Recorder act4;
-  Nemesis n4(late, {"m1"}, h4, act4);
-  add_module(n4, "m1", 100, 0.0);
-  run(n4, 0.0, 19.99);
-  CHECK(h4.faults.empty());
-  CHECK_FALSE(n4.over(20.0));
-  n4.step(20.0);
-  REQUIRE(h4.faults.size() == 1);
-  CHECK(n4.over(20.0));
+  OneModule d(late);
+  run(d.n, 0.0, 19.99);
+  CHECK(d.h.faults.empty());
+  CHECK_FALSE(d.n.over(20.0));
+  d.n.step(20.0);
+  REQUIRE(d.h.faults.size() == 1);
+  CHECK(d.n.over(20.0));
 }

@@ -90,6 +90,7 @@ struct ModuleRun {
   int repairs = 0;                 ///< restarts because it did not come up (docs/security.md, "Start-up")
   double started_at = 0.0;         ///< when its processes were last started [s]
   DrainWatch drain;                ///< draining: the bounds of its drain
+  double load_paused_since = -1.0; ///< its world has said "paused for load" since then [s]; -1: it has not
 };
 
 struct SupervisorConfig {

@@ -333,8 +333,9 @@ void summarize_run(const launcher::Supervisor& L, const Deployment& d, Heard& he
   }
   std::printf("tandem up: start-up repairs (modules restarted because they did not come up): %llu\n", L.start_repairs());
   if (L.forced_drains() > 0) {
-    std::printf("tandem up: unplugged modules stopped before their task ended (drain over %.0f s): %llu\n",
-                launcher::DrainWatch::kTimeout, L.forced_drains());
+    std::printf("tandem up: unplugged modules stopped before their task ended (drain over %.0f s, or paused for load "
+                "%.0f s while draining): %llu\n", launcher::DrainWatch::kTimeout, launcher::DrainWatch::kPausedForLoad,
+                L.forced_drains());
   }
   if (out) {
     out << "start_repairs=" << L.start_repairs() << "\nplan_restarts=" << L.plan_restarts() << "\nforced_drains=" << L.forced_drains()

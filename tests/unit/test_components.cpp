@@ -1254,6 +1254,25 @@ TEST_CASE("governor: modules that pause for load again and again, with short rel
   }
 }
 
+TEST_CASE("governor: a module that leaves and comes back starts afresh: its last status before it left does not count", "[components]") {
+  // Found by review: unplugged while paused, m1's last "paused" held from before it left until its new world's first
+  // status, and with m2 paused 30% of the time the share passed one half: m2 would have been parked for nothing.
+  using tandem::launcher::Governor;
+  Governor g({"m1", "m2"});
+  double t = 0.0;
+  for (; t < 30.0; t += 0.1) {
+    g.on_load("m1", false, t);
+    g.on_load("m2", false, t);
+  }
+  for (; t < 32.0; t += 0.1) g.on_load("m1", true, t);
+  g.set_available("m1", false);  // unplugged while paused
+  for (int i = 0; t < 50.0; t += 0.1, ++i) g.on_load("m2", i % 100 < 30, t);  // m2 paused 3 s in every 10
+  g.set_available("m1", true);  // plugged back: its new world has not reported yet
+  g.on_load("m2", false, t);
+  CHECK(g.paused_share(t) < 0.5);
+  CHECK(g.decide(t).kind == Governor::Decision::Kind::None);
+}
+
 TEST_CASE("governor: admission parks what the estimate does not fit, and the last running module is never parked", "[components]") {
   using tandem::launcher::Governor;
   Governor g({"a", "b", "c"});

@@ -542,6 +542,32 @@ TEST_CASE("launcher supervisor: a module paused for load while it drains is stop
   CHECK(g.rec.signals_to("m1/world").empty());
 }
 
+TEST_CASE("launcher supervisor: a module paused for its unplugged robot is stopped at once when it is drained", "[launcher]") {
+  // A real-time hour (run 52): m1/right, with no standby, was unplugged (m1 paused, the arm braked), then the module
+  // was unplugged: its task could not end, it drained for the whole 30 s bound while m2 was parked, and the robot's
+  // plug was refused meanwhile (the module was leaving).
+  Fixture f(true);
+  Request r;
+  r.command = Request::Command::Unplug;
+  r.target_kind = Request::Target::Process;
+  r.target = "m1/left";
+  f.sup.on_request(r, 10.0);
+  f.sup.on_task_state("m1", 3);  // plan::TaskStateCode::Paused
+  f.poll(10.5);
+  REQUIRE(f.rec.signals_to("m1/left").size() == 1);
+  CHECK(f.rec.signals_to("m1/world").empty());
+  r.target_kind = Request::Target::Module;
+  r.target = "m1";
+  f.sup.on_request(r, 11.0);
+  f.sup.on_task_state("m1", 4);  // plan::TaskStateCode::Draining
+  f.poll(11.1);
+  CHECK(f.rec.said("tandem up: module m1 is paused for an unplugged robot while it drains: its task cannot end; "
+                   "stopping it now (its brakes hold the object), its task goes back to the queue\n"));
+  CHECK(f.sup.modules().at("m1").end.text() == "unplugged");
+  REQUIRE_FALSE(f.rec.signals_to("m1/world").empty());
+  CHECK(f.rec.signals_to("m1/world").at(0).sig == SIGTERM);
+}
+
 TEST_CASE("launcher supervisor: on another host, starts are re-sent until the agent reports them, and a silent host is lost", "[launcher]") {
   Recorder rec;
   rec.host = "b";

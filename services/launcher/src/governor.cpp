@@ -27,6 +27,10 @@ void Governor::set_available(const std::string& module, bool available) {
     parked_.erase(module);
     paused_now_.erase(module);
   }
+  // Its samples go either way: a module that comes back starts afresh (an old "paused" would otherwise hold from
+  // before it left until its new world's first status).
+  samples_.erase(std::remove_if(samples_.begin(), samples_.end(), [&](const Sample& s) { return s.module == module; }),
+                 samples_.end());
 }
 
 void Governor::on_load(const std::string& module, bool paused_for_load, double now) {

@@ -1006,13 +1006,22 @@ void Supervisor::stop_deaf_leader(const std::string& module, ModuleRun& mr, doub
 void Supervisor::resend_drains(double now) {
   for (auto& [name, mr] : modules_) {
     if (!mr.end.is(ModuleEnd::Kind::Draining)) continue;
-    if (mr.load_paused_since >= 0.0 && now - mr.load_paused_since >= DrainWatch::kPausedForLoad) {
-      // Its task cannot end while the module is paused for load, and its processes load the machine the others
-      // share (the governor no longer counts a module that leaves): the CI soak saw a module drain for the whole
-      // 30 s bound, paused, while the other module paused for load again and again beside it (finding 78).
-      logf("tandem up: module %s is paused for load while it drains (for %.1f s): its task cannot end soon; stopping "
-           "it now (its brakes hold the object), its task goes back to the queue\n", name.c_str(),
-           now - mr.load_paused_since);
+    const bool load_paused = mr.load_paused_since >= 0.0 && now - mr.load_paused_since >= DrainWatch::kPausedForLoad;
+    if (load_paused || mr.paused_for_unplug) {
+      // Its task cannot end while the module is paused for load or for an arm whose only robot was unplugged, and its
+      // processes load the machine the others share (the governor no longer counts a module that leaves): the CI
+      // soak saw a module drain for the whole 30 s bound, paused, while the other module paused for load again and
+      // again beside it (finding 78); a real-time hour saw one paused for an unplugged robot drain 30 s while the
+      // other module was parked, and no task was done for 73 s (its robot's plug was refused: the module was leaving).
+      if (load_paused) {
+        logf("tandem up: module %s is paused for load while it drains (for %.1f s): its task cannot end soon; "
+             "stopping it now (its brakes hold the object), its task goes back to the queue\n", name.c_str(),
+             now - mr.load_paused_since);
+      } else {
+        logf("tandem up: module %s is paused for an unplugged robot while it drains: its task cannot end; stopping it "
+             "now (its brakes hold the object), its task goes back to the queue\n", name.c_str());
+      }
+      mr.paused_for_unplug = false;
       ++forced_drains_;
       mr.end = ModuleEnd::of(ModuleEnd::Kind::Unplugged);
       stop_module(name, now);

@@ -467,7 +467,7 @@ void SupervisorCore::update(int64_t now_ns) {
     // Stop the path: overload, an arm driven to rest by the world, or braked. Never faster than the friction
     // bound allows (the world's drive and the other robot follow this same plan).
     const long from = heard_tick_ + kHoldLeadTicks;
-    plan_.set_rate(from, 0.0, stop_ramp(from));
+    if (plan_.target_rate() != 0.0) plan_.set_rate(from, 0.0, stop_ramp(from));  // (once per stop: stop_ramp tries it)
   } else if (released_at_ >= 0 && heard_tick_ - released_at_ < kReleaseSettleTicks) {
     // Just released: the new controller settles on the still reference first.
   } else {
@@ -545,11 +545,30 @@ std::string SupervisorCore::world_plan_text() const {
 double SupervisorCore::stop_ramp(long from) const {
   const model::PoseSample p = plan_.sample(from);
   // Speed of the faster stick tip: the centre's speed plus the rotation's share at the stick's length.
-  const double v = p.vel.head<2>().norm() + std::max(m_.geometry.stick_length[0], m_.geometry.stick_length[1]) * std::abs(p.vel(2));
+  const double stick = std::max(m_.geometry.stick_length[0], m_.geometry.stick_length[1]);
+  const double v = p.vel.head<2>().norm() + stick * std::abs(p.vel(2));
   const model::ObjectParams& o = m_.plant.object;
   const double a_max = model::stop_deceleration_bound(m_.reference_force, m_.safe_grasp_force, o.mass, o.mu_s, m_.plant.g0);
   if (!(a_max > 0.0)) return 1.0;
-  return std::max(kHoldRamp, 1.5 * v / (kStopMargin * a_max));
+  // From a steady rate the ramp's peak deceleration is 1.5 v / T. A stop that cuts into a resume starts at the
+  // rate's slope (model::TimeScale), so the rate goes on rising for a while and then falls faster: the stop is
+  // tried on a copy of the plan and lengthened until the stick tips' acceleration over it stays within the
+  // margin (or, at most, 8 x; the path's own acceleration at full rate is far below it for the tasks used).
+  double T = std::max(kHoldRamp, 1.5 * v / (kStopMargin * a_max));
+  for (int i = 0; i < 8; ++i) {
+    plan::ModulePlan trial = plan_;
+    trial.set_rate(from, 0.0, T);
+    double peak = 0.0;
+    // (The stop begins at `from` or at a retarget already scheduled after it, at most kLeadTicks later.)
+    const long end = from + static_cast<long>(std::ceil(T / m_.period)) + kLeadTicks + 1;
+    for (long k = from; k <= end; ++k) {
+      const model::PoseSample s = trial.sample(k);
+      peak = std::max(peak, s.acc.head<2>().norm() + stick * std::abs(s.acc(2)));
+    }
+    if (peak <= kStopMargin * a_max) break;
+    T *= 1.25;
+  }
+  return T;
 }
 
 std::optional<plan::PlanData> SupervisorCore::take_plan() {

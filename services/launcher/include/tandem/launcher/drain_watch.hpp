@@ -25,8 +25,9 @@ class DrainWatch {
   static constexpr double kResendEvery = 1.0;  ///< [s]
   static constexpr double kDeafLeader = 5.0;   ///< [s] unacknowledged: the leader does not hear the launcher
   static constexpr double kWarnAfter = 10.0;   ///< [s]
-  static constexpr double kTimeout = 30.0;     ///< [s] a task lasts a few seconds, a load pause or a restart a few more
-  /// [s] a module paused for load this long while it drains is stopped at once (Supervisor::resend_drains): its task
+  static constexpr double kTimeout = 30.0;     ///< [s] a task lasts a few seconds, a restart a few more
+  /// [s] a module paused for load this long (counted from the pause, which may have begun before the drain) while it
+  /// drains is stopped at once (Supervisor::resend_drains): its task
   /// cannot end while it is paused, and its processes load the machine the others share (finding 78 of docs/soak.md).
   static constexpr double kPausedForLoad = 2.0;
 

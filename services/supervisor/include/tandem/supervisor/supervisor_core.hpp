@@ -64,8 +64,9 @@ class SupervisorCore {
 
   static constexpr double kPauseRamp = 0.3;   ///< requested pause / resume [s]
   /// Every stop of the path (overload hold, an arm without a controller, an arm braked) ramps the rate to 0
-  /// over at least this long, longer when the path is fast: the ramp's peak deceleration 1.5 v / T stays
-  /// within kStopMargin of the friction bound (model::stop_deceleration_bound, docs/failure-model.md).
+  /// over at least this long, longer when the path is fast: the ramp's peak deceleration (1.5 v / T from a steady
+  /// rate; a stop that cuts into a resume is tried on a copy of the plan) stays within kStopMargin of the friction
+  /// bound (model::stop_deceleration_bound, docs/failure-model.md).
   static constexpr double kHoldRamp = 0.15;
   static constexpr double kStopMargin = 0.25;
   /// A rebase moves the path back to the braked object only if that brings the reference this much closer.

@@ -22,7 +22,7 @@ using tandem::model::kPi;
 using tandem::model::Mat3;
 using tandem::model::Vec2;
 using tandem::model::Vec3;
-namespace tm = tandem::model;
+namespace tmd = tandem::model;
 using Mat12 = Eigen::Matrix<double, 12, 12>;
 using Vec6 = Eigen::Matrix<double, 6, 1>;
 
@@ -32,9 +32,9 @@ double max_abs(const Eigen::MatrixXd& m) { return m.cwiseAbs().maxCoeff(); }
 
 /// Grasp state built the way the embedded simulation builds its initial state (sim/src/embedded.cpp).
 struct Grasp {
-  tm::ModuleParams params;
-  tm::ModuleState state;
-  tm::GraspGeometry geometry;
+  tmd::ModuleParams params;
+  tmd::ModuleState state;
+  tmd::GraspGeometry geometry;
   double h_ref = 0.0;
 };
 
@@ -45,12 +45,12 @@ Grasp make_grasp(const Vec3& object_pose, double h_ref) {
   g.params.arms[1].base = Vec2(1.0, 0.0);
   g.geometry.stick_length[0] = g.geometry.stick_length[1] = g.params.object.half_width;
   g.geometry.preload = h_ref / g.params.contact.k_normal;
-  tm::PoseSample p0;
+  tmd::PoseSample p0;
   p0.pose = object_pose;
   const double elbow[2] = {-1.0, 1.0};
   for (int j = 0; j < 2; ++j) {
-    const tm::ArmReference r = tm::arm_reference(j, p0, g.geometry, h_ref);
-    const bool ok = tm::inverse_kinematics(g.params.arms[static_cast<size_t>(j)], r.x, elbow[j],
+    const tmd::ArmReference r = tmd::arm_reference(j, p0, g.geometry, h_ref);
+    const bool ok = tmd::inverse_kinematics(g.params.arms[static_cast<size_t>(j)], r.x, elbow[j],
                                            g.state.q[static_cast<size_t>(j)]);
     REQUIRE(ok);
   }
@@ -67,11 +67,11 @@ TEST_CASE("grasp matrix: pseudo-inverse and null space identities", "[grasp]") {
     // Planar sticks (as in the module) and general 3-D ones.
     Vec3 r1 = rng.vec3(-0.5, 0.5), r2 = rng.vec3(-0.5, 0.5);
     if (i % 2 == 0) r1(2) = r2(2) = 0.0;
-    const tm::Mat6x12 W = tm::grasp_matrix(r1, r2);
-    const tm::Mat12x6 Wp = tm::grasp_pseudo_inverse(W);
+    const tmd::Mat6x12 W = tmd::grasp_matrix(r1, r2);
+    const tmd::Mat12x6 Wp = tmd::grasp_pseudo_inverse(W);
     INFO("r1 = " << r1.transpose() << "  r2 = " << r2.transpose());
 
-    CHECK(max_abs(W * Wp - tm::Mat6::Identity()) <= 1e-12);
+    CHECK(max_abs(W * Wp - tmd::Mat6::Identity()) <= 1e-12);
     const Mat12 P = Wp * W;
     CHECK(max_abs(P - P.transpose()) <= 1e-12);
     CHECK(max_abs(P * P - P) <= 1e-12);
@@ -81,9 +81,9 @@ TEST_CASE("grasp matrix: pseudo-inverse and null space identities", "[grasp]") {
     CHECK(max_abs(Wp - pinv) <= 1e-10);
 
     // Null space: W V = 0, V orthonormal, and V V^T completes W^+ W to the identity.
-    const tm::Mat12x6 V = tm::grasp_null_space(W);
+    const tmd::Mat12x6 V = tmd::grasp_null_space(W);
     CHECK(max_abs(W * V) <= 1e-12);
-    CHECK(max_abs(V.transpose() * V - tm::Mat6::Identity()) <= 1e-12);
+    CHECK(max_abs(V.transpose() * V - tmd::Mat6::Identity()) <= 1e-12);
     CHECK(max_abs(P + V * V.transpose() - Mat12::Identity()) <= 1e-12);
 
     // Each block moves a wrench to the stick tip: force unchanged, moment about the tip = mu - r x f.
@@ -100,8 +100,8 @@ TEST_CASE("grasp matrix: pseudo-inverse and null space identities", "[grasp]") {
 }
 
 TEST_CASE("planar grasp matrix (eq. 18) splits the object's load into equal halves", "[grasp]") {
-  const Eigen::Matrix<double, 2, 4> W = tm::planar_grasp_matrix();
-  const Eigen::Matrix<double, 4, 2> Wp = tm::planar_grasp_pseudo_inverse();
+  const Eigen::Matrix<double, 2, 4> W = tmd::planar_grasp_matrix();
+  const Eigen::Matrix<double, 4, 2> Wp = tmd::planar_grasp_pseudo_inverse();
   CHECK(max_abs(W * Wp - Eigen::Matrix2d::Identity()) <= 1e-15);
   const Eigen::Matrix4d P = Wp * W;
   CHECK(max_abs(P - P.transpose()) <= 1e-15);
@@ -112,7 +112,7 @@ TEST_CASE("planar grasp matrix (eq. 18) splits the object's load into equal halv
   CHECK(max_abs(Wp - formula) <= 1e-15);
   // The 6x12 grasp matrix with both sticks at the centre reduces to [I I]; its force rows/columns in the
   // plane are the planar pseudo-inverse.
-  const tm::Mat12x6 Wp6 = tm::grasp_pseudo_inverse(tm::grasp_matrix(Vec3::Zero(), Vec3::Zero()));
+  const tmd::Mat12x6 Wp6 = tmd::grasp_pseudo_inverse(tmd::grasp_matrix(Vec3::Zero(), Vec3::Zero()));
   Eigen::Matrix<double, 4, 2> restricted;
   restricted << Wp6.block<2, 2>(0, 0), Wp6.block<2, 2>(6, 0);
   CHECK(max_abs(Wp - restricted) <= 1e-12);
@@ -128,30 +128,30 @@ TEST_CASE("planar grasp matrix (eq. 18) splits the object's load into equal halv
 }
 
 TEST_CASE("safe grasp force (eq. 16): two friction cones carry exactly the weight", "[grasp]") {
-  CHECK(tm::safe_grasp_force(2.0, 0.5, 9.81) == Approx(19.62).epsilon(1e-14));
+  CHECK(tmd::safe_grasp_force(2.0, 0.5, 9.81) == Approx(19.62).epsilon(1e-14));
   for (double M : {0.5, 2.0, 7.3}) {
     for (double mu : {0.2, 0.5, 1.1}) {
       const double g0 = 9.81;
-      const double N = tm::safe_grasp_force(M, mu, g0);
+      const double N = tmd::safe_grasp_force(M, mu, g0);
       INFO("M = " << M << "  mu_s = " << mu);
       // Coulomb: each contact holds at most mu_s N along the face; two of them must hold M g.
       CHECK(2.0 * mu * N == Approx(M * g0).epsilon(1e-14));
-      CHECK(tm::safe_grasp_force(2.0 * M, mu, g0) == Approx(2.0 * N).epsilon(1e-14));
-      CHECK(tm::safe_grasp_force(M, 2.0 * mu, g0) == Approx(0.5 * N).epsilon(1e-14));
-      CHECK(tm::safe_grasp_holds(N, N));
-      CHECK(tm::safe_grasp_holds(1.01 * N, N));
-      CHECK_FALSE(tm::safe_grasp_holds(0.99 * N, N));
+      CHECK(tmd::safe_grasp_force(2.0 * M, mu, g0) == Approx(2.0 * N).epsilon(1e-14));
+      CHECK(tmd::safe_grasp_force(M, 2.0 * mu, g0) == Approx(0.5 * N).epsilon(1e-14));
+      CHECK(tmd::safe_grasp_holds(N, N));
+      CHECK(tmd::safe_grasp_holds(1.01 * N, N));
+      CHECK_FALSE(tmd::safe_grasp_holds(0.99 * N, N));
     }
   }
 }
 
 TEST_CASE("stick tips meet at the object centre, and absolute and relative pose (eq. 6, 11, 12)", "[grasp]") {
-  const tm::GraspGeometry g;  // defaults: sticks 0.3 m, phi_I = -pi, p_I = 0, preload 0
+  const tmd::GraspGeometry g;  // defaults: sticks 0.3 m, phi_I = -pi, p_I = 0, preload 0
   for (const Vec3& pose : {Vec3(-0.2, 0.8, 0.0), Vec3(0.1, 0.9, 0.3), Vec3(0.25, 0.7, -0.4)}) {
-    tm::PoseSample obj;
+    tmd::PoseSample obj;
     obj.pose = pose;
-    const tm::ArmReference r0 = tm::arm_reference(0, obj, g, 0.0);
-    const tm::ArmReference r1 = tm::arm_reference(1, obj, g, 0.0);
+    const tmd::ArmReference r0 = tmd::arm_reference(0, obj, g, 0.0);
+    const tmd::ArmReference r1 = tmd::arm_reference(1, obj, g, 0.0);
     INFO("object pose " << pose.transpose() << "  x0 = " << r0.x.transpose() << "  x1 = " << r1.x.transpose());
     // Left arm points along +x rotated clockwise by phi_E, right arm the opposite way.
     CHECK(r0.x(2) == Approx(pose(2) + kPi / 2).epsilon(1e-15));
@@ -160,29 +160,29 @@ TEST_CASE("stick tips meet at the object centre, and absolute and relative pose 
     CHECK((r0.x.head<2>() - pose.head<2>()).norm() == Approx(0.3).epsilon(1e-14));
     CHECK(max_abs(r0.x.head<2>() + r1.x.head<2>() - 2.0 * pose.head<2>()) <= 1e-15);
 
-    const Vec2 stick = tm::virtual_stick(0.3, r0.x(2));
+    const Vec2 stick = tmd::virtual_stick(0.3, r0.x(2));
     CHECK(stick.norm() == Approx(0.3).epsilon(1e-15));
     CHECK(stick(0) == Approx(0.3 * std::sin(r0.x(2))).margin(1e-15));
 
-    const Vec3 tip0 = tm::stick_tip(r0.x, g.stick_length[0]);
-    const Vec3 tip1 = tm::stick_tip(r1.x, g.stick_length[1]);
+    const Vec3 tip0 = tmd::stick_tip(r0.x, g.stick_length[0]);
+    const Vec3 tip1 = tmd::stick_tip(r1.x, g.stick_length[1]);
     CHECK(max_abs(tip0.head<2>() - pose.head<2>()) <= 1e-14);
     CHECK(max_abs(tip1.head<2>() - pose.head<2>()) <= 1e-14);
-    CHECK(max_abs(tm::absolute_pose(tip0, tip1) - pose) <= 1e-14);
-    const Vec3 rel = tm::relative_pose(tip0, tip1);
+    CHECK(max_abs(tmd::absolute_pose(tip0, tip1) - pose) <= 1e-14);
+    const Vec3 rel = tmd::relative_pose(tip0, tip1);
     CHECK(max_abs(rel.head<2>()) <= 1e-14);
     CHECK(rel(2) == Approx(-kPi).epsilon(1e-15));
   }
 
   SECTION("a relative offset p_I shows up in relative_pose and not in absolute_pose") {
-    tm::GraspGeometry g2;
+    tmd::GraspGeometry g2;
     g2.p_I = Vec2(0.02, -0.015);
-    tm::PoseSample obj;
+    tmd::PoseSample obj;
     obj.pose = Vec3(0.05, 0.85, 0.2);
-    const Vec3 tip0 = tm::stick_tip(tm::arm_reference(0, obj, g2, 0.0).x, 0.3);
-    const Vec3 tip1 = tm::stick_tip(tm::arm_reference(1, obj, g2, 0.0).x, 0.3);
-    CHECK(max_abs(tm::relative_pose(tip0, tip1).head<2>() - g2.p_I) <= 1e-14);
-    CHECK(max_abs(tm::absolute_pose(tip0, tip1) - obj.pose) <= 1e-14);
+    const Vec3 tip0 = tmd::stick_tip(tmd::arm_reference(0, obj, g2, 0.0).x, 0.3);
+    const Vec3 tip1 = tmd::stick_tip(tmd::arm_reference(1, obj, g2, 0.0).x, 0.3);
+    CHECK(max_abs(tmd::relative_pose(tip0, tip1).head<2>() - g2.p_I) <= 1e-14);
+    CHECK(max_abs(tmd::absolute_pose(tip0, tip1) - obj.pose) <= 1e-14);
   }
 }
 
@@ -190,7 +190,7 @@ TEST_CASE("object path: continuity, derivatives by finite differences, rest at s
   const Vec3 start(-0.2, 0.8, 0.0);
   const Vec3 w1(0.1, 0.9, 0.0);
   const Vec3 w2(0.2, 0.8, 0.3);
-  const tm::ObjectPath path(start, 0.5, {tm::ObjectPath::Segment{w1, 1.5}, tm::ObjectPath::Segment{w2, 1.0}});
+  const tmd::ObjectPath path(start, 0.5, {tmd::ObjectPath::Segment{w1, 1.5}, tmd::ObjectPath::Segment{w2, 1.0}});
   REQUIRE(path.motion_end() == Approx(3.0).epsilon(1e-15));
   const double boundaries[] = {0.5, 2.0, 3.0};
   const Vec3 waypoints[] = {start, w1, w2};
@@ -200,7 +200,7 @@ TEST_CASE("object path: continuity, derivatives by finite differences, rest at s
       const double tb = boundaries[b];
       INFO("boundary t = " << tb);
       for (double eps : {1e-6, 1e-9}) {
-        const tm::PoseSample before = path.sample(tb - eps), after = path.sample(tb + eps);
+        const tmd::PoseSample before = path.sample(tb - eps), after = path.sample(tb + eps);
         CHECK(max_abs(before.pose - waypoints[b]) <= 1e-8);
         CHECK(max_abs(after.pose - waypoints[b]) <= 1e-8);
         CHECK(max_abs(before.vel) <= 1e-8);
@@ -208,19 +208,19 @@ TEST_CASE("object path: continuity, derivatives by finite differences, rest at s
         CHECK(max_abs(before.acc) <= 1e-3 * eps / 1e-6);
         CHECK(max_abs(after.acc) <= 1e-3 * eps / 1e-6);
       }
-      const tm::PoseSample at = path.sample(tb);
+      const tmd::PoseSample at = path.sample(tb);
       CHECK(max_abs(at.pose - waypoints[b]) <= 1e-15);
       CHECK(max_abs(at.vel) <= 1e-15);
       CHECK(max_abs(at.acc) <= 1e-15);
     }
     // Holding before the first segment and after the last one.
     for (double t : {0.0, 0.25, 0.4999}) {
-      const tm::PoseSample s = path.sample(t);
+      const tmd::PoseSample s = path.sample(t);
       CHECK(max_abs(s.pose - start) == 0.0);
       CHECK(max_abs(s.vel) + max_abs(s.acc) == 0.0);
     }
     for (double t : {3.0, 3.5, 10.0}) {
-      const tm::PoseSample s = path.sample(t);
+      const tmd::PoseSample s = path.sample(t);
       CHECK(max_abs(s.pose - w2) == 0.0);
       CHECK(max_abs(s.vel) + max_abs(s.acc) == 0.0);
     }
@@ -238,7 +238,7 @@ TEST_CASE("object path: continuity, derivatives by finite differences, rest at s
     const double h = 1e-5;
     for (int k = 0; k < 70; ++k) {
       const double t = 0.013 + 0.05 * static_cast<double>(k);  // never within h of a boundary
-      const tm::PoseSample s = path.sample(t);
+      const tmd::PoseSample s = path.sample(t);
       const Vec3 vel_fd = (path.sample(t + h).pose - path.sample(t - h).pose) / (2.0 * h);
       const Vec3 acc_fd = (path.sample(t + h).vel - path.sample(t - h).vel) / (2.0 * h);
       INFO("t = " << t << "  vel = " << s.vel.transpose() << "  fd = " << vel_fd.transpose()
@@ -249,16 +249,16 @@ TEST_CASE("object path: continuity, derivatives by finite differences, rest at s
   }
 
   SECTION("arm references (eq. 15) have exact derivatives while the object rotates") {
-    tm::GraspGeometry g;
+    tmd::GraspGeometry g;
     g.preload = 0.003;
     g.p_I = Vec2(0.01, -0.02);
     const double h = 1e-5;
     for (int j = 0; j < 2; ++j) {
       for (int k = 0; k < 70; ++k) {
         const double t = 0.013 + 0.05 * static_cast<double>(k);
-        const tm::ArmReference r = tm::arm_reference(j, path.sample(t), g, 10.0);
-        const tm::ArmReference rp = tm::arm_reference(j, path.sample(t + h), g, 10.0);
-        const tm::ArmReference rm = tm::arm_reference(j, path.sample(t - h), g, 10.0);
+        const tmd::ArmReference r = tmd::arm_reference(j, path.sample(t), g, 10.0);
+        const tmd::ArmReference rp = tmd::arm_reference(j, path.sample(t + h), g, 10.0);
+        const tmd::ArmReference rm = tmd::arm_reference(j, path.sample(t - h), g, 10.0);
         const Vec3 xd_fd = (rp.x - rm.x) / (2.0 * h);
         const Vec3 xdd_fd = (rp.xd - rm.xd) / (2.0 * h);
         INFO("arm " << j << "  t = " << t << "\n xd = " << r.xd.transpose() << "  fd = " << xd_fd.transpose()
@@ -277,9 +277,9 @@ TEST_CASE("object path: continuity, derivatives by finite differences, rest at s
 TEST_CASE("module plant at reset: pressing arms hold the object in static equilibrium", "[grasp]") {
   const double h = 29.43;  // 1.5 h_sg for M = 2, mu_s = 0.5
   Grasp g = make_grasp(Vec3(-0.2, 0.8, 0.0), h);
-  tm::ModulePlant plant(g.params);
+  tmd::ModulePlant plant(g.params);
   plant.reset(g.state);
-  const tm::ContactReading c = plant.contacts();
+  const tmd::ContactReading c = plant.contacts();
   const double M = g.params.object.mass, g0 = g.params.g0;
 
   for (int j = 0; j < 2; ++j) {
@@ -305,11 +305,11 @@ TEST_CASE("module plant at reset: pressing arms hold the object in static equili
     std::array<Vec3, 2> tau;
     for (size_t j = 0; j < 2; ++j) {
       const Vec3 hj(c.h[j](0), c.h[j](1), 0.0);
-      tau[j] = tm::gravity(g.params.arms[j], g.state.q[j]) + tm::jacobian(g.params.arms[j], g.state.q[j]).transpose() * hj;
+      tau[j] = tmd::gravity(g.params.arms[j], g.state.q[j]) + tmd::jacobian(g.params.arms[j], g.state.q[j]).transpose() * hj;
     }
     const double e0 = plant.mechanical_energy();
     for (int k = 0; k < 100; ++k) plant.step(tau, 1e-3 * static_cast<double>(k), 1e-3, 10);
-    const tm::ModuleState& s = plant.state();
+    const tmd::ModuleState& s = plant.state();
     INFO("object moved by " << (s.c - g.state.c).transpose() << ", psi " << s.psi);
     CHECK((s.c - g.state.c).norm() <= 1e-8);
     CHECK(std::abs(s.psi - g.state.psi) <= 1e-8);
@@ -323,7 +323,7 @@ TEST_CASE("module plant at reset: pressing arms hold the object in static equili
 TEST_CASE("brakes: locked arms hold the object by friction alone, a released arm falls", "[grasp]") {
   const double h = 29.43;  // 1.5 h_sg
   Grasp g = make_grasp(Vec3(-0.2, 0.8, 0.0), h);
-  tm::ModulePlant plant(g.params);
+  tmd::ModulePlant plant(g.params);
   plant.reset(g.state);
   plant.set_brake(0, true);
   plant.set_brake(1, true);
@@ -331,7 +331,7 @@ TEST_CASE("brakes: locked arms hold the object by friction alone, a released arm
   // With both arms locked and no torque at all, the pre-loaded contacts carry the weight: the object settles
   // by no more than the tangential spring deflection M g / (2 k_t) (here 0.1 mm) and never slides.
   for (int k = 0; k < 1000; ++k) plant.step(zero, 1e-3 * static_cast<double>(k), 1e-3, 10);
-  const tm::ModuleState& s = plant.state();
+  const tmd::ModuleState& s = plant.state();
   for (size_t j = 0; j < 2; ++j) {
     CHECK(max_abs(s.q[j] - g.state.q[j]) == 0.0);
     CHECK(max_abs(s.qd[j]) == 0.0);
@@ -352,8 +352,8 @@ TEST_CASE("brakes: locked arms hold the object by friction alone, a released arm
 }
 
 TEST_CASE("time scale: pause and resume keep the reference C1, tau by finite differences", "[grasp]") {
-  const tm::ObjectPath path(Vec3(-0.2, 0.8, 0.0), 0.0, {tm::ObjectPath::Segment{Vec3(0.2, 0.9, 0.2), 2.0}});
-  tm::TimeScale ts;
+  const tmd::ObjectPath path(Vec3(-0.2, 0.8, 0.0), 0.0, {tmd::ObjectPath::Segment{Vec3(0.2, 0.9, 0.2), 2.0}});
+  tmd::TimeScale ts;
   const double T = 0.3;
   ts.retarget(0.7, 0.0, T);   // pause from t = 0.7
   ts.retarget(1.5, 1.0, T);   // resume at t = 1.5
@@ -374,7 +374,7 @@ TEST_CASE("time scale: pause and resume keep the reference C1, tau by finite dif
     const auto a = ts.at(t - h), b = ts.at(t + h), c = ts.at(t);
     worst_rate = std::max(worst_rate, std::abs((b.tau - a.tau) / (2 * h) - c.rate));
     worst_rd = std::max(worst_rd, std::abs((b.rate - a.rate) / (2 * h) - c.rate_dot));
-    const tm::PoseSample pa = tm::sample_scaled(path, a), pb = tm::sample_scaled(path, b), pc = tm::sample_scaled(path, c);
+    const tmd::PoseSample pa = tmd::sample_scaled(path, a), pb = tmd::sample_scaled(path, b), pc = tmd::sample_scaled(path, c);
     worst_vel = std::max(worst_vel, max_abs((pb.pose - pa.pose) / (2 * h) - pc.vel));
     worst_acc = std::max(worst_acc, max_abs((pb.vel - pa.vel) / (2 * h) - pc.acc));
   }
@@ -383,7 +383,7 @@ TEST_CASE("time scale: pause and resume keep the reference C1, tau by finite dif
   CHECK(worst_vel <= 1e-7);
   CHECK(worst_acc <= 1e-4);
   // Paused: the reference is at rest.
-  const tm::PoseSample still = tm::sample_scaled(path, ts.at(1.3));
+  const tmd::PoseSample still = tmd::sample_scaled(path, ts.at(1.3));
   CHECK(max_abs(still.vel) == 0.0);
   CHECK(max_abs(still.acc) == 0.0);
   // A later retarget leaves earlier times as they were.
@@ -394,8 +394,8 @@ TEST_CASE("time scale: pause and resume keep the reference C1, tau by finite dif
 }
 
 TEST_CASE("time scale: a stop that cuts into a resume keeps the path's acceleration continuous (finding 77)", "[grasp]") {
-  const tm::ObjectPath path(Vec3(-0.15, 0.8, 0.0), 0.0, {tm::ObjectPath::Segment{Vec3(0.15, 0.8, 0.0), 1.5}});
-  tm::TimeScale ts;
+  const tmd::ObjectPath path(Vec3(-0.15, 0.8, 0.0), 0.0, {tmd::ObjectPath::Segment{Vec3(0.15, 0.8, 0.0), 1.5}});
+  tmd::TimeScale ts;
   ts.retarget(0.5, 0.0, 0.3);   // paused from t = 0.5
   ts.retarget(1.0, 1.0, 0.3);   // resumed at t = 1.0
   ts.retarget(1.12, 0.0, 0.2);  // and stopped again 0.12 s into the resume: the rate is still rising
@@ -404,7 +404,7 @@ TEST_CASE("time scale: a stop that cuts into a resume keeps the path's accelerat
   REQUIRE(before.rate_dot > 1.0);  // the resume's ramp was rising at the cut (the old stop started flat: a step)
   CHECK(after.rate_dot == Approx(before.rate_dot).margin(1e-4));
   CHECK(after.rate == Approx(before.rate).margin(1e-6));
-  const tm::PoseSample pa = tm::sample_scaled(path, before), pb = tm::sample_scaled(path, after);
+  const tmd::PoseSample pa = tmd::sample_scaled(path, before), pb = tmd::sample_scaled(path, after);
   CHECK(max_abs(pb.acc - pa.acc) < 1e-3);
   // Everywhere: dtau/dt = rate and drate/dt = rate_dot by central differences, the rate within [0, 1].
   double worst_rate = 0.0, worst_rd = 0.0, lo = 1.0, hi = 0.0;
@@ -422,21 +422,21 @@ TEST_CASE("time scale: a stop that cuts into a resume keeps the path's accelerat
   CHECK(ts.at(1.4).rate == 0.0);
   CHECK(ts.at(1.9).tau == ts.at(1.4).tau);
   // A follower that restores the retargets samples the same times bit for bit (it recomputes the start slopes).
-  tm::TimeScale f;
+  tmd::TimeScale f;
   REQUIRE(f.restore(ts.export_breaks(64)));
   for (double t = 0.0; t < 2.0; t += 0.0071) {
     CHECK(f.at(t).tau == ts.at(t).tau);
     CHECK(f.at(t).rate_dot == ts.at(t).rate_dot);
   }
   // The start slope is bounded: a steep slope towards the target never passes it, against it never leaves [0, 1].
-  tm::TimeScale down;
+  tmd::TimeScale down;
   down.retarget(0.0, 0.0, 1.0);  // slowing: at t = 0.5 the rate is 0.5, falling at 1.5/s
   down.retarget(0.5, 0.2, 2.0);  // a long ramp to 0.2: the slope kept as is would undershoot 0.2
-  tm::TimeScale up;
+  tmd::TimeScale up;
   up.retarget(0.0, 0.0, 0.0);
   up.retarget(0.1, 1.0, 1.0);    // resuming: at t = 0.6 the rate is 0.5, rising at 1.5/s
   up.retarget(0.6, 0.6, 3.0);    // a long ramp to 0.6: kept as is, the slope would pass 0.6
-  tm::TimeScale cut;
+  tmd::TimeScale cut;
   cut.retarget(0.0, 0.0, 0.0);
   cut.retarget(0.1, 1.0, 0.2);   // at t = 0.2 the rate is 0.5, rising at 7.5/s
   cut.retarget(0.2, 0.0, 1.0);   // a stop: kept as is, the slope would carry the rate over 1
@@ -451,12 +451,12 @@ TEST_CASE("time scale: a stop that cuts into a resume keeps the path's accelerat
 }
 
 TEST_CASE("time scale: exported retargets restore the same path times, bad ones are refused", "[grasp]") {
-  tm::TimeScale a;
+  tmd::TimeScale a;
   a.retarget(0.7, 0.0, 0.3);
   a.retarget(1.5, 1.0, 0.3);
   a.retarget(2.9, 0.0, 0.02);
   // A standby that adopts the primary's latest two retargets samples every later time exactly alike.
-  tm::TimeScale b;
+  tmd::TimeScale b;
   REQUIRE(b.restore(a.export_breaks(2)));
   CHECK(a.export_breaks(2).size() == 10);
   for (double t = 1.5; t < 4.0; t += 0.0137) {
@@ -466,7 +466,7 @@ TEST_CASE("time scale: exported retargets restore the same path times, bad ones 
   }
   CHECK(b.target() == 0.0);
   // Refused, and nothing changed: a ragged list, a NaN, decreasing t0, a negative ramp.
-  tm::TimeScale c;
+  tmd::TimeScale c;
   const double nan = std::numeric_limits<double>::quiet_NaN();
   CHECK_FALSE(c.restore({0.5, 0.5, 1.0, 0.0}));
   CHECK_FALSE(c.restore({0.5, nan, 1.0, 0.0, 0.3}));

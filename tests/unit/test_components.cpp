@@ -1199,28 +1199,26 @@ TEST_CASE("governor: modules that pause for load again and again, with short rel
   // pauses is part of the overload.
   using tandem::launcher::Governor;
   using Kind = Governor::Decision::Kind;
-  Governor g({"m1", "m2"});
   double t = 0.0;
-  for (; t < 30.0; t += 0.1) {
-    g.on_load("m1", false, t);
-    g.on_load("m2", false, t);
-  }
-  CHECK(g.decide(t).kind == Kind::None);
-  // Each cycle: paused 1.5 s (status every 0.5 s), released 0.6 s (status every 50 ms).
-  auto cycle = [&] {
-    for (int i = 0; i < 3; ++i, t += 0.5) {
-      g.on_load("m1", true, t);
-      g.on_load("m2", true, t);
-    }
-    for (int i = 0; i < 12; ++i, t += 0.05) {
-      g.on_load("m1", false, t);
-      g.on_load("m2", false, t);
+  // Both modules' status, `n` of them `dt` apart, all paused or all running.
+  auto feed = [&t](Governor& gov, bool paused, int n, double dt) {
+    for (int i = 0; i < n; ++i, t += dt) {
+      gov.on_load("m1", paused, t);
+      gov.on_load("m2", paused, t);
     }
   };
+  // Each cycle: paused 1.5 s (status every 0.5 s), released 0.6 s (status every 50 ms).
+  auto cycle = [&](Governor& gov) {
+    feed(gov, true, 3, 0.5);
+    feed(gov, false, 12, 0.05);
+  };
+  Governor g({"m1", "m2"});
+  feed(g, false, 300, 0.1);
+  CHECK(g.decide(t).kind == Kind::None);
   Governor::Decision d;
   double parked_at = -1.0;
   while (t < 70.0 && parked_at < 0.0) {
-    cycle();
+    cycle(g);
     d = g.decide(t);
     if (d.kind == Kind::Park) parked_at = t;
   }
@@ -1233,20 +1231,8 @@ TEST_CASE("governor: modules that pause for load again and again, with short rel
   // A module that recovers for good after a few such cycles is not parked: the release going on is not a pause.
   Governor h({"m1", "m2"});
   t = 0.0;
-  for (; t < 30.0; t += 0.1) {
-    h.on_load("m1", false, t);
-    h.on_load("m2", false, t);
-  }
-  for (int c = 0; c < 3; ++c) {
-    for (int i = 0; i < 3; ++i, t += 0.5) {
-      h.on_load("m1", true, t);
-      h.on_load("m2", true, t);
-    }
-    for (int i = 0; i < 12; ++i, t += 0.05) {
-      h.on_load("m1", false, t);
-      h.on_load("m2", false, t);
-    }
-  }
+  feed(h, false, 300, 0.1);
+  for (int c = 0; c < 3; ++c) cycle(h);
   for (const double end = t + 40.0; t < end; t += 0.1) {
     h.on_load("m1", false, t);
     h.on_load("m2", false, t);

@@ -147,14 +147,15 @@ const tandem::sim::CaseResult& embedded_sosm_15s() {
 // A deployment with a coordinator and `pairs` out-and-back tasks of 1 s each (out-i to x = 0, back-i to
 // x = -0.2), lockstep; `coordinator_keys` and `modules` are YAML lines of their own.
 std::string write_task_deployment(const std::string& name, int domain, int pairs, const std::string& coordinator_keys,
-                                  const std::string& modules, const std::string& transport = "shm") {
+                                  const std::string& modules, const std::string& transport = "shm",
+                                  double task_seconds = 1.0) {
   std::string path = work_dir() + "/" + name + ".yaml";
   std::ofstream f(path);
   f << "name: " << name << "\ndomain_id: " << domain << "\ntransport: " << transport << "\ntiming: lockstep\ntimeout: 20\n"
     << "coordinator:\n" << coordinator_keys << "  tasks:\n";
   for (int i = 0; i < pairs; ++i) {
-    f << "    - {name: out-" << i << ", segments: [{to: [0.0, 0.8, 0.0], duration: 1.0}]}\n"
-      << "    - {name: back-" << i << ", segments: [{to: [-0.2, 0.8, 0.0], duration: 1.0}]}\n";
+    f << "    - {name: out-" << i << ", segments: [{to: [0.0, 0.8, 0.0], duration: " << task_seconds << "}]}\n"
+      << "    - {name: back-" << i << ", segments: [{to: [-0.2, 0.8, 0.0], duration: " << task_seconds << "}]}\n";
   }
   f << "modules:\n" << modules;
   return path;
@@ -1105,8 +1106,11 @@ TEST_CASE("an unplugged module whose task cannot end is stopped after the drain 
   // m1's only left robot is killed mid-task (no standby, no restart): the world drives that arm to rest and brakes
   // it, and m1's task stays paused. An unplug of m1 asks for a drain that cannot end; 30 s later the launcher
   // stops m1 with its task unfinished, and the coordinator gives that task to m2. No task lost, none done twice.
+  // Two tasks of 8 s each: lockstep ran the 1 s tasks this test once had in about 0.3 s, and in a CI run the kill,
+  // which first has to discover the launcher, landed after m1's task had ended (m2 then did every task, the
+  // deployment ended, and the unplug found no running m1).
   const int domain = test_domain(23);
-  const std::string path = write_task_deployment("drainbound", domain, 4, "", sosm_modules(2), kCrashTransport);
+  const std::string path = write_task_deployment("drainbound", domain, 1, "", sosm_modules(2), kCrashTransport, 8.0);
   const std::string summary = work_dir() + "/drainbound.summary", up_log = work_dir() + "/drainbound.log";
   const std::string t = kBin + "/tandem ";
   const std::string cmd = t + "up " + path + " --summary " + summary + " > " + up_log + " 2>&1 & up=$!; " +
@@ -1127,10 +1131,11 @@ TEST_CASE("an unplugged module whose task cannot end is stopped after the drain 
   CHECK(r.output.find("up_rc=0") != std::string::npos);
   CHECK(log.find("module m1 did not drain within 30 s (its task state: draining)") != std::string::npos);
   CHECK(log.find("module m1 drained") == std::string::npos);
+  CHECK(log.find("m1 finished task") == std::string::npos);  // the kill landed mid-task
   const auto kv = read_summary(summary);
   const auto text = read_summary_text(summary);
   CHECK(kv.at("forced_drains") == 1);
-  CHECK(kv.at("coordinator.tasks_done") == 8);
+  CHECK(kv.at("coordinator.tasks_done") == 2);
   CHECK(kv.at("coordinator.duplicates") == 0);
   CHECK(text.at("m1.end") == "unplugged");
   CHECK(text.at("m2.end") == "ran");

@@ -51,6 +51,7 @@ launcher::SupervisorConfig supervisor_config(const Deployment& d, const std::str
   cfg.timeout = d.timeout;
   cfg.start_timeout = d.start_timeout;
   cfg.realtime = d.timing == "realtime";
+  cfg.start_one_by_one = d.module_start == "one_by_one";
   for (const auto& h : d.hosts) cfg.hosts.push_back(h.name);
   cfg.host_timeout = d.host_timeout;
   cfg.run = run;

@@ -255,8 +255,14 @@ void UpRun::start_modules() {
                   list.c_str(), capacity_.of(d_.modules.front().standby), adm.fit, adm.order.size(), capacity_.usable);
     }
   }
+  std::vector<std::string> starting;
   for (const auto& m : d_.modules) {
-    if (m.autostart && !start_parked.count(m.name)) L_.start_module(m.name, now_s());
+    if (m.autostart && !start_parked.count(m.name)) starting.push_back(m.name);
+  }
+  L_.start_modules(starting, now_s());
+  if (L_.queued_starts() > 0) {
+    std::printf("tandem up: modules start one by one (module_start: one_by_one): %zu wait for the one before to "
+                "tick\n", L_.queued_starts());
   }
   L_.start_coordinators(now_s());
 }

@@ -35,6 +35,7 @@ void check_same(const Deployment& a, const Deployment& b) {
   CHECK(a.discovery_address == b.discovery_address);
   CHECK(a.discovery_start == b.discovery_start);
   CHECK(a.discovery_servers == b.discovery_servers);
+  CHECK(a.module_start == b.module_start);
   CHECK(a.host_timeout == b.host_timeout);
   REQUIRE(a.hosts.size() == b.hosts.size());
   for (size_t i = 0; i < a.hosts.size(); ++i) {
@@ -265,4 +266,11 @@ TEST_CASE("deployment: one Discovery Server per module; a module's processes nam
   CHECK(rt::discovery_servers(simple).empty());
   CHECK(rt::discovery_env(simple, "a").empty());
   CHECK(rt::discovery_text(simple) == "simple");
+  // Modules start one by one by default with simple discovery and more than two modules (three here), together with
+  // a server; either can be asked for, and nothing else.
+  CHECK(simple.module_start == "one_by_one");
+  CHECK(per.module_start == "together");
+  CHECK(load("module_start: together\n").module_start == "together");
+  CHECK(load("discovery: server\nmodule_start: one_by_one\n").module_start == "one_by_one");
+  CHECK_THROWS_WITH(load("module_start: staggered\n"), Catch::Contains("module_start") && Catch::Contains("one_by_one"));
 }

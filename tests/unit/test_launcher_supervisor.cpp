@@ -506,6 +506,32 @@ TEST_CASE("launcher supervisor: a module unplugged is drained, and the drain re-
   CHECK(f.rec.said("tandem up: module m1 drained; stopping its processes\n"));
   CHECK(f.sup.modules().at("m1").end.text() == "unplugged");
   CHECK(f.rec.signals_to("m1/world").at(0).sig == SIGTERM);
+  // Plugged in again at once (the soak does): the new processes wait until the old ones are gone, so that none hears
+  // an old one's plan (soak run 53); a second plug meanwhile is refused, naming why.
+  Request plug;
+  plug.command = Request::Command::Plug;
+  plug.target_kind = Request::Target::Module;
+  plug.target = "m1";
+  plug.seq = 7;
+  const size_t starts = f.rec.starts.size();
+  f.sup.on_request(plug, 14.1);
+  f.poll(14.1);
+  CHECK(f.rec.said("tandem up: plugging module m1 (paper.yaml, case SOSM); it starts once its previous processes have "
+                   "stopped\n"));
+  CHECK(f.rec.starts.size() == starts);
+  plug.seq = 8;
+  f.sup.on_request(plug, 14.2);
+  CHECK(f.rec.said("tandem up: 'plug module m1': it starts already, once its previous processes have stopped\n"));
+  f.exit("m1/world", 0, 14.5);
+  f.exit("m1/left", 0, 14.6);
+  CHECK(f.rec.starts.size() == starts);  // m1/right still stops
+  f.exit("m1/right", 0, 14.8);
+  f.poll(14.9);
+  CHECK(f.rec.said("tandem up: module m1 plugged in, its previous processes stopped; starting it again from its "
+                   "initial grasp\n"));
+  REQUIRE(f.rec.starts.size() == starts + 4);
+  CHECK(f.rec.starts[starts].label == "m1/world");
+  CHECK(f.sup.modules().at("m1").end.running());
 }
 
 TEST_CASE("launcher supervisor: a module paused for load while it drains is stopped at once, its task back to the queue", "[launcher]") {
@@ -731,4 +757,64 @@ TEST_CASE("launcher: the port files of free participant ids are removed unless a
   CHECK(tandem::runtime::clean_free_ports(domain, {6}) == 1);
   CHECK_FALSE(tandem::runtime::participant_port_files_exist(domain, 6));
   CHECK(tandem::runtime::clean_free_ports(-1, {5}) == 0);  // no domain: nothing
+}
+
+TEST_CASE("launcher supervisor: module_start one_by_one starts the next module once the last one ticks, or after the "
+          "gap bound", "[launcher]") {
+  Recorder rec;
+  SupervisorConfig cfg = Fixture::config(true);
+  cfg.start_one_by_one = true;
+  cfg.start_gap_max = 10.0;
+  Supervisor sup(cfg, rec, rec);
+  for (const char* name : {"m1", "m2", "m3", "m4"}) {
+    ModuleSpec m = module_m1(0, "never");
+    m.name = name;
+    sup.add_module(std::move(m));
+  }
+  auto worlds_started = [&] {
+    std::vector<std::string> out;
+    for (const auto& s : rec.starts) {
+      if (s.label.size() > 6 && s.label.compare(s.label.size() - 6, 6, "/world") == 0) out.push_back(s.label);
+    }
+    return out;
+  };
+  auto poll = [&](double t) {
+    rec.now = t;
+    sup.poll(t);
+  };
+  sup.start_modules({"m1", "m2", "m3", "m4"}, 0.0);
+  CHECK(worlds_started() == std::vector<std::string>{"m1/world"});
+  CHECK(rec.starts.size() == 4);  // m1's world, supervisor and two robots
+  CHECK(sup.queued_starts() == 3);
+  poll(2.0);
+  CHECK(worlds_started().size() == 1);
+  // m1's world reports its first ticks: m2 starts at the next poll.
+  sup.on_world_load("m1", "", 1, 2.5);
+  poll(2.5);
+  CHECK(worlds_started() == std::vector<std::string>{"m1/world", "m2/world"});
+  CHECK(rec.said("tandem up: starting module m2 (modules start one by one: m1 ticks)\n"));
+  // m2 never ticks: m3 starts 10 s after m2 did, not before.
+  poll(12.4);
+  CHECK(worlds_started().size() == 2);
+  poll(12.5);
+  CHECK(worlds_started() == std::vector<std::string>{"m1/world", "m2/world", "m3/world"});
+  CHECK(rec.said("tandem up: starting module m3 (modules start one by one: m2 had its turn)\n"));
+  // A deployment stopping meanwhile starts nothing more.
+  sup.stop_all(SIGTERM, 13.0);
+  poll(30.0);
+  CHECK(worlds_started().size() == 3);
+  CHECK(sup.queued_starts() == 0);
+}
+
+TEST_CASE("launcher supervisor: module_start together starts every module at once", "[launcher]") {
+  Recorder rec;
+  Supervisor sup(Fixture::config(true), rec, rec);
+  for (const char* name : {"m1", "m2", "m3"}) {
+    ModuleSpec m = module_m1(0, "never");
+    m.name = name;
+    sup.add_module(std::move(m));
+  }
+  sup.start_modules({"m1", "m2", "m3"}, 0.0);
+  CHECK(rec.starts.size() == 12);
+  CHECK(sup.queued_starts() == 0);
 }

@@ -118,6 +118,46 @@ void Supervisor::start_module(const std::string& name, double now) {
   }
 }
 
+void Supervisor::start_modules(const std::vector<std::string>& names, double now) {
+  if (!cfg_.start_one_by_one) {
+    for (const auto& n : names) start_module(n, now);
+    return;
+  }
+  start_queue_.assign(names.begin(), names.end());
+  last_queued_start_.clear();
+  start_queued(now);
+}
+
+/// module_start: one_by_one. A participant of simple discovery announces itself to every other it knows of; 32 of
+/// them starting together kept three of four modules from coming up in a soak (docs/benchmarks.md item 35), so the
+/// next module starts once the last one's world has ticked (its participants have found each other), or after
+/// start_gap_max whatever the last one does (a module that does not come up is repaired by its own rule).
+void Supervisor::start_queued(double now) {
+  while (!start_queue_.empty()) {
+    if (stopping_) {
+      start_queue_.clear();
+      return;
+    }
+    if (!last_queued_start_.empty()) {
+      const ModuleRun& last = modules_.at(last_queued_start_);
+      const bool its_turn_over = last.ticked || !last.end.running() || !last.started ||
+                                 now - last_queued_start_at_ >= cfg_.start_gap_max;
+      if (!its_turn_over) return;
+    }
+    const std::string next = start_queue_.front();
+    start_queue_.pop_front();
+    const ModuleRun& mr = modules_.at(next);
+    if (mr.started) continue;  // started meanwhile (a `tandem plug module`)
+    if (!last_queued_start_.empty()) {
+      logf("tandem up: starting module %s (modules start one by one: %s %s)\n", next.c_str(),
+           last_queued_start_.c_str(), modules_.at(last_queued_start_).ticked ? "ticks" : "had its turn");
+    }
+    start_module(next, now);
+    last_queued_start_ = next;
+    last_queued_start_at_ = now;
+  }
+}
+
 void Supervisor::start_coordinators(double now) {
   if (!cfg_.coordinated) return;
   for (int i = 0; i <= cfg_.coordinator_standby; ++i) {
@@ -414,11 +454,24 @@ void Supervisor::plug_module(const std::string& name, const std::string& scenari
     case Action::StartRobot:
       break;
   }
-  say(true, "plugging module %s (%s, case %s)\n", name.c_str(), modules_.at(name).spec.scenario.c_str(),
-      modules_.at(name).spec.case_name.c_str());
+  const bool waiting = std::find(pending_clears_.begin(), pending_clears_.end(), name) != pending_clears_.end();
+  if (waiting) {
+    say(false, "'plug module %s': it starts already, once its previous processes have stopped\n", name.c_str());
+    return;
+  }
+  // Its previous processes may still be stopping (a plug right after an unplug's drain): the new ones start once
+  // they are gone, so that none of them hears an old one (soak run 53: a module plugged back the moment its drain
+  // ended stood "running" with no task for 50 s while the coordinator waited for it to be free).
+  const bool old_ones_stopping = !module_gone(name);
+  say(true, "plugging module %s (%s, case %s)%s\n", name.c_str(), modules_.at(name).spec.scenario.c_str(),
+      modules_.at(name).spec.case_name.c_str(), old_ones_stopping ? "; it starts once its previous processes have stopped" : "");
   if (governor_) {  // plugged by hand: out of the governor's parked set, and in its hands again
     governor_->set_available(name, false);
     governor_->set_available(name, true);
+  }
+  if (old_ones_stopping) {
+    pending_clears_.push_back(name);
+    return;
   }
   start_module(name, now);
 }
@@ -559,6 +612,7 @@ void Supervisor::poll(double now) {
     }
   }
   watch_hosts(now);
+  start_queued(now);
   resend_drains(now);
   for (auto& c : children_) {
     if (c.running || c.handled) continue;
@@ -571,8 +625,11 @@ void Supervisor::poll(double now) {
       it = stopping_ ? pending_clears_.erase(it) : it + 1;
       continue;
     }
+    const ModuleEnd& end = modules_.at(*it).end;
     logf("tandem up: module %s %s; starting it again from its initial grasp\n", it->c_str(),
-         modules_.at(*it).end.is(ModuleEnd::Kind::Repairing) ? "stopped for the repair" : "cleared");
+         end.is(ModuleEnd::Kind::Repairing)    ? "stopped for the repair"
+         : end.is(ModuleEnd::Kind::Unplugged) ? "plugged in, its previous processes stopped"
+                                               : "cleared");
     start_module(*it, now);
     it = pending_clears_.erase(it);
   }

@@ -123,6 +123,7 @@ Deployment load_deployment(const std::string& path) {
   } else if (d.discovery_start == "external") {
     d.discovery_servers = "one";
   }
+  if (top.has("module_start")) top.choice("module_start", d.module_start, {"together", "one_by_one"});
   top.num("host_timeout", d.host_timeout, 0.2, 60.0);
   if (top.has("hosts")) {
     sim::yaml::MapReader hr = top.child("hosts");
@@ -228,6 +229,7 @@ Deployment load_deployment(const std::string& path) {
     d.modules.push_back(m);
   }
   if (d.modules.empty()) top.fail(mods, "modules", "list at least one module");
+  if (d.module_start.empty()) d.module_start = d.discovery == "simple" && d.modules.size() > 2 ? "one_by_one" : "together";
   if (d.discovery == "server" && d.discovery_servers == "module") {
     // Server ids are a byte (Fast DDS's GUID prefix), and every port must be a port.
     const int last = discovery_servers(d).back().port;
@@ -363,6 +365,7 @@ std::string deployment_yaml(const Deployment& d) {
   out << YAML::Key << "discovery_address" << YAML::Value << d.discovery_address;
   out << YAML::Key << "discovery_start" << YAML::Value << d.discovery_start;
   out << YAML::Key << "discovery_servers" << YAML::Value << d.discovery_servers;
+  if (!d.module_start.empty()) out << YAML::Key << "module_start" << YAML::Value << d.module_start;
   out << YAML::Key << "host_timeout" << YAML::Value << d.host_timeout;
   if (!d.hosts.empty()) {
     out << YAML::Key << "hosts" << YAML::Value << YAML::BeginMap;

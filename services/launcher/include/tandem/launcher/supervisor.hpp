@@ -106,6 +106,10 @@ struct SupervisorConfig {
   double host_timeout = 1.0;
   unsigned long long run = 0;    ///< this launcher's run (in every request to the agents)
   int first_participant_id = 20, end_participant_id = 120;  ///< participant ids handed to children: [first, end)
+  /// The deployment's modules start one by one (module_start: one_by_one): the next once the last one's world has
+  /// ticked, or `start_gap_max` seconds after the last one started, whichever comes first.
+  bool start_one_by_one = false;
+  double start_gap_max = 10.0;
 };
 
 /// A live command (ControlRequest to the launcher) as the supervisor reads it.
@@ -182,6 +186,11 @@ class Supervisor {
   /// A module of the deployment (validated, its scenario read).
   void add_module(ModuleSpec spec);
   void start_module(const std::string& name, double now);
+  /// The deployment's modules at `tandem up`: all at once, or one by one (SupervisorConfig::start_one_by_one; the
+  /// rest are started by poll()). Modules stopped or plugged meanwhile are not held back.
+  void start_modules(const std::vector<std::string>& names, double now);
+  /// Modules waiting for their turn to start (module_start: one_by_one).
+  size_t queued_starts() const { return start_queue_.size(); }
   void start_coordinators(double now);
   /// Shedding whole modules: the governor over `order` (priority order); the first `fit` start, the rest start
   /// parked (returned).
@@ -319,6 +328,7 @@ class Supervisor {
   void mark_exited(Child& c, int status);
   void stop_deaf_leader(const std::string& module, ModuleRun& mr, double now);
   void resend_drains(double now);
+  void start_queued(double now);
   void watch_hosts(double now);
   void run_pending_restarts(double now);
 
@@ -331,6 +341,9 @@ class Supervisor {
   RestartPolicy restarts_;
   std::vector<PendingUnplug> pending_unplugs_;
   std::vector<std::string> pending_clears_;  ///< modules being cleared or repaired: started again once stopped
+  std::deque<std::string> start_queue_;      ///< module_start: one_by_one: the modules still to start, in order
+  std::string last_queued_start_;            ///< the module started last from the queue
+  double last_queued_start_at_ = 0.0;
   std::map<std::string, double> world_done_;  ///< modules whose world finished its task, and when
   std::map<std::string, int> task_states_;
   std::unique_ptr<Governor> governor_;

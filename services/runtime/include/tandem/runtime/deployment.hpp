@@ -87,6 +87,10 @@ struct Deployment {
   /// only (docs/failure-model.md, "The Discovery Server under churn"); one: a single server for every process.
   /// The default: module when the launcher starts the servers, one with discovery_start: external.
   std::string discovery_servers = "module";
+  /// together: `tandem up` starts every module at once; one_by_one: the next once the last one's world ticks (at
+  /// most 10 s apart). The default: one_by_one with simple discovery and more than two modules (32 participants of
+  /// simple discovery starting together kept three of four modules from coming up), else together.
+  std::string module_start;
   /// Multi-host: the hosts (empty: every process runs on the launcher's machine, started by the launcher). With
   /// hosts, every role process is started by its host's agent, and a host whose agent is silent for host_timeout
   /// seconds is lost: its processes count as failed.

@@ -171,10 +171,14 @@ class CoordinatorProcess {
       } else {
         msg::TaskAssignment m;
         m.module_id(a.assignment.module);
-        m.task_id(a.assignment.id);
-        m.task_name(d_.tasks[a.assignment.task].name);
-        m.waypoints(d_.tasks[a.assignment.task].waypoints);
-        assign_.write(m);
+        if (a.kind == coordinator::CoordinatorAction::Kind::Withdraw) {
+          (void)assign_.dispose(m);  // a module never assigned to by this writer: nothing to dispose of
+        } else {
+          m.task_id(a.assignment.id);
+          m.task_name(d_.tasks[a.assignment.task].name);
+          m.waypoints(d_.tasks[a.assignment.task].waypoints);
+          assign_.write(m);
+        }
       }
     }
   }

@@ -15,6 +15,12 @@
 #include <string>
 #include <vector>
 
+#include <tandemPubSubTypes.h>
+
+#include <chrono>
+#include <thread>
+
+#include "tandem/dds/bus.hpp"
 #include "tandem/sim/embedded.hpp"
 #include "tandem/runtime/deployment.hpp"
 #include "tandem/sim/scenario_yaml.hpp"
@@ -1226,4 +1232,40 @@ TEST_CASE("every shipped deployment file loads, and bad live-replacement keys ar
   refused(mod + "}\ncoordinator:\n  tasks:\n    - {name: a, segments: [{to: [0.0, 0.8, 0.0], duration: 1.0}]}\n"
                 "    - {name: a, segments: [{to: [-0.2, 0.8, 0.0], duration: 1.0}]}\n",
           "task names must be unique");
+}
+
+TEST_CASE("a task assignment withdrawn by the coordinator is not handed to a supervisor that joins later; one kept is",
+          "[distributed]") {
+  // The coordinator keeps the last assignment per module (transient-local) for a supervisor that joins late, and
+  // disposes of it when the module leaves or fails (CoordinatorAction::Withdraw): a module plugged back after its
+  // drain ran its last task again otherwise (soak run 53). Real participants in this process, over UDP.
+  namespace bus = tandem::dds;
+  const int domain = test_domain(41);
+  bus::Participant coord(domain, "test-coordinator", bus::Transport::Udp);
+  bus::Writer<tandem::msg::TaskAssignment, tandem::msg::TaskAssignmentPubSubType> w(coord, bus::kTaskAssignmentTopic,
+                                                                                    bus::TopicKind::Task);
+  for (const char* m : {"m1", "m2"}) {
+    tandem::msg::TaskAssignment a;
+    a.module_id(m);
+    a.task_id(m[1] == '1' ? 7 : 8);
+    a.task_name("t");
+    REQUIRE(w.write(a));
+  }
+  tandem::msg::TaskAssignment key;
+  key.module_id("m1");
+  REQUIRE(w.dispose(key));
+  bus::Participant late(domain, "test-supervisor", bus::Transport::Udp);
+  bus::Reader<tandem::msg::TaskAssignment, tandem::msg::TaskAssignmentPubSubType> r(late, bus::kTaskAssignmentTopic,
+                                                                                    bus::TopicKind::Task);
+  std::map<std::string, unsigned long long> got;
+  const auto t0 = std::chrono::steady_clock::now();
+  while (std::chrono::steady_clock::now() - t0 < std::chrono::seconds(3)) {
+    (void)r.wait(0.1);
+    tandem::msg::TaskAssignment a;
+    while (r.take(a)) got[a.module_id()] = a.task_id();
+    if (got.count("m2") != 0 && std::chrono::steady_clock::now() - t0 > std::chrono::milliseconds(500)) break;
+  }
+  CHECK(got.count("m2") == 1);
+  if (got.count("m2") == 1) CHECK(got.at("m2") == 8);
+  CHECK(got.count("m1") == 0);
 }

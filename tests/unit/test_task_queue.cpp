@@ -797,16 +797,59 @@ CoordinatorOptions core_options(const std::string& id, bool standby, bool resume
 struct Wire {
   std::vector<Snapshot> states;
   std::vector<Assignment> sent;
+  std::vector<std::string> withdrawn;  ///< modules whose assignment instance was disposed of
   std::vector<CoordinatorAction::Kind> order;
   void take(CoordinatorCore& c) {
     for (const auto& a : c.take_actions()) {
       order.push_back(a.kind);
       if (a.kind == CoordinatorAction::Kind::PublishState) states.push_back(a.state);
+      else if (a.kind == CoordinatorAction::Kind::Withdraw) withdrawn.push_back(a.assignment.module);
       else sent.push_back(a.assignment);
     }
   }
 };
 }  // namespace
+
+TEST_CASE("coordinator: a module that leaves or fails has its last assignment withdrawn, so that its next start does "
+          "not run it again", "[coordinator]") {
+  // Soak run 53: m1, plugged back right after its drain, was handed the kept assignment of the task it had just
+  // finished, ran it again from its initial grasp, and took no new task for 50 s.
+  CoordinatorCore c(core_options("coordinator", false), task_names(6), 0.0);
+  CoordinatorCore standby(core_options("coordinator@r1", true), task_names(6), 0.0);
+  Wire w, ws;
+  c.on_loop(0.0);
+  c.on_task_state({"m1", 0, kIdle}, 0.0);
+  c.on_task_state({"m2", 0, kIdle}, 0.0);
+  standby.on_task_state({"m1", 0, kIdle}, 0.0);
+  c.update(0.0);
+  w.take(c);
+  REQUIRE(w.sent.size() == 2);
+  const uint64_t id1 = w.sent[0].module == "m1" ? w.sent[0].id : w.sent[1].id;
+  const uint64_t id2 = w.sent[0].module == "m2" ? w.sent[0].id : w.sent[1].id;
+  c.on_task_state({"m1", id1, kRunning}, 0.5);
+  c.on_task_state({"m2", id2, kRunning}, 0.5);
+  c.update(0.5);
+  w.take(c);
+  CHECK(w.withdrawn.empty());
+  // m1 finishes and leaves (drained): its assignment is withdrawn, m2's is not.
+  c.on_task_state({"m1", id1, kLeft}, 1.0);
+  standby.on_task_state({"m1", id1, kLeft}, 1.0);
+  c.update(1.0);
+  w.take(c);
+  ws.take(standby);
+  CHECK(w.withdrawn == std::vector<std::string>{"m1"});
+  CHECK(ws.withdrawn.empty());  // a standby wrote no assignment
+  // m2 drops its object: failed, its task back to the queue and its assignment withdrawn.
+  c.on_task_state({"m2", id2, kFailed}, 1.5);
+  c.update(1.5);
+  w.take(c);
+  CHECK(w.withdrawn == std::vector<std::string>{"m1", "m2"});
+  // Reports that change nothing withdraw nothing more.
+  c.on_task_state({"m2", id2, kFailed}, 1.6);
+  c.update(1.6);
+  w.take(c);
+  CHECK(w.withdrawn.size() == 2);
+}
 
 TEST_CASE("coordinator: every assignment goes out after a state that holds it; all done ends with exit 0", "[coordinator]") {
   CoordinatorCore c(core_options("coordinator", false), task_names(3), 0.0);

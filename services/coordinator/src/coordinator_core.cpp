@@ -39,7 +39,18 @@ void CoordinatorCore::on_peer(const std::string& id, bool active, bool claims_pr
 void CoordinatorCore::on_task_state(const ModuleReport& r, double now) {
   last_module_heard_ = now;
   for (const auto& e : queue_.report(r, now)) {
-    if (lead_.primary()) log(queue_.describe(e));  // a standby only keeps the latest reports
+    if (!lead_.primary()) continue;  // a standby only keeps the latest reports
+    log(queue_.describe(e));
+    // A module that left (drained) or failed (dropped its object) is started afresh when it comes back, and its new
+    // supervisor, joining late, would be handed the last assignment kept for it and run that task again from its
+    // initial grasp, while this queue counts it done or gave it elsewhere (soak run 53: a module plugged back after
+    // its drain ran its last task again and took no new one for 50 s).
+    if (e.kind == EventKind::Left || e.kind == EventKind::Failed) {
+      CoordinatorAction a;
+      a.kind = CoordinatorAction::Kind::Withdraw;
+      a.assignment.module = r.module;
+      actions_.push_back(a);
+    }
   }
 }
 

@@ -29,6 +29,9 @@ struct CoordinatorAction {
   enum class Kind {
     PublishState,  ///< write `state` (CoordinatorState) and the status heartbeat
     Assign,        ///< write `assignment` (TaskAssignment: the task's name and waypoints by its index)
+    /// Dispose of `assignment.module`'s TaskAssignment instance: the module left or failed, and its last assignment
+    /// (transient-local, kept for a supervisor that joins late) must not reach the supervisor of its next start.
+    Withdraw,
   };
   Kind kind = Kind::PublishState;
   Snapshot state;

@@ -84,6 +84,8 @@ class Writer {
     ++history_clears_;
     return writer_->write(&sample, fdds::HANDLE_NIL) == ReturnCode_t::RETCODE_OK;
   }
+  /// Disposes of the instance `key` names (a keyed topic): a reader that joins later is not handed its last sample.
+  bool dispose(T& key) { return writer_->dispose(&key, fdds::HANDLE_NIL) == ReturnCode_t::RETCODE_OK; }
   /// How often write() found the pool dry and cleared the history (0 in a healthy run; a secured deployment's
   /// lockstep topics are the ones that can need it: the others do not go by data-sharing).
   long history_clears() const { return history_clears_; }

@@ -1234,7 +1234,7 @@ TEST_CASE("every shipped deployment file loads, and bad live-replacement keys ar
           "task names must be unique");
 }
 
-TEST_CASE("a task assignment withdrawn by the coordinator is not handed to a supervisor that joins later; one kept is",
+TEST_CASE("a task assignment withdrawn by the coordinator is not handed to a supervisor that joins later but one kept is",
           "[distributed]") {
   // The coordinator keeps the last assignment per module (transient-local) for a supervisor that joins late, and
   // disposes of it when the module leaves or fails (CoordinatorAction::Withdraw): a module plugged back after its

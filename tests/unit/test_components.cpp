@@ -268,7 +268,7 @@ TEST_CASE("a robot component answers new ticks, repeats the last one, and reject
   CHECK((t2->cwiseAbs().array() <= m.plant.arms[1].tau_max.array()).all());  // saturated at the drive's limit
 }
 
-TEST_CASE("a robot behind the world's plan answers nothing, and is cut off after 2000 ticks; a takeover heard in time is not", "[components]") {
+TEST_CASE("a robot behind the world's plan answers nothing, and is cut off after 2000 ticks, a takeover heard in time is not", "[components]") {
   const ts::ModuleSetup& m = sosm();
   RobotCore r(m, 0, true, paper().transient);
   tmo::ArmSensors in;
@@ -1137,7 +1137,7 @@ TEST_CASE("launcher component: the capacity model from a calibration, and the ca
   CHECK(tandem::launcher::describe(c).find("wake-up 5.0 us, plant step 40.0 us, law 1.0 us") != std::string::npos);
 }
 
-TEST_CASE("governor: a hog of a few seconds parks nothing; a load that does not fit parks the lowest-priority module, then the next", "[components]") {
+TEST_CASE("governor: a hog of a few seconds parks nothing, a load that does not fit parks the lowest-priority module, then the next", "[components]") {
   using tandem::launcher::Governor;
   using Kind = Governor::Decision::Kind;
   Governor g({"m1", "m2", "m3", "m4"});
@@ -1268,6 +1268,15 @@ TEST_CASE("governor: admission parks what the estimate does not fit, and the las
   CHECK(g.decide(t).kind == Governor::Decision::Kind::None);  // a alone: never parked
   Governor none({"a", "b"});
   CHECK(none.admit(5, 0.0).empty());
+  // The running module fails (a drop) or leaves while b and c are parked: b comes back at once, not after the calm,
+  // and not while a decision is settling (soak run 53: no task for 80 s with m1 failed and m2 parked).
+  g.on_load("a", true, t);
+  g.set_available("a", false);
+  const Governor::Decision d = g.decide(t + 0.1);
+  CHECK(d.kind == Governor::Decision::Kind::Unpark);
+  CHECK(d.module == "b");
+  CHECK(d.why == "no other module runs: one always does");
+  CHECK(g.decide(t + 0.2).kind == Governor::Decision::Kind::None);  // b runs now: c waits for the calm
 }
 
 TEST_CASE("robot input watch: a deaf sensor reader is renewed while the plan comes, not for the robot's own stall, and before the first tick once the plans say the module runs", "[components]") {
@@ -1554,7 +1563,7 @@ TEST_CASE("lockstep pacer: tick 0 waits for every robot of each arm, a repeat or
   CHECK(r.start_answers_in(0.0));
 }
 
-TEST_CASE("lockstep lease: the world runs at most 10 ticks past what its leader heard; the leader publishes at every report; a standby still takes over a silent leader", "[components]") {
+TEST_CASE("lockstep lease: the world runs at most 10 ticks past what its leader heard, the leader publishes at every report, a standby still takes over a silent leader", "[components]") {
   const ts::ModuleSetup& m = sosm();
   const int64_t ms = 1000000;
   using tandem::plan::kPlanLeaseTicks;

@@ -163,7 +163,7 @@ TEST_CASE("deployment: the soak's derived deployment loads from a report directo
   CHECK(s.coordinator_standby == d.coordinator_standby);
 }
 
-TEST_CASE("a Discovery Server client announces itself every 5 s and its lease ends after 12 s; a simple "
+TEST_CASE("a Discovery Server client announces itself every 5 s and its lease ends after 12 s, a simple "
           "participant announces every 1 s (soak finding 74)", "[deployment]") {
   namespace dds = tandem::dds;
   // ROS_DISCOVERY_SERVER as it was, whatever happens below.
@@ -204,7 +204,7 @@ TEST_CASE("a Discovery Server client announces itself every 5 s and its lease en
   }
 }
 
-TEST_CASE("deployment: one Discovery Server per module; a module's processes name only their own, in its place",
+TEST_CASE("deployment: one Discovery Server per module, a module's processes name only their own, in its place",
           "[deployment]") {
   // Soak finding 74: one server relayed every module's churn to every process. Server i serves module i; a client
   // names server k by its place in ROS_DISCOVERY_SERVER (k ';' before it), so the place is the server's id.

@@ -48,7 +48,7 @@ TEST_CASE("launcher rules: roles by name, and nothing happens while the deployme
   CHECK(on_exit(unplugged) == ExitVerdict::Nothing);
 }
 
-TEST_CASE("launcher rules: a coordinator that is done stops the deployment; one that dies is replaced or fails it", "[launcher]") {
+TEST_CASE("launcher rules: a coordinator that is done stops the deployment, one that dies is replaced or fails it", "[launcher]") {
   CHECK(on_exit(running(Role::Coordinator, 0)) == ExitVerdict::AllTasksDone);
   ExitFacts f = running(Role::Coordinator, 137);
   REQUIRE(on_exit(f) == ExitVerdict::Restart);
@@ -307,7 +307,7 @@ TEST_CASE("agent: fencing when the launcher falls silent or counts the host lost
   CHECK(p.signals.back().second == 9);
 }
 
-TEST_CASE("agent: one launcher run at a time; a new run after the old one is over or silent; the end stops leftovers", "[launcher]") {
+TEST_CASE("agent: one launcher run at a time, a new run after the old one is over or silent, the end stops leftovers", "[launcher]") {
   using K = AgentRequestIn::Kind;
   RecordedProcesses p;
   AgentCore a(p, "/bin", 2.0, 0.0);

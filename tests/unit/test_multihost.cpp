@@ -146,7 +146,7 @@ TEST_CASE("security on several hosts: an identity per agent that may only write 
   }
 }
 
-TEST_CASE("deployment: a task name given twice is refused, naming both; 12 000 tasks load in well under a second", "[multihost]") {
+TEST_CASE("deployment: a task name given twice is refused, naming both, 12 000 tasks load in well under a second", "[multihost]") {
   const std::string mod = "modules:\n  - {name: m1, scenario: " + kScenario + ", case: SOSM}\n";
   const std::string seg = ", segments: [{to: [0.2, 0.8, 0.0], duration: 1.0}]}\n";
   const std::string dup = refusal(mod + "coordinator:\n  tasks:\n    - {name: a" + seg + "    - {name: b" + seg +

@@ -982,7 +982,7 @@ TEST_CASE("a takeover older than the live leader's plan is refused by the follow
   }
 }
 
-TEST_CASE("a leader whose reports lag does not retake over a takeover the world follows; a second standby with the newer plan leads instead of a stale taker", "[stops]") {
+TEST_CASE("a leader whose reports lag does not retake over a takeover the world follows, a second standby with the newer plan leads instead of a stale taker", "[stops]") {
   // From the review of the refusal rule. (1) The leader hears the stale taker before the world's reports of the
   // meantime: its reports lag 60 ticks, the world adopted the taker (it lacked the leader's newest version). A retake
   // on a timer would jump the references back to the leader's branch; the retake needs proof (the world follows the

@@ -228,7 +228,7 @@ TEST_CASE("a module that leaves is removed, its unfinished task back at the fron
   CHECK(q.done_count() == 1);
 }
 
-TEST_CASE("a coordinator back from its own stall does not take the modules' tasks back; a module silent after it does", "[coordinator]") {
+TEST_CASE("a coordinator back from its own stall does not take the modules' tasks back, a module silent after it does", "[coordinator]") {
   TaskQueue q(task_names(3), Balance::Wear);
   q.report({"m1", 0, kIdle}, 0.0);
   q.report({"m2", 0, kIdle}, 0.0);
@@ -715,7 +715,7 @@ TEST_CASE("leadership: a primary back from a stall doubts, leaves if another one
   }
 }
 
-TEST_CASE("leadership: a primary that hears its successor only after the doubt still leaves; two primaries keep the smaller id", "[coordinator]") {
+TEST_CASE("leadership: a primary that hears its successor only after the doubt still leaves, two primaries keep the smaller id", "[coordinator]") {
   Leadership p({"coordinator", false, false}, 0.0);
   p.on_loop(0.1);
   CHECK(p.on_loop(2.1).find("stalled") != std::string::npos);  // a 2 s SIGSTOP
@@ -851,7 +851,7 @@ TEST_CASE("coordinator: a module that leaves or fails has its last assignment wi
   CHECK(w.withdrawn.size() == 2);
 }
 
-TEST_CASE("coordinator: every assignment goes out after a state that holds it; all done ends with exit 0", "[coordinator]") {
+TEST_CASE("coordinator: every assignment goes out after a state that holds it, all done ends with exit 0", "[coordinator]") {
   CoordinatorCore c(core_options("coordinator", false), task_names(3), 0.0);
   Wire w;
   double t = 0.0;
@@ -940,7 +940,7 @@ TEST_CASE("coordinator: a primary back from a stall adopts its successor's more 
   CHECK(stalled.end()->error);
 }
 
-TEST_CASE("coordinator: a restarted standby that hears no state exits 6; a primary with no task finished gives up with 4", "[coordinator]") {
+TEST_CASE("coordinator: a restarted standby that hears no state exits 6, a primary with no task finished gives up with 4", "[coordinator]") {
   CoordinatorCore late(core_options("coordinator@r2", true, true), task_names(2), 0.0);
   double t = 0.0;
   for (; t < 20.0 && !late.end(); t += 0.1) {

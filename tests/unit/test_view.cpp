@@ -281,7 +281,7 @@ TEST_CASE("live commands: the page's requests as CLI command lines, bad ones ref
   }
 }
 
-TEST_CASE("live commands: this machine may command; another machine only with the viewer's token", "[view]") {
+TEST_CASE("live commands: this machine may command, another machine only with the viewer's token", "[view]") {
   using tandem::view::is_loopback;
   using tandem::view::refusal;
   CHECK(is_loopback("127.0.0.1"));

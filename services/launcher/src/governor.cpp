@@ -69,11 +69,28 @@ double Governor::paused_share(double now) const {
 
 Governor::Decision Governor::decide(double now) {
   Decision d;
-  if (!rule_.enabled || now - last_decision_ < rule_.settle_s) return d;
+  if (!rule_.enabled) return d;
   std::vector<std::string> running;
   for (const std::string& m : order_) {
     if (!parked_.count(m) && !unavailable_.count(m)) running.push_back(m);
   }
+  // One module always runs: with none left running (the others failed, unplugged or stopped), a parked one comes
+  // back at once, whatever the calm and the settling time.
+  if (running.empty()) {
+    for (const std::string& m : order_) {
+      if (!parked_.count(m) || unavailable_.count(m)) continue;
+      d.kind = Decision::Kind::Unpark;
+      d.module = m;
+      d.why = "no other module runs: one always does";
+      parked_.erase(m);
+      returned_at_[m] = now;
+      samples_.clear();
+      last_decision_ = now;
+      return d;
+    }
+    return d;
+  }
+  if (now - last_decision_ < rule_.settle_s) return d;
   // Enough history since the last decision to judge the window: the oldest sample is most of a window old.
   const bool judged = !samples_.empty() && samples_.front().t <= now - 0.8 * rule_.window_s &&
                       samples_.front().t >= last_decision_;

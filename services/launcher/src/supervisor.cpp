@@ -587,7 +587,14 @@ void Supervisor::on_world_load(const std::string& module, const std::string& det
   governor_->on_load(module, paused, now);
 }
 
-void Supervisor::on_task_state(const std::string& module, int state) { task_states_[module] = state; }
+void Supervisor::on_task_state(const std::string& module, int state) {
+  const auto it = task_states_.find(module);
+  const bool newly_failed = state == code(plan::TaskStateCode::Failed) && (it == task_states_.end() || it->second != state);
+  task_states_[module] = state;
+  // A module failed by a drop takes no task until it is cleared: not a running module to the governor (which then
+  // unparks another if no module runs; soak run 53: m1 failed while m2 was parked, and no task was done for 80 s).
+  if (newly_failed && governor_) governor_->set_available(module, false);
+}
 
 Supervisor::QueueState Supervisor::on_coordinator_state(unsigned long long next_task_id, unsigned long long done_total,
                                                        size_t done) {

@@ -473,9 +473,16 @@ void SupervisorCore::update(int64_t now_ns) {
   } else {
     plan_.set_rate(next, pause_requested_ ? 0.0 : 1.0, kPauseRamp);
   }
+  // Where a task's path starts: lockstep, kLeadTicks after the newest tick heard (the world waits for the lease);
+  // real time, kTaskLeadTicks after where the world is now, as far as the wall clock tells.
+  const long task_start =
+      o_.lease_every > 0
+          ? next
+          : heard_tick_ + std::max(0L, static_cast<long>(static_cast<double>(now_ns - last_report_) * 1e-9 / m_.period)) +
+                kTaskLeadTicks;
   for (const Assignment& a : assignments_) {
     if (!o_.continuous || a.id <= plan_.task_id() || plan_.running() || draining_ || failed_) continue;
-    plan_.assign(a.id, a.waypoints, next);
+    plan_.assign(a.id, a.waypoints, task_start);
     out_detail_ = "task " + a.name;
     publish_state(true, now_ns);
   }

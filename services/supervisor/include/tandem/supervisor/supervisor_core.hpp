@@ -73,6 +73,12 @@ class SupervisorCore {
   static constexpr double kRebaseMin = 5e-4;
   static constexpr long kHoldLeadTicks = 5;
   static constexpr long kLeadTicks = 20;      ///< a change applies this many ticks after the newest heard
+  /// Real time: a task starts this many ticks after the tick the world is estimated to be at now (the newest heard
+  /// plus the wall time since it was heard), so that a plan that reaches the followers up to this late still starts
+  /// the path in their future. Soak run 53: a supervisor of a module just plugged in made the plan of its first task
+  /// at heard tick 60, and the world and robots got it at tick 495 (a busy start-up): the references jumped 6.7 mm
+  /// and the object slid out of the grasp. Lockstep needs none: the world waits for the plan's lease.
+  static constexpr long kTaskLeadTicks = 250;
   static constexpr long kReleaseSettleTicks = 200;
   static constexpr int64_t kHeartbeatNs = 20'000'000;
   static constexpr int64_t kTakeOverAfterNs = 50'000'000;

@@ -1268,15 +1268,22 @@ TEST_CASE("governor: admission parks what the estimate does not fit, and the las
   CHECK(g.decide(t).kind == Governor::Decision::Kind::None);  // a alone: never parked
   Governor none({"a", "b"});
   CHECK(none.admit(5, 0.0).empty());
-  // The running module fails (a drop) or leaves while b and c are parked: b comes back at once, not after the calm,
-  // and not while a decision is settling (soak run 53: no task for 80 s with m1 failed and m2 parked).
+  // The running module fails (a drop) or leaves while b and c are parked: b comes back once no module has run for 5 s,
+  // not after the calm (soak run 53: no task for 80 s with m1 failed and m2 parked); a module back within the 5 s
+  // (a killed world's, plugged back) unparks nothing.
   g.on_load("a", true, t);
   g.set_available("a", false);
-  const Governor::Decision d = g.decide(t + 0.1);
+  CHECK(g.decide(t + 0.1).kind == Governor::Decision::Kind::None);
+  CHECK(g.decide(t + 4.9).kind == Governor::Decision::Kind::None);
+  g.set_available("a", true);
+  CHECK(g.decide(t + 5.5).kind == Governor::Decision::Kind::None);
+  g.set_available("a", false);
+  CHECK(g.decide(t + 6.0).kind == Governor::Decision::Kind::None);  // counted afresh
+  const Governor::Decision d = g.decide(t + 11.1);
   CHECK(d.kind == Governor::Decision::Kind::Unpark);
   CHECK(d.module == "b");
-  CHECK(d.why == "no other module runs: one always does");
-  CHECK(g.decide(t + 0.2).kind == Governor::Decision::Kind::None);  // b runs now: c waits for the calm
+  CHECK(d.why == "no module has run for 5 s: one always does");
+  CHECK(g.decide(t + 11.2).kind == Governor::Decision::Kind::None);  // b runs now: c waits for the calm
 }
 
 TEST_CASE("robot input watch: a deaf sensor reader is renewed while the plan comes, not for the robot's own stall, and before the first tick once the plans say the module runs", "[components]") {

@@ -74,14 +74,20 @@ Governor::Decision Governor::decide(double now) {
   for (const std::string& m : order_) {
     if (!parked_.count(m) && !unavailable_.count(m)) running.push_back(m);
   }
-  // One module always runs: with none left running (the others failed, unplugged or stopped), a parked one comes
-  // back at once, whatever the calm and the settling time.
+  // One module always runs: with none running for none_running_s (the others failed, unplugged or stopped, and not
+  // back), a parked one comes back, whatever the calm and the settling time. Not at once: a killed world's module is
+  // plugged back within seconds, and a park undone at once restarted a module into the next fault (the CI soak).
   if (running.empty()) {
+    if (none_running_since_ < 0.0) none_running_since_ = now;
+    if (now - none_running_since_ < rule_.none_running_s) return d;
     for (const std::string& m : order_) {
       if (!parked_.count(m) || unavailable_.count(m)) continue;
       d.kind = Decision::Kind::Unpark;
       d.module = m;
-      d.why = "no other module runs: one always does";
+      char why[96];
+      std::snprintf(why, sizeof why, "no module has run for %.0f s: one always does", now - none_running_since_);
+      d.why = why;
+      none_running_since_ = -1.0;
       parked_.erase(m);
       returned_at_[m] = now;
       samples_.clear();
@@ -90,6 +96,7 @@ Governor::Decision Governor::decide(double now) {
     }
     return d;
   }
+  none_running_since_ = -1.0;
   if (now - last_decision_ < rule_.settle_s) return d;
   // Enough history since the last decision to judge the window: the oldest sample is most of a window old.
   const bool judged = !samples_.empty() && samples_.front().t <= now - 0.8 * rule_.window_s &&

@@ -32,6 +32,9 @@ struct GovernorRule {
   double settle_s = 10.0;
   double calm_s = 30.0;
   double calm_max_s = 240.0;
+  /// With no module running this long (the others failed, unplugged or stopped, and not back: a killed world's
+  /// module is plugged back within seconds), a parked one comes back whatever the calm.
+  double none_running_s = 5.0;
   bool enabled = true;
 };
 
@@ -75,6 +78,7 @@ class Governor {
   std::deque<Sample> samples_;
   double last_decision_ = -1e300;
   double last_paused_ = -1e300;  // last time any running module was paused for load
+  double none_running_since_ = -1.0;  // since when no module runs (-1: one does)
 };
 
 }  // namespace tandem::launcher

@@ -98,6 +98,16 @@ ModuleSpec module_m1(int standby, const std::string& policy) {
   return m;
 }
 
+/// A live command as the launcher reads it (seq 0: none).
+Request request(Request::Command command, Request::Target kind, const std::string& target, unsigned long long seq = 0) {
+  Request r;
+  r.command = command;
+  r.target_kind = kind;
+  r.target = target;
+  r.seq = seq;
+  return r;
+}
+
 /// A supervisor over module m1, started at t = 0, every process heard and the module ticking.
 struct Fixture {
   Recorder rec;
@@ -339,11 +349,7 @@ TEST_CASE("launcher supervisor: a standby with no plan to follow while another s
 
 TEST_CASE("launcher supervisor: a robot unplugged with SIGTERM that is still there after 5 s gets SIGKILL", "[launcher]") {
   Fixture f(true, module_m1(1, "never"));
-  Request r;
-  r.command = Request::Command::Unplug;
-  r.target_kind = Request::Target::Process;
-  r.target = "m1/left";
-  r.seq = 7;
+  const Request r = request(Request::Command::Unplug, Request::Target::Process, "m1/left", 7);
   f.rec.now = 10.0;
   f.sup.on_request(r, 10.0);
   const Supervisor::Answer* a = f.sup.answer(7);
@@ -402,12 +408,8 @@ TEST_CASE("launcher supervisor: a live command is carried out once and refused w
   CHECK(f.rec.signals_to("m1/right").size() == 1);
   CHECK(f.sup.answer(3)->text.rfind("fault injection: SIGKILL m1/right (pid ", 0) == 0);
   f.sup.stop_all(SIGTERM, 5.0);
-  Request p;
-  p.command = Request::Command::Plug;
+  Request p = request(Request::Command::Plug, Request::Target::Robot, "m1/left", 4);
   p.command_name = "plug";
-  p.target_kind = Request::Target::Robot;
-  p.target = "m1/left";
-  p.seq = 4;
   f.sup.on_request(p, 5.5);
   REQUIRE(f.sup.answer(4) != nullptr);
   CHECK_FALSE(f.sup.answer(4)->ok);
@@ -466,11 +468,7 @@ TEST_CASE("launcher capacity: admission runs the modules that fit in file order,
 
 TEST_CASE("launcher supervisor: the arm's only robot unplugged pauses its module, and leaves once it is paused", "[launcher]") {
   Fixture f(true);
-  Request r;
-  r.command = Request::Command::Unplug;
-  r.target_kind = Request::Target::Process;
-  r.target = "m1/left";
-  r.seq = 9;
+  const Request r = request(Request::Command::Unplug, Request::Target::Process, "m1/left", 9);
   f.rec.now = 10.0;
   f.sup.on_request(r, 10.0);
   REQUIRE(f.rec.controls.size() == 1);
@@ -486,10 +484,7 @@ TEST_CASE("launcher supervisor: the arm's only robot unplugged pauses its module
 
 TEST_CASE("launcher supervisor: a module unplugged is drained, and the drain re-sent every second until acknowledged", "[launcher]") {
   Fixture f(true);
-  Request r;
-  r.command = Request::Command::Unplug;
-  r.target_kind = Request::Target::Module;
-  r.target = "m1";
+  const Request r = request(Request::Command::Unplug, Request::Target::Module, "m1");
   f.sup.on_request(r, 10.0);
   CHECK(f.sup.modules().at("m1").end.text() == "draining");
   REQUIRE(f.rec.controls.size() == 1);
@@ -508,11 +503,7 @@ TEST_CASE("launcher supervisor: a module unplugged is drained, and the drain re-
   CHECK(f.rec.signals_to("m1/world").at(0).sig == SIGTERM);
   // Plugged in again at once (the soak does): the new processes wait until the old ones are gone, so that none hears
   // an old one's plan (soak run 53); a second plug meanwhile is refused, naming why.
-  Request plug;
-  plug.command = Request::Command::Plug;
-  plug.target_kind = Request::Target::Module;
-  plug.target = "m1";
-  plug.seq = 7;
+  Request plug = request(Request::Command::Plug, Request::Target::Module, "m1", 7);
   const size_t starts = f.rec.starts.size();
   f.sup.on_request(plug, 14.1);
   f.poll(14.1);
@@ -538,10 +529,7 @@ TEST_CASE("launcher supervisor: a module paused for load while it drains is stop
   // The CI soak (finding 78): m1 was unplugged while paused for load; its task could not end, so it drained for the
   // whole 30 s bound while m2 paused for load again and again beside it, and no task was done for 49 s.
   Fixture f(true);
-  Request r;
-  r.command = Request::Command::Unplug;
-  r.target_kind = Request::Target::Module;
-  r.target = "m1";
+  const Request r = request(Request::Command::Unplug, Request::Target::Module, "m1");
   f.sup.on_world_load("m1", "paused for load (overload: commands late)", 5000, 9.5);
   f.sup.on_request(r, 10.0);
   CHECK(f.sup.modules().at("m1").end.text() == "draining");
@@ -573,10 +561,7 @@ TEST_CASE("launcher supervisor: a module paused for its unplugged robot is stopp
   // was unplugged: its task could not end, it drained for the whole 30 s bound while m2 was parked, and the robot's
   // plug was refused meanwhile (the module was leaving).
   Fixture f(true);
-  Request r;
-  r.command = Request::Command::Unplug;
-  r.target_kind = Request::Target::Process;
-  r.target = "m1/left";
+  Request r = request(Request::Command::Unplug, Request::Target::Process, "m1/left");
   f.sup.on_request(r, 10.0);
   f.sup.on_task_state("m1", 3);  // plan::TaskStateCode::Paused
   f.poll(10.5);

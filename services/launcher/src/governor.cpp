@@ -67,6 +67,14 @@ double Governor::paused_share(double now) const {
   return covered <= 0.0 ? 0.0 : paused / covered;
 }
 
+Governor::Decision Governor::unpark(const std::string& module, const std::string& why, double now) {
+  parked_.erase(module);
+  returned_at_[module] = now;
+  samples_.clear();
+  last_decision_ = now;
+  return Decision{Decision::Kind::Unpark, module, why};
+}
+
 Governor::Decision Governor::decide(double now) {
   Decision d;
   if (!rule_.enabled) return d;
@@ -82,17 +90,10 @@ Governor::Decision Governor::decide(double now) {
     if (now - none_running_since_ < rule_.none_running_s) return d;
     for (const std::string& m : order_) {
       if (!parked_.count(m) || unavailable_.count(m)) continue;
-      d.kind = Decision::Kind::Unpark;
-      d.module = m;
       char why[96];
       std::snprintf(why, sizeof why, "no module has run for %.0f s: one always does", now - none_running_since_);
-      d.why = why;
       none_running_since_ = -1.0;
-      parked_.erase(m);
-      returned_at_[m] = now;
-      samples_.clear();
-      last_decision_ = now;
-      return d;
+      return unpark(m, why, now);
     }
     return d;
   }
@@ -126,16 +127,9 @@ Governor::Decision Governor::decide(double now) {
     if (calm <= 0.0) calm = calm_needed_[m] = rule_.calm_s;
     const double quiet = now - std::max(last_paused_, last_decision_);
     if (quiet < calm) return d;
-    d.kind = Decision::Kind::Unpark;
-    d.module = m;
     char why[128];
     std::snprintf(why, sizeof why, "calm: no module paused for load for %.0f s", quiet);
-    d.why = why;
-    parked_.erase(m);
-    returned_at_[m] = now;
-    samples_.clear();
-    last_decision_ = now;
-    return d;
+    return unpark(m, why, now);
   }
   return d;
 }

@@ -64,6 +64,8 @@ class Governor {
   double paused_share(double now) const;
 
  private:
+  /// Takes `module` out of the parked set (the decision to bring it back, with `why`).
+  Decision unpark(const std::string& module, const std::string& why, double now);
   struct Sample {
     double t;
     std::string module;

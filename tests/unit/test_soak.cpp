@@ -380,6 +380,48 @@ TEST_CASE("soak checker: an arm's failover is judged in module time (ticks), in 
   CHECK_THAT(z->text, Catch::Contains("after 0.4 s"));  // 0.35 s, said to one decimal
 }
 
+TEST_CASE("soak checker: a later fault hits first when it comes before the bound ran out in module time, not on the wall clock") {
+  // Lockstep soak run 54: m1/left unplugged for a hand-over at tick 20000 (20.0 s), the world standing still at that
+  // tick, its world killed at 21.0 s (1.0 s later on the wall clock, 0 ticks of module time) and the arm served again
+  // only by the restarted module at 31.6 s.
+  auto run = [](bool world_stands_still) {
+    History h = quiet_history(60.0);
+    for (ModuleSample& s : h.modules["m1"]) {
+      if (world_stands_still && s.t > 20.0 && s.t <= 21.0) s.tick = 20000;
+      if (s.t > 21.0) s.world = 2;  // the world restarted after its kill
+    }
+    FaultRecord unplug = kill_left(20.0);
+    unplug.fault.kind = FaultKind::Unplug;
+    unplug.module_tick = 20000;
+    unplug.end_t = 24.0;
+    FaultRecord kill_world;
+    kill_world.fault.index = 2;
+    kill_world.fault.kind = FaultKind::Kill;
+    kill_world.fault.target = Target::World;
+    kill_world.t = 21.0;
+    kill_world.label = "m1/world";
+    kill_world.module = "m1";
+    kill_world.pid = 333;
+    kill_world.end_t = 25.0;
+    h.faults = {unplug, kill_world};
+    Event owners{31.6, Event::Type::Owners, "m1", "left=m1/left@50,right=m1/right", {{"left", "m1/left@50"}, {"right", "m1/right"}}};
+    owners.tick = 200;
+    add_event(h, owners);
+    add_event(h, {24.5, Event::Type::State, "m1/left", "2 444"});
+    add_event(h, {26.0, Event::Type::State, "m1/world", "2 555"});
+    return check(h, Bounds{});
+  };
+  // The world stood still: the hand-over's 0.2 s of module time had not run out when the world was killed.
+  const Verdict still = run(true);
+  for (const Violation& x : still.violations) INFO(x.text);
+  CHECK(find(still, "recovery") == nullptr);
+  // The world ran on at 1 kHz: 1000 ticks passed before the kill, the hand-over is judged and late.
+  const Verdict ran = run(false);
+  const Violation* x = find(ran, "recovery");
+  REQUIRE(x != nullptr);
+  CHECK_THAT(x->text, Catch::Contains("unplug robot") && Catch::Contains("within 0.2 s"));
+}
+
 TEST_CASE("soak checker: tasks done twice or lost are violations") {
   History h = quiet_history(120.0);
   h.tasks_done.push_back(h.tasks_done.front());

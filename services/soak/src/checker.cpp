@@ -407,14 +407,41 @@ class Judge {
     return -1.0;
   }
 
+  /// The wall time by which `module`'s world had run `bound` seconds of module time past the fault at t (from the
+  /// nemesis's note of the tick then, else the newest tick heard at t): for a recovery judged in module time, a later
+  /// fault on the module before then came within the bound. Lockstep soak run 54: a robot unplugged at tick 74820 for a
+  /// hand-over, its world killed 1.0 s later on the wall clock and still at tick 74820, "no other robot served m3/right
+  /// within 0.2 s (it came after 11.6 s)". The first report of another world instance (the world was restarted) ends
+  /// it too; a world that never got there ends it at the stop; without ticks, t + bound.
+  double module_bound_end(const std::string& module, double t, long tick_at_fault, double bound) const {
+    const auto m = h_.modules.find(module);
+    if (m == h_.modules.end()) return t + bound;
+    long before = tick_at_fault;
+    int world = -1;
+    for (const ModuleSample& s : m->second) {
+      if (s.t > t) break;
+      if (tick_at_fault < 0) before = s.tick;
+      world = s.world;
+    }
+    if (before < 0 || world < 0) return t + bound;
+    const long target = before + static_cast<long>(std::lround(bound / kTickS));
+    for (const ModuleSample& s : m->second) {
+      if (s.t <= t) continue;
+      if (s.world != world || s.tick >= target) return std::max(s.t, t + bound);
+    }
+    return std::max(h_.stop_s, t + bound);
+  }
+
+  /// `supersede_until`: how long a later fault on the module counts as hitting first (the default: until the bound
+  /// on the wall clock; for a bound in module time, module_bound_end).
   void judge(size_t inv, const FaultRecord& f, const std::string& kind, double found, double from, double bound,
-             const std::string& missing) {
+             const std::string& missing, double supersede_until = -1.0) {
     ++v_.invariants[inv].checked;
     if (found >= 0.0 && found - from <= bound) {
       v_.recoveries.push_back({f.fault.index, kind, found - from});
       return;
     }
-    if (const FaultRecord* g = superseded(f, from + bound)) {
+    if (const FaultRecord* g = superseded(f, std::max(supersede_until, from + bound))) {
       (void)g;  // a later fault on the same module hit first: its own recovery is judged instead
       return;
     }
@@ -440,14 +467,15 @@ class Judge {
             const double bound = f.had_standby ? b_.failover_s : b_.restart_s;
             judge(inv, f, f.had_standby ? "kill robot: arm served again (standby)" : "kill robot: arm served again (restart)",
                   arm_served_without(module, robot, f.label, f.pid, f.t, f.had_standby, f.module_tick), f.t, bound,
-                  "no other robot served " + arm);
+                  "no other robot served " + arm, f.had_standby ? module_bound_end(module, f.t, f.module_tick, bound) : -1.0);
           }
           judge(inv, f, "kill robot: replacement up", slot_active(arm, f.pid, f.t), f.t, b_.restart_s,
                 "no replacement robot for " + arm + " was active");
         } else if (f.fault.target == Target::Supervisor) {
           judge(inv, f, f.had_standby ? "kill supervisor: another serves" : "kill supervisor (no warm standby): another serves",
                 in_module_time(module, serving_primary(module + "/supervisor", f.label, f.t, f.pid), f.t, f.module_tick), f.t,
-                f.had_standby ? b_.supervisor_s : b_.supervisor_cold_s, "no other supervisor of " + module + " served");
+                f.had_standby ? b_.supervisor_s : b_.supervisor_cold_s, "no other supervisor of " + module + " served",
+                module_bound_end(module, f.t, f.module_tick, f.had_standby ? b_.supervisor_s : b_.supervisor_cold_s));
         } else if (f.fault.target == Target::Coordinator) {
           judge(inv, f, f.had_standby ? "kill coordinator: another serves" : "kill coordinator (no standby): another serves",
                 serving_primary("coordinator", f.label, f.t, f.pid), f.t, f.had_standby ? b_.coordinator_s : b_.coordinator_cold_s,
@@ -487,7 +515,7 @@ class Judge {
         } else {
           if (f.had_standby && served_before(module, robot, f.label, f.t)) {
             judge(inv, f, "unplug robot: hand-over", arm_served_without(module, robot, f.label, f.pid, f.t, true, f.module_tick), f.t, b_.failover_s,
-                  "no other robot served " + arm);
+                  "no other robot served " + arm, module_bound_end(module, f.t, f.module_tick, b_.failover_s));
           }
           if (f.end_t < 0.0) {
             judge(inv, f, "unplug robot: plugged back", -1.0, f.t, f.fault.duration_s + kReplugS, "no robot was plugged into " + arm + " again");

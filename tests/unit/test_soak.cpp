@@ -420,6 +420,39 @@ TEST_CASE("soak checker: a later fault hits first when it comes before the bound
   const Violation* x = find(ran, "recovery");
   REQUIRE(x != nullptr);
   CHECK_THAT(x->text, Catch::Contains("unplug robot") && Catch::Contains("within 0.2 s"));
+  // A world that stands still at the fault's tick for good: the window ends at the progress bound (45 s), and a fault
+  // after that does not excuse the hand-over that never came.
+  auto stuck = [](double later_fault_t) {
+    History h = quiet_history(120.0);
+    for (ModuleSample& s : h.modules["m1"]) {
+      if (s.t > 20.0) s.tick = 20000;
+    }
+    FaultRecord unplug = kill_left(20.0);
+    unplug.fault.kind = FaultKind::Unplug;
+    unplug.module_tick = 20000;
+    unplug.end_t = 24.0;
+    FaultRecord stall;
+    stall.fault.index = 2;
+    stall.fault.kind = FaultKind::Stall;
+    stall.fault.target = Target::Supervisor;
+    stall.t = later_fault_t;
+    stall.label = "m1/supervisor";
+    stall.module = "m1";
+    stall.pid = 333;
+    stall.fault.duration_s = 0.5;
+    stall.end_t = later_fault_t + 0.5;
+    h.faults = {unplug, stall};
+    add_event(h, {24.5, Event::Type::State, "m1/left", "2 444"});
+    return check(h, Bounds{});
+  };
+  const Verdict soon = stuck(30.0);
+  for (const Violation& v : soon.violations) {
+    CHECK(v.text.find("unplug robot") == std::string::npos);  // within the window: the later fault hit first
+  }
+  const Verdict late = stuck(80.0);
+  bool judged = false;
+  for (const Violation& v : late.violations) judged = judged || v.text.find("fault #1 (unplug robot") != std::string::npos;
+  CHECK(judged);
 }
 
 TEST_CASE("soak checker: tasks done twice or lost are violations") {

@@ -412,8 +412,12 @@ class Judge {
   /// fault on the module before then came within the bound. Lockstep soak run 54: a robot unplugged at tick 74820 for a
   /// hand-over, its world killed 1.0 s later on the wall clock and still at tick 74820, "no other robot served m3/right
   /// within 0.2 s (it came after 11.6 s)". The first report of another world instance (the world was restarted) ends
-  /// it too; a world that never got there ends it at the stop; without ticks, t + bound.
+  /// it too; without ticks, t + bound. At most the progress bound on the wall clock: a world that has not run the
+  /// bound's ticks by then stands still, and the recovery is judged.
   double module_bound_end(const std::string& module, double t, long tick_at_fault, double bound) const {
+    return std::min(module_bound_reached(module, t, tick_at_fault, bound), t + std::max(bound, b_.progress_s));
+  }
+  double module_bound_reached(const std::string& module, double t, long tick_at_fault, double bound) const {
     const auto m = h_.modules.find(module);
     if (m == h_.modules.end()) return t + bound;
     long before = tick_at_fault;

@@ -84,6 +84,29 @@ FaultRecord kill_left(double t) {
   return f;
 }
 
+/// A fault on m1 carried out at t (`label`'s process of pid 333).
+FaultRecord m1_fault(int index, FaultKind kind, Target target, double t, const std::string& label, double end_t) {
+  FaultRecord f;
+  f.fault.index = index;
+  f.fault.kind = kind;
+  f.fault.target = target;
+  f.t = t;
+  f.label = label;
+  f.module = "m1";
+  f.pid = 333;
+  f.end_t = end_t;
+  return f;
+}
+
+/// m1/left unplugged at t for a hand-over (plugged back 4 s later), heard at tick 20000.
+FaultRecord handover_unplug(double t) {
+  FaultRecord f = kill_left(t);
+  f.fault.kind = FaultKind::Unplug;
+  f.module_tick = 20000;
+  f.end_t = t + 4.0;
+  return f;
+}
+
 void add_event(History& h, Event e) {
   h.events.push_back(std::move(e));
   std::stable_sort(h.events.begin(), h.events.end(), [](const Event& a, const Event& b) { return a.t < b.t; });
@@ -390,20 +413,7 @@ TEST_CASE("soak checker: a later fault hits first when it comes before the bound
       if (world_stands_still && s.t > 20.0 && s.t <= 21.0) s.tick = 20000;
       if (s.t > 21.0) s.world = 2;  // the world restarted after its kill
     }
-    FaultRecord unplug = kill_left(20.0);
-    unplug.fault.kind = FaultKind::Unplug;
-    unplug.module_tick = 20000;
-    unplug.end_t = 24.0;
-    FaultRecord kill_world;
-    kill_world.fault.index = 2;
-    kill_world.fault.kind = FaultKind::Kill;
-    kill_world.fault.target = Target::World;
-    kill_world.t = 21.0;
-    kill_world.label = "m1/world";
-    kill_world.module = "m1";
-    kill_world.pid = 333;
-    kill_world.end_t = 25.0;
-    h.faults = {unplug, kill_world};
+    h.faults = {handover_unplug(20.0), m1_fault(2, FaultKind::Kill, Target::World, 21.0, "m1/world", 25.0)};
     Event owners{31.6, Event::Type::Owners, "m1", "left=m1/left@50,right=m1/right", {{"left", "m1/left@50"}, {"right", "m1/right"}}};
     owners.tick = 200;
     add_event(h, owners);
@@ -427,21 +437,9 @@ TEST_CASE("soak checker: a later fault hits first when it comes before the bound
     for (ModuleSample& s : h.modules["m1"]) {
       if (s.t > 20.0) s.tick = 20000;
     }
-    FaultRecord unplug = kill_left(20.0);
-    unplug.fault.kind = FaultKind::Unplug;
-    unplug.module_tick = 20000;
-    unplug.end_t = 24.0;
-    FaultRecord stall;
-    stall.fault.index = 2;
-    stall.fault.kind = FaultKind::Stall;
-    stall.fault.target = Target::Supervisor;
-    stall.t = later_fault_t;
-    stall.label = "m1/supervisor";
-    stall.module = "m1";
-    stall.pid = 333;
+    FaultRecord stall = m1_fault(2, FaultKind::Stall, Target::Supervisor, later_fault_t, "m1/supervisor", later_fault_t + 0.5);
     stall.fault.duration_s = 0.5;
-    stall.end_t = later_fault_t + 0.5;
-    h.faults = {unplug, stall};
+    h.faults = {handover_unplug(20.0), stall};
     add_event(h, {24.5, Event::Type::State, "m1/left", "2 444"});
     return check(h, Bounds{});
   };

@@ -4,6 +4,13 @@
 // shared memory (a sample each), each robot burns `robot_us` of CPU (the control law's share) and wakes the
 // world back (a command), and the world burns `world_us` (a plant step). Prints the CPU per module (user +
 // system of its three processes over the run) and the share of ticks whose answers came after the deadline.
+// Like the runtime's world (world::TickClock), a tick that starts more than half a period late re-anchors the
+// clock, so a stall makes one late tick, not a burst of catch-up ticks.
+// It also runs the world's overload rule (world::OverloadRule's defaults) on the floor's late ticks, to show how
+// often the bare machine alone would trip it: trips of the running rule (more than max_late late ticks in a
+// sliding window, or max_consecutive in a row) per minute, the longest run of late ticks, and the share of
+// trial-sized blocks (trial_ticks) with more than 0, 1, 2, 5 and 10 late ticks (a late tick here is a tick with
+// an arm late: 2 arm-ticks at most, counted as 1, so the floor's figures are a lower bound for the rule).
 //
 // usage: tandem_bench_floor --modules N --seconds S [--robot-us 10] [--world-us 30] [--fifo PRIO]
 #include <linux/futex.h>
@@ -15,6 +22,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cstdint>
 #include <cstdio>
@@ -22,6 +30,8 @@
 #include <cstring>
 #include <string>
 #include <vector>
+
+#include "tandem/world/world_core.hpp"
 
 namespace {
 
@@ -85,14 +95,17 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "tandem_bench_floor: --modules in [1, 64] and --seconds > 0\n");
     return 2;
   }
-  const size_t bytes = sizeof(Slot) * static_cast<size_t>(modules) + sizeof(int64_t) * 2 * static_cast<size_t>(modules);
+  const long ticks = static_cast<long>(seconds * 1000.0);
+  const size_t flags_bytes = static_cast<size_t>(ticks) * static_cast<size_t>(modules);  // a late flag per tick
+  const size_t bytes =
+      sizeof(Slot) * static_cast<size_t>(modules) + sizeof(int64_t) * 2 * static_cast<size_t>(modules) + flags_bytes;
   void* mem = ::mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_SHARED | MAP_ANONYMOUS, -1, 0);
   if (mem == MAP_FAILED) return 1;
   std::memset(mem, 0, bytes);
   auto* slots = static_cast<Slot*>(mem);
   auto* stats = reinterpret_cast<int64_t*>(slots + modules);  // per module: ticks, late ticks
+  auto* late_flags = reinterpret_cast<uint8_t*>(stats + 2 * modules);
   std::vector<pid_t> pids;
-  const long ticks = static_cast<long>(seconds * 1000.0);
   for (int m = 0; m < modules; ++m) {
     Slot* s = &slots[m];
     for (int j = 0; j < 2; ++j) {  // robots
@@ -120,6 +133,8 @@ int main(int argc, char** argv) {
         next += 1000000;
         timespec ts{static_cast<time_t>(next / 1000000000LL), static_cast<long>(next % 1000000000LL)};
         ::clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr);
+        const int64_t woke = now_ns();
+        if (woke - next > 500000) next = woke;  // re-anchor after a stall, as world::TickClock does
         const int32_t want = __atomic_load_n(&s->answers, __ATOMIC_ACQUIRE) + 2;
         for (int j = 0; j < 2; ++j) {
           __atomic_store_n(&s->sample[j], static_cast<int32_t>(k), __ATOMIC_RELEASE);
@@ -127,7 +142,10 @@ int main(int argc, char** argv) {
         }
         int32_t a;
         while ((a = __atomic_load_n(&s->answers, __ATOMIC_ACQUIRE)) < want) futex(&s->answers, FUTEX_WAIT, a);
-        if (now_ns() > next + 1000000) ++stats[2 * m + 1];
+        if (now_ns() > next + 1000000) {
+          ++stats[2 * m + 1];
+          late_flags[static_cast<size_t>(m) * static_cast<size_t>(ticks) + static_cast<size_t>(k - 1)] = 1;
+        }
         burn_us(world_us);
         ++stats[2 * m];
       }
@@ -152,6 +170,41 @@ int main(int argc, char** argv) {
   }
   std::printf("floor modules=%d seconds=%.1f robot_us=%.0f world_us=%.0f cpu_per_module=%.4f late=%.2f%%\n", modules,
               seconds, robot_us, world_us, cpu / seconds / modules, total > 0 ? 100.0 * static_cast<double>(late) / static_cast<double>(total) : 0.0);
+  // The overload rule on the floor's late ticks.
+  const tandem::world::OverloadRule rule;
+  long trips = 0, longest = 0, blocks = 0;
+  const int limits[] = {0, 1, 2, 5, 10};
+  long over[5] = {0, 0, 0, 0, 0};
+  for (int m = 0; m < modules; ++m) {
+    const uint8_t* f = late_flags + static_cast<size_t>(m) * static_cast<size_t>(ticks);
+    std::vector<uint8_t> ring(static_cast<size_t>(rule.window), 0);
+    long in_window = 0, run = 0, block_late = 0;
+    for (long k = 0; k < stats[2 * m]; ++k) {
+      uint8_t& slot = ring[static_cast<size_t>(k % rule.window)];
+      in_window += f[k] - slot;
+      slot = f[k];
+      run = f[k] ? run + 1 : 0;
+      longest = std::max(longest, run);
+      if (in_window > rule.max_late || run >= rule.max_consecutive) {  // a trip: the window starts over
+        ++trips;
+        std::fill(ring.begin(), ring.end(), 0);
+        in_window = 0;
+        run = 0;
+      }
+      block_late += f[k];
+      if ((k + 1) % rule.trial_ticks == 0) {
+        ++blocks;
+        for (int i = 0; i < 5; ++i) over[i] += block_late > limits[i] ? 1 : 0;
+        block_late = 0;
+      }
+    }
+  }
+  const double b = static_cast<double>(std::max(1L, blocks));
+  std::printf("floor rule: trips=%.2f/min longest_run=%ld trial_blocks=%ld late>0=%.1f%% >1=%.1f%% >2=%.1f%% >5=%.1f%% "
+              ">10=%.1f%%\n",
+              static_cast<double>(trips) / (seconds / 60.0) / modules, longest, blocks, 100.0 * static_cast<double>(over[0]) / b,
+              100.0 * static_cast<double>(over[1]) / b, 100.0 * static_cast<double>(over[2]) / b,
+              100.0 * static_cast<double>(over[3]) / b, 100.0 * static_cast<double>(over[4]) / b);
   ::munmap(mem, bytes);
   return 0;
 }

@@ -26,6 +26,7 @@ launcher::LoadSpec load_of(const Deployment& d) {
   l.realtime = d.timing == "realtime";
   l.overload_brake = d.overload_brake;
   l.simple_discovery = d.discovery == "simple";
+  l.pinned = d.cpu_affinity == "module" && d.hosts.empty();
   for (const auto& m : d.modules) l.standbys.push_back(m.standby);
   if (!d.modules.empty()) {
     const runtime::ModuleDeployment first = d.modules.front();
@@ -66,9 +67,9 @@ size_t done_in(const msg::CoordinatorState& cs) {
 }
 
 pid_t spawn(const std::string& exe, const std::vector<std::string>& args, int rt_priority, int participant_id,
-            const std::string& identity, bool own_group, const std::string& discovery) {
+            const std::string& identity, bool own_group, const std::string& discovery, int cpu) {
   return launcher::spawn("tandem up", exe, args,
-                         launcher::SpawnOptions{rt_priority, participant_id, identity, own_group, discovery});
+                         launcher::SpawnOptions{rt_priority, participant_id, identity, own_group, discovery, cpu});
 }
 
 launcher::ModuleSpec module_spec(const runtime::ModuleDeployment& cfg, bool* case_found) {

@@ -15,6 +15,7 @@
 
 #include "tandem/coordinator/options.hpp"
 #include "tandem/dds/bus.hpp"
+#include "tandem/launcher/cpu_plan.hpp"
 #include "tandem/launcher/estimate.hpp"
 #include "tandem/launcher/spawn.hpp"
 #include "tandem/launcher/supervisor.hpp"
@@ -40,7 +41,7 @@ size_t done_in(const msg::CoordinatorState& cs);
 /// `discovery`: ROS_DISCOVERY_SERVER for the child ("": this process's, inherited).
 pid_t spawn(const std::string& exe, const std::vector<std::string>& args, int rt_priority = 0,
             int participant_id = -1, const std::string& identity = "", bool own_group = true,
-            const std::string& discovery = "");
+            const std::string& discovery = "", int cpu = -1);
 /// A module of the deployment (or plugged from a scenario) as the supervisor runs it: its scenario read once.
 launcher::ModuleSpec module_spec(const runtime::ModuleDeployment& cfg, bool* case_found = nullptr);
 
@@ -48,7 +49,10 @@ launcher::ModuleSpec module_spec(const runtime::ModuleDeployment& cfg, bool* cas
 /// scheduling.
 class CommandLines {
  public:
-  CommandLines(const Deployment& d, std::string file) : d_(d), file_(std::move(file)), dir_(launcher::self_dir()) {
+  CommandLines(const Deployment& d, std::string file)
+      : d_(d), file_(std::move(file)), dir_(launcher::self_dir()),
+        cpus_(d.timing == "realtime" && d.cpu_affinity == "module" && d.hosts.empty() ? launcher::allowed_cpus()
+                                                                                       : std::vector<int>{}) {
     for (const auto& m : d.modules) modules_[m.name] = m;
   }
   void add(const runtime::ModuleDeployment& m) { modules_[m.name] = m; }
@@ -98,6 +102,10 @@ class CommandLines {
   /// (runtime::discovery_env); "" (the launcher's own: every server) for a coordinator and with simple discovery.
   std::string discovery(const Child& c) const { return c.module.empty() ? "" : runtime::discovery_env(d_, c.module); }
   int rt_priority(const Child& c) const { return c.role == "coordinator" ? 0 : rt_priority_; }
+  /// The CPU a per-tick process (world, robot) of a module is pinned to on this machine, -1: none (lockstep,
+  /// `cpu_affinity: none`, a supervisor or coordinator).
+  int cpu(const Child& c) const { return c.role == "world" || c.role == "robot" ? cpus_.cpu_of(c.module) : -1; }
+  bool pins_modules() const { return cpus_.active(); }
   /// SCHED_FIFO priority for the per-tick processes (0: normal scheduling); set once before any start.
   int rt_priority_ = 0;
 
@@ -132,6 +140,7 @@ class CommandLines {
   const Deployment& d_;
   std::string file_, dir_;
   std::map<std::string, runtime::ModuleDeployment> modules_;
+  mutable launcher::CpuPlan cpus_;  ///< given on a module's first start, the same for the run
 };
 
 /// Processes on this machine: fork/exec (launcher::spawn) and kill(2); their exits are reaped by reap_local().
@@ -142,7 +151,7 @@ class LocalExecutor : public launcher::Executor {
   int start(const Child& c) override {
     const std::vector<std::string> args = lines_.args(c);
     return spawn(lines_.exe(c), args, lines_.rt_priority(c), c.participant_id, lines_.identity(c),
-                 launcher::own_group_for(c.role, args), lines_.discovery(c));
+                 launcher::own_group_for(c.role, args), lines_.discovery(c), lines_.cpu(c));
   }
   void signal(const Child& c, int sig) override { ::kill(c.pid, sig); }
   void signal_spawn(const std::string& /*host*/, unsigned long long /*spawn_id*/, const std::string& /*label*/,

@@ -46,9 +46,10 @@ int UpRun::run() {
   if (const int code = prepare(); code >= 0) return code;
   if (!join_domain()) return 2;
   if (!d_.hosts.empty() && !wait_for_agents()) return 2;
-  std::printf("tandem up %s: %zu module(s), domain %d, %s, %s timing%s\n", d_.name.c_str(), d_.modules.size(),
+  std::printf("tandem up %s: %zu module(s), domain %d, %s, %s timing%s%s\n", d_.name.c_str(), d_.modules.size(),
               d_.domain_id, d_.transport.c_str(), d_.timing.c_str(),
-              lines_.rt_priority_ > 0 ? (", SCHED_FIFO " + std::to_string(lines_.rt_priority_)).c_str() : "");
+              lines_.rt_priority_ > 0 ? (", SCHED_FIFO " + std::to_string(lines_.rt_priority_)).c_str() : "",
+              lines_.pins_modules() ? ", each module's world and robots on one CPU" : "");
   capacity_ = launcher::capacity_estimate(load_of(d_));
   if (capacity_.text.find("warning") != std::string::npos) std::printf("tandem up: %s\n", capacity_.text.c_str());
   if (!start_recorder()) return 2;

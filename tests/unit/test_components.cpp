@@ -12,6 +12,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <set>
 #include <string>
@@ -541,8 +542,12 @@ struct OverloadRun {
 // its ticks do not), as under a hog on every core.
 // `kill_left_when_paused`: test only, an arm with no brakes (WorldOptions::brakes off); the left robot dies once
 // both arms are braked for load.
+/// Which arm-ticks come late: by default the left arm misses every third deadline from tick 1500 to 2500.
+using LateAt = std::function<bool(long k, int arm)>;
+bool every_third_left(long k, int arm) { return arm == 0 && k >= 1500 && k < 2500 && k % 3 == 0; }
+
 OverloadRun run_overload(const tandem::world::OverloadRule& rule, bool starve_when_held = false, double world_stall_s = 0.0,
-                         bool kill_left_when_paused = false) {
+                         bool kill_left_when_paused = false, const LateAt& late_at = every_third_left) {
   const ts::ModuleSetup& m = sosm();
   tandem::world::WorldOptions o = world_options(true);
   o.overload = rule;
@@ -593,7 +598,7 @@ OverloadRun run_overload(const tandem::world::OverloadRule& rule, bool starve_wh
       // Starved: once the world holds, the left robot sends nothing at all until its arm is braked.
       if (starve_when_held && j == 0 && run.held && !run.braked_both) continue;
       if (kill_left_when_paused && j == 0 && run.braked_both) continue;
-      const bool late = j == 0 && k >= 1500 && k < 2500 && k % 3 == 0;
+      const bool late = late_at(k, j);
       w.on_command(j, k, *tau, 100, now, late);
     }
     const bool was_paused = w.paused_for_load();
@@ -626,6 +631,32 @@ TEST_CASE("overload: late commands stop the path, both arms are braked once stil
   CHECK(run.contact_lost == 0);
   CHECK(run.object_y == Approx(0.8).margin(2e-3));  // the object is still held at its height
   CHECK_FALSE(run.paused_at_end);
+}
+
+TEST_CASE("overload: a trial with lateness under half the trip rate releases the module, one above it does not", "[components]") {
+  // After the overload (every third left command late, ticks 1500-2500) the left arm keeps coming late at the
+  // machine's floor and a little above: every 25th tick (4 of a 100-tick trial, under trial_max_late = 5; the
+  // rule before, 2 of both arms' 200, held a module whose floor was this paused for good), or every 16th (6 or 7).
+  // Never on a probe tick (a multiple of 10): the probes before a trial are answered in time.
+  const tandem::world::OverloadRule rule;
+  REQUIRE(rule.trial_max_late * 2 == rule.max_late);
+  const auto floor_after = [](long period) {
+    return [period](long k, int arm) { return every_third_left(k, arm) || (arm == 0 && k >= 2500 && k % period == 3); };
+  };
+  const OverloadRun near_floor = run_overload(rule, false, 0.0, false, floor_after(25));
+  INFO(near_floor.log);
+  CHECK(near_floor.released);
+  CHECK(near_floor.load_pauses == 1);  // 4% late: under the running rule's 10%, never tripped again
+  CHECK_FALSE(near_floor.paused_at_end);
+  CHECK(near_floor.log.find("back in time: 96 and 100 of 100") != std::string::npos);
+  CHECK(near_floor.slips == 0);
+  const OverloadRun above = run_overload(rule, false, 0.0, false, floor_after(16));
+  INFO(above.log);
+  CHECK_FALSE(above.released);
+  CHECK(above.paused_at_end);
+  CHECK(above.log.find(" late commands of one arm in a 100-tick trial (5 allowed)") != std::string::npos);
+  CHECK(above.log.find("back in time") == std::string::npos);
+  CHECK(above.slips == 0);
 }
 
 TEST_CASE("test only, no brakes: a robot killed while its module is paused for load lets its arm fall, and the drop fails the module", "[components]") {

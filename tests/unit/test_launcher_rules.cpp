@@ -2,23 +2,32 @@
 // means, rule by rule, as launcher::Supervisor carries them out (docs/failure-model.md, "Failure tiers").
 #include <catch2/catch.hpp>
 
+#include <pthread.h>
+#include <sched.h>
 #include <sys/resource.h>
+#include <sys/syscall.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <atomic>
 #include <cerrno>
+#include <chrono>
 #include <fstream>
 #include <map>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <utility>
 #include <vector>
 
 #include "tandem/launcher/agent_core.hpp"
+#include "tandem/launcher/cpu_plan.hpp"
 #include "tandem/launcher/drain_watch.hpp"
 #include "tandem/launcher/exit_rules.hpp"
 #include "tandem/launcher/plug_rules.hpp"
 #include "tandem/launcher/spawn.hpp"
+#include "tandem/runtime/role.hpp"
 
 using namespace tandem::launcher;
 
@@ -526,4 +535,94 @@ TEST_CASE("launcher::spawn: a child leads a session, and so an autogroup, of its
   if (raised && (enabled >> on) && on == 1 && own.find(" nice ") != std::string::npos) {
     CHECK(own.find(" nice " + std::to_string(kServiceNice)) != std::string::npos);
   }
+}
+
+TEST_CASE("CpuPlan: each module's per-tick processes get one CPU, the same for the run, modules round the CPUs",
+          "[launcher]") {
+  CpuPlan plan({0, 1});
+  CHECK(plan.cpu_of("m1") == 0);
+  CHECK(plan.cpu_of("m2") == 1);
+  CHECK(plan.cpu_of("m1") == 0);  // a restarted robot of m1 joins its world
+  CHECK(plan.cpu_of("m3") == 0);
+  CHECK(plan.cpu_of("m4") == 1);
+  CHECK(plan.cpu_of("m2") == 1);
+  CHECK(plan.modules_on(0) == 2);
+  CHECK(plan.modules_on(1) == 2);
+  CHECK(plan.modules_on(7) == 0);
+  // A cpuset that leaves out CPU 0: only the CPUs given are used.
+  CpuPlan some({2, 5, 6});
+  CHECK(some.cpu_of("a") == 2);
+  CHECK(some.cpu_of("b") == 5);
+  CHECK(some.cpu_of("c") == 6);
+  CHECK(some.cpu_of("d") == 2);
+  // No CPUs (lockstep, cpu_affinity: none): no pinning.
+  CpuPlan none({});
+  CHECK(none.cpu_of("m1") == -1);
+  const std::vector<int> here = allowed_cpus();
+  CHECK_FALSE(here.empty());
+  CHECK(std::is_sorted(here.begin(), here.end()));
+}
+
+namespace {
+// Runs a shell through launcher::spawn that writes its TANDEM_CPU ("-" when unset) to `out`.
+std::string spawned_cpu_env(int cpu, const std::string& out) {
+  SpawnOptions opt;
+  opt.cpu = cpu;
+  const pid_t pid = spawn("test", "/bin/sh", {"-c", "echo \"${TANDEM_CPU:--}\" > " + out}, opt);
+  REQUIRE(pid > 0);
+  int status = 0;
+  REQUIRE(::waitpid(pid, &status, 0) == pid);
+  std::ifstream in(out);
+  std::string v;
+  in >> v;
+  return v;
+}
+}  // namespace
+
+TEST_CASE("TANDEM_CPU: spawn sets it or drops an inherited one, and a per-tick process pins every thread to it",
+          "[launcher]") {
+  const std::string out = "/tmp/tandem-spawn-cpu-" + std::to_string(::getpid());
+  ::setenv("TANDEM_CPU", "7", 1);  // the launcher's own, if any, is never passed on
+  CHECK(spawned_cpu_env(1, out) == "1");
+  CHECK(spawned_cpu_env(-1, out) == "-");
+  ::unsetenv("TANDEM_CPU");
+  std::remove(out.c_str());
+  CHECK(tandem::runtime::parse_cpu("0") == 0);
+  CHECK(tandem::runtime::parse_cpu("3") == 3);
+  CHECK(tandem::runtime::parse_cpu("") == -1);
+  CHECK(tandem::runtime::parse_cpu(nullptr) == -1);
+  CHECK(tandem::runtime::parse_cpu("-1") == -1);
+  CHECK(tandem::runtime::parse_cpu("1x") == -1);
+  CHECK(tandem::runtime::parse_cpu("100000") == -1);
+  // In a child (the test process stays unpinned): two threads, both pinned to the last CPU this process may use.
+  const int cpu = allowed_cpus().back();
+  const pid_t pid = ::fork();
+  REQUIRE(pid >= 0);
+  if (pid == 0) {
+    ::setenv("TANDEM_CPU", std::to_string(cpu).c_str(), 1);
+    std::atomic<bool> go{false};
+    std::thread other([&go] {
+      while (!go.load()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    });
+    const int pinned = tandem::runtime::pin_to_cpu_from_env();
+    int ok = pinned == 2 ? 1 : 0;
+    for (const pid_t tid : {static_cast<pid_t>(::getpid()), static_cast<pid_t>(::syscall(SYS_gettid))}) {
+      cpu_set_t set;
+      CPU_ZERO(&set);
+      if (::sched_getaffinity(tid, sizeof set, &set) != 0 || CPU_COUNT(&set) != 1 || !CPU_ISSET(cpu, &set)) ok = 0;
+    }
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    if (::pthread_getaffinity_np(other.native_handle(), sizeof set, &set) != 0 || CPU_COUNT(&set) != 1 ||
+        !CPU_ISSET(cpu, &set)) {
+      ok = 0;
+    }
+    go = true;
+    other.join();
+    ::_exit(ok == 1 ? 0 : 1);
+  }
+  int status = 0;
+  REQUIRE(::waitpid(pid, &status, 0) == pid);
+  CHECK(WIFEXITED(status));
+  CHECK(WEXITSTATUS(status) == 0);
 }

@@ -1,6 +1,7 @@
 #include "tandem/launcher/capacity.hpp"
 
 #include <linux/futex.h>
+#include <sched.h>
 #include <sys/mman.h>
 #include <sys/resource.h>
 #include <sys/syscall.h>
@@ -27,9 +28,26 @@ double cpu_s(const rusage& ru) {
 
 }  // namespace
 
-Calibration calibrate_wakeup(int round_trips) {
+Calibration calibrate_wakeup(int round_trips, int cpu) {
   Calibration c;
   const auto t0 = std::chrono::steady_clock::now();
+  // Pinned: this thread (its mask put back at the end) and the child, which inherits it.
+  cpu_set_t before_mask;
+  CPU_ZERO(&before_mask);
+  bool pinned = false;
+  if (cpu >= 0 && cpu < CPU_SETSIZE && ::sched_getaffinity(0, sizeof before_mask, &before_mask) == 0) {
+    cpu_set_t one;
+    CPU_ZERO(&one);
+    CPU_SET(cpu, &one);
+    pinned = ::sched_setaffinity(0, sizeof one, &one) == 0;
+  }
+  struct Restore {
+    bool on;
+    cpu_set_t* mask;
+    ~Restore() {
+      if (on) (void)::sched_setaffinity(0, sizeof *mask, mask);
+    }
+  } restore{pinned, &before_mask};
   // One word: 0 the parent's turn, 1 the child's, 2 the child leaves.
   void* mem = ::mmap(nullptr, 4096, PROT_READ | PROT_WRITE, MAP_SHARED | MAP_ANONYMOUS, -1, 0);
   if (mem == MAP_FAILED) return c;
@@ -74,8 +92,8 @@ Calibration calibrate_wakeup(int round_trips) {
   ::munmap(mem, 4096);
   c.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (!reaped || round_trips <= 0) return c;
-  const double cpu = cpu_s(after) - cpu_s(before) + cpu_s(child);
-  c.wake_us = cpu / (3.0 * round_trips) * 1e6;  // per tick: the timer's, the child's and the parent's wake-up
+  const double cpu_used = cpu_s(after) - cpu_s(before) + cpu_s(child);
+  c.wake_us = cpu_used / (3.0 * round_trips) * 1e6;  // per tick: the timer's, the child's and the parent's wake-up
   c.ok = c.wake_us > 0.0;
   return c;
 }

@@ -1,6 +1,8 @@
 // The real-time capacity estimate and admission (estimate.hpp).
 #include "tandem/launcher/estimate.hpp"
 
+#include "tandem/launcher/cpu_plan.hpp"
+
 #include <time.h>
 #include <unistd.h>
 
@@ -77,7 +79,8 @@ Capacity capacity_estimate(const LoadSpec& d) {
     return cap;
   }
   cap.realtime = true;
-  Calibration cal = calibrate_wakeup();
+  const std::vector<int> cpus = d.pinned ? allowed_cpus() : std::vector<int>{};
+  Calibration cal = calibrate_wakeup(300, cpus.empty() ? -1 : cpus.front());
   const auto t0 = std::chrono::steady_clock::now();
   if (!d.standbys.empty() && d.first_module) {
     try {

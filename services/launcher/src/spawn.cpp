@@ -27,7 +27,7 @@ pid_t spawn(const std::string& who, const std::string& exe, const std::vector<st
   std::vector<std::string> env_text;
   for (char** e = environ; *e != nullptr; ++e) {
     if (std::strncmp(*e, "TANDEM_PARTICIPANT_ID=", 22) != 0 && std::strncmp(*e, "TANDEM_IDENTITY=", 16) != 0 &&
-        std::strncmp(*e, "TANDEM_RT_PRIORITY=", 19) != 0 &&
+        std::strncmp(*e, "TANDEM_RT_PRIORITY=", 19) != 0 && std::strncmp(*e, "TANDEM_CPU=", 11) != 0 &&
         (opt.discovery.empty() || std::strncmp(*e, "ROS_DISCOVERY_SERVER=", 21) != 0)) {
       env_text.emplace_back(*e);
     }
@@ -39,6 +39,7 @@ pid_t spawn(const std::string& who, const std::string& exe, const std::vector<st
   // Real time once active: the child starts at normal priority and raises itself when it turns active
   // (runtime::raise_to_realtime_from_env), so that its start-up never preempts the running modules.
   if (opt.rt_priority > 0) env_text.push_back("TANDEM_RT_PRIORITY=" + std::to_string(opt.rt_priority));
+  if (opt.cpu >= 0) env_text.push_back("TANDEM_CPU=" + std::to_string(opt.cpu));
   std::vector<char*> envp;
   envp.reserve(env_text.size() + 1);
   for (auto& e : env_text) envp.push_back(e.data());

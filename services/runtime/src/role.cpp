@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <cerrno>
 #include <cstdlib>
+#include <cstring>
 #include <limits>
 #include <stdexcept>
 
@@ -149,7 +150,40 @@ int run_guarded(const char* program, int (*body)(int, char**), int argc, char** 
   return launcher::exit_code::kError;
 }
 
+int parse_cpu(const char* text) {
+  if (text == nullptr || *text == '\0') return -1;
+  char* end = nullptr;
+  const long v = std::strtol(text, &end, 10);
+  if (*end != '\0' || v < 0 || v >= CPU_SETSIZE) return -1;
+  return static_cast<int>(v);
+}
+
+int pin_to_cpu_from_env() {
+  const int cpu = parse_cpu(std::getenv("TANDEM_CPU"));
+  if (cpu < 0) return 0;
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  CPU_SET(cpu, &set);
+  int pinned = 0;
+  DIR* dir = ::opendir("/proc/self/task");
+  if (dir == nullptr) return ::sched_setaffinity(0, sizeof set, &set) == 0 ? 1 : -1;
+  while (const dirent* e = ::readdir(dir)) {
+    if (e->d_name[0] < '0' || e->d_name[0] > '9') continue;
+    if (::sched_setaffinity(static_cast<pid_t>(std::atoi(e->d_name)), sizeof set, &set) != 0) {
+      pinned = -1;
+      break;
+    }
+    ++pinned;
+  }
+  ::closedir(dir);
+  return pinned;
+}
+
 int raise_to_realtime_from_env(bool per_tick) {
+  if (per_tick && pin_to_cpu_from_env() < 0) {
+    std::fprintf(stderr, "tandem: could not pin to CPU %s (TANDEM_CPU): %s; running on any CPU\n", std::getenv("TANDEM_CPU"),
+                 std::strerror(errno));
+  }
   const char* env = std::getenv("TANDEM_RT_PRIORITY");
   const int priority = env != nullptr ? std::atoi(env) : 0;
   if (priority <= 0) {

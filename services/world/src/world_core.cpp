@@ -664,14 +664,15 @@ bool WorldCore::end_tick(int64_t now_ns) {
   ++load_paused_ticks;
   if (trial_ticks_ >= 0) {
     // The trial: full-rate samples with the arms still braked. Released only if the robots kept up.
-    trial_late_ += (have_[0] ? 0 : 1) + (have_[1] ? 0 : 1);
+    for (size_t a = 0; a < 2; ++a) trial_late_[a] += have_[a] ? 0 : 1;
     if (++trial_ticks_ < rule.trial_ticks) return go_on;
-    if (trial_late_ <= rule.trial_max_late) {
+    const int worst = std::max(trial_late_[0], trial_late_[1]);
+    if (worst <= rule.trial_max_late) {
       load_paused_ = false;
       load_released_ns_ = now_ns;
-      char why[128];
-      std::snprintf(why, sizeof why, "back in time: %d of %d full-rate ticks answered in time after %.1f s braked",
-                    2 * rule.trial_ticks - trial_late_, 2 * rule.trial_ticks, backoff_s_);
+      char why[160];
+      std::snprintf(why, sizeof why, "back in time: %d and %d of %d full-rate ticks answered in time after %.1f s braked",
+                    rule.trial_ticks - trial_late_[0], rule.trial_ticks - trial_late_[1], rule.trial_ticks, backoff_s_);
       for (int j = 0; j < 2; ++j) set_brake(j, false, why);
       serving_changed_ = true;
       clear_rings();
@@ -679,8 +680,9 @@ bool WorldCore::end_tick(int64_t now_ns) {
       // Not yet: back to probes, and try again after a longer backoff.
       backoff_s_ = std::min(backoff_s_ * 2.0, rule.backoff_max_s);
       load_until_ns_ = now_ns + static_cast<int64_t>(backoff_s_ * (1.0 + 0.5 * jitter_) * 1e9);
-      log("still overloaded: " + std::to_string(trial_late_) + " late commands in a " + std::to_string(rule.trial_ticks) +
-          "-tick trial at tick " + std::to_string(k_) + "; next try in " + std::to_string(backoff_s_).substr(0, 4) + " s");
+      log("still overloaded: " + std::to_string(worst) + " late commands of one arm in a " + std::to_string(rule.trial_ticks) +
+          "-tick trial (" + std::to_string(rule.trial_max_late) + " allowed) at tick " + std::to_string(k_) + "; next try in " +
+          std::to_string(backoff_s_).substr(0, 4) + " s");
       good_probes_ = 0;
     }
     trial_ticks_ = -1;
@@ -691,7 +693,7 @@ bool WorldCore::end_tick(int64_t now_ns) {
   }
   if (good_probes_ >= rule.resume_probes && now_ns >= load_until_ns_) {
     trial_ticks_ = 0;  // from the next tick: the full-rate trial
-    trial_late_ = 0;
+    trial_late_ = {0, 0};
   }
   return go_on;
 }

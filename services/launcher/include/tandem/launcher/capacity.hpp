@@ -24,8 +24,10 @@ struct Calibration {
 
 /// Measures the CPU of a cross-process wake-up: `ticks` ticks of 1 ms, each a futex round trip between this
 /// process (woken by its timer) and a forked child, so that the cores idle between ticks as in a deployment;
-/// the CPU both used over 3 wake-ups per tick. Fills wake_us, seconds and ok.
-Calibration calibrate_wakeup(int ticks = 300);
+/// the CPU both used over 3 wake-ups per tick. Fills wake_us, seconds and ok. With `cpu` >= 0 both run on that
+/// CPU (the calling thread's affinity is put back after), as a module's processes do with `cpu_affinity: module`:
+/// a wake-up across CPUs of a virtual machine costs several times one on the same CPU.
+Calibration calibrate_wakeup(int ticks = 300, int cpu = -1);
 
 /// The per-module cost model (docs/benchmarks.md, "Capacity").
 struct CapacityModel {

@@ -29,6 +29,8 @@ struct LoadSpec {
   bool realtime = false;          ///< timing: realtime
   bool overload_brake = true;
   bool simple_discovery = true;   ///< discovery: simple
+  /// cpu_affinity: module (a module's processes on one CPU): the wake-up is calibrated on one CPU too
+  bool pinned = false;
   std::vector<int> standbys;      ///< per module of the file: its standby robots per arm
   /// The first module, built from its scenario (timed; nothing or an exception: the model's share is left out).
   std::function<std::optional<sim::ModuleSetup>()> first_module;

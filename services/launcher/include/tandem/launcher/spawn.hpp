@@ -19,6 +19,9 @@ struct SpawnOptions {
   /// ROS_DISCOVERY_SERVER for the child ("": the parent's, inherited): a module's processes are clients of their
   /// module's Discovery Server only (runtime::discovery_env).
   std::string discovery;
+  /// TANDEM_CPU for the child (-1: none, and an inherited one is dropped): a per-tick process pins every thread
+  /// to this CPU once active (runtime::raise_to_realtime_from_env).
+  int cpu = -1;
 };
 
 /// Whether a role process gets an autogroup of its own: the control plane (supervisors, coordinators) always, and

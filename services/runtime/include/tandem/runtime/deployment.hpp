@@ -68,6 +68,9 @@ struct Deployment {
   /// tick; 0 = normal scheduling. Ignored in lockstep. Falls back to normal scheduling, with a note, where
   /// the system does not permit it (needs root or CAP_SYS_NICE / RLIMIT_RTPRIO).
   int realtime_priority = 20;
+  /// Real time, processes on this machine: module (each module's world and robots pinned to one CPU of their own,
+  /// modules round the CPUs, launcher::CpuPlan) or none (the scheduler places every thread).
+  std::string cpu_affinity = "module";
   bool overload_brake = true;  ///< real time: brake and pause a module whose commands keep coming late
   /// Real time with a coordinator: park whole modules when the load does not fit (launcher::Governor), and
   /// start the ones the calibrated estimate does not fit parked.

@@ -1,5 +1,5 @@
 // Which CPU a module's per-tick processes (its world and every robot of it, standbys included) run on in real
-// time (deployment key `cpu_affinity: module`, docs/architecture.md "Real-time timing"). A module's processes wake
+// time (deployment key `cpu_affinity: module`, opt-in, docs/architecture.md "Real-time timing"). A module's processes wake
 // each other twice per arm per tick; on one CPU a wake-up needs no inter-processor interrupt, which on the 2-vCPU
 // virtual machines measured is what made SCHED_FIFO late (docs/benchmarks.md item 48). The plan is a rule, no
 // system call: `tandem up` gives it the CPUs it may use (sched_getaffinity) and asks per module.

@@ -69,8 +69,10 @@ struct Deployment {
   /// the system does not permit it (needs root or CAP_SYS_NICE / RLIMIT_RTPRIO).
   int realtime_priority = 20;
   /// Real time, processes on this machine: module (each module's world and robots pinned to one CPU of their own,
-  /// modules round the CPUs, launcher::CpuPlan) or none (the scheduler places every thread).
-  std::string cpu_affinity = "module";
+  /// modules round the CPUs, launcher::CpuPlan) or none (the scheduler places every thread; the default: pinned,
+  /// a Fast DDS thread of a world spun at SCHED_FIFO for 15 minutes and took its CPU and the machine with it, soak
+  /// run 58, docs/soak.md finding 85).
+  std::string cpu_affinity = "none";
   bool overload_brake = true;  ///< real time: brake and pause a module whose commands keep coming late
   /// Real time with a coordinator: park whole modules when the load does not fit (launcher::Governor), and
   /// start the ones the calibrated estimate does not fit parked.

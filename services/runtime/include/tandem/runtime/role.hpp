@@ -75,10 +75,11 @@ void install_stop_handlers();
 /// robot: `per_tick`) that inherited the launcher's raised niceness (launcher::kServiceNice) goes back to niceness 0,
 /// so that lockstep's per-tick work, which fills every core, never starves the control plane (supervisors,
 /// coordinators, the launcher, processes starting); a supervisor keeps it.
-/// A per-tick process (`per_tick`) with TANDEM_CPU set (launcher::SpawnOptions::cpu) is first pinned, every thread,
-/// to that CPU: a module's world and robots on one core wake each other without a cross-CPU interrupt (on the
-/// 2-vCPU virtual machines measured, SCHED_FIFO across the two vCPUs tripped the overload rule on the bare floor
-/// 1.5-18 times a minute and pinned not once: docs/benchmarks.md item 48).
+/// A per-tick process (`per_tick`) with TANDEM_CPU set (launcher::SpawnOptions::cpu, deployment key
+/// `cpu_affinity: module`) is first pinned, every thread, to that CPU: a module's world and robots on one core wake
+/// each other without a cross-CPU interrupt (on the 2-vCPU virtual machines measured, SCHED_FIFO across the two
+/// vCPUs tripped the overload rule on the bare floor 1.5-18 times a minute and pinned not once: docs/benchmarks.md
+/// item 48). Opt-in: a Fast DDS thread that spins at SCHED_FIFO then holds the module's CPU (soak finding 85).
 int raise_to_realtime_from_env(bool per_tick = true);
 
 /// TANDEM_CPU's value: a CPU number in [0, CPU_SETSIZE), or -1 (unset, empty or not a number).

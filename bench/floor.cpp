@@ -104,7 +104,7 @@ int main(int argc, char** argv) {
   std::memset(mem, 0, bytes);
   auto* slots = static_cast<Slot*>(mem);
   auto* stats = reinterpret_cast<int64_t*>(slots + modules);  // per module: ticks, late ticks
-  auto* late_flags = reinterpret_cast<uint8_t*>(stats + 2 * modules);
+  auto* late_flags = reinterpret_cast<uint8_t*>(stats + 2 * static_cast<size_t>(modules));
   std::vector<pid_t> pids;
   for (int m = 0; m < modules; ++m) {
     Slot* s = &slots[m];
@@ -143,11 +143,11 @@ int main(int argc, char** argv) {
         int32_t a;
         while ((a = __atomic_load_n(&s->answers, __ATOMIC_ACQUIRE)) < want) futex(&s->answers, FUTEX_WAIT, a);
         if (now_ns() > next + 1000000) {
-          ++stats[2 * m + 1];
+          ++stats[2 * static_cast<size_t>(m) + 1];
           late_flags[static_cast<size_t>(m) * static_cast<size_t>(ticks) + static_cast<size_t>(k - 1)] = 1;
         }
         burn_us(world_us);
-        ++stats[2 * m];
+        ++stats[2 * static_cast<size_t>(m)];
       }
       for (int j = 0; j < 2; ++j) {
         __atomic_store_n(&s->sample[j], -1, __ATOMIC_RELEASE);
@@ -165,8 +165,8 @@ int main(int argc, char** argv) {
   }
   long long total = 0, late = 0;
   for (int m = 0; m < modules; ++m) {
-    total += stats[2 * m];
-    late += stats[2 * m + 1];
+    total += stats[2 * static_cast<size_t>(m)];
+    late += stats[2 * static_cast<size_t>(m) + 1];
   }
   std::printf("floor modules=%d seconds=%.1f robot_us=%.0f world_us=%.0f cpu_per_module=%.4f late=%.2f%%\n", modules,
               seconds, robot_us, world_us, cpu / seconds / modules, total > 0 ? 100.0 * static_cast<double>(late) / static_cast<double>(total) : 0.0);
@@ -179,7 +179,7 @@ int main(int argc, char** argv) {
     const uint8_t* f = late_flags + static_cast<size_t>(m) * static_cast<size_t>(ticks);
     std::vector<uint8_t> ring(static_cast<size_t>(rule.window), 0);
     long in_window = 0, run = 0, block_late = 0;
-    for (long k = 0; k < stats[2 * m]; ++k) {
+    for (long k = 0; k < stats[2 * static_cast<size_t>(m)]; ++k) {
       uint8_t& slot = ring[static_cast<size_t>(k % rule.window)];
       in_window += f[k] - slot;
       slot = f[k];

@@ -8,7 +8,7 @@
 // clock, so a stall makes one late tick, not a burst of catch-up ticks.
 // It also runs the world's overload rule (world::OverloadRule's defaults) on the floor's late ticks, to show how
 // often the bare machine alone would trip it: trips of the running rule (more than max_late late ticks in a
-// sliding window, or max_consecutive in a row) per minute, the longest run of late ticks, and the share of
+// sliding window, or max_consecutive in a row) per module-minute, the longest run of late ticks, and the share of
 // trial-sized blocks (trial_ticks) with more than 0, 1, 2, 5 and 10 late ticks (a late tick here is a tick with
 // an arm late: 2 arm-ticks at most, counted as 1, so the floor's figures are a lower bound for the rule).
 //

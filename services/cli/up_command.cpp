@@ -41,7 +41,8 @@ void describe(CLI::App& app, up::UpOptions& o, std::string& record_file) {
       "Robots, supervisors and coordinators can have hot standbys and are restarted by the file's restart policy;\n"
       "with a coordinator, a module whose world (or supervisor, without a standby) fails is stopped and the others\n"
       "go on (docs/failure-model.md). In real-time timing the world, supervisors and robots run SCHED_FIFO at the\n"
-      "file's realtime_priority (default 20; a note says so if the system refuses it).");
+      "file's realtime_priority (default 20; a note says so if the system refuses it); with cpu_affinity: module\n"
+      "each module's world and robots are pinned to one CPU of their own (opt-in, docs/architecture.md).");
   app.add_option("deploy", o.file, "the deployment file (docs/architecture.md)")->required()->type_name("DEPLOY.yaml");
   app.add_option("--summary", o.summary_file, "also write the summary as key=value lines (full precision)")
       ->type_name("FILE");

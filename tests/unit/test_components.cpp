@@ -657,6 +657,14 @@ TEST_CASE("overload: a trial with lateness under half the trip rate releases the
   CHECK(above.log.find(" late commands of one arm in a 100-tick trial (5 allowed)") != std::string::npos);
   CHECK(above.log.find("back in time") == std::string::npos);
   CHECK(above.slips == 0);
+  // The bound is per arm: both arms 4 late in each trial (8 of the 200 arm-ticks) still releases.
+  const OverloadRun both = run_overload(rule, false, 0.0, false, [](long k, int arm) {
+    return every_third_left(k, arm) || (k >= 2500 && k % 25 == (arm == 0 ? 3 : 7));
+  });
+  INFO(both.log);
+  CHECK(both.released);
+  CHECK(both.log.find("back in time: 96 and 96 of 100") != std::string::npos);
+  CHECK(both.slips == 0);
 }
 
 TEST_CASE("test only, no brakes: a robot killed while its module is paused for load lets its arm fall, and the drop fails the module", "[components]") {

@@ -583,9 +583,11 @@ TEST_CASE("TANDEM_CPU: spawn sets it or drops an inherited one, and a per-tick p
           "[launcher]") {
   const std::string out = "/tmp/tandem-spawn-cpu-" + std::to_string(::getpid());
   ::setenv("TANDEM_CPU", "7", 1);  // the launcher's own, if any, is never passed on
+  struct Unset {
+    ~Unset() { ::unsetenv("TANDEM_CPU"); }  // also when a REQUIRE throws
+  } unset;
   CHECK(spawned_cpu_env(1, out) == "1");
   CHECK(spawned_cpu_env(-1, out) == "-");
-  ::unsetenv("TANDEM_CPU");
   std::remove(out.c_str());
   CHECK(tandem::runtime::parse_cpu("0") == 0);
   CHECK(tandem::runtime::parse_cpu("3") == 3);

@@ -170,6 +170,7 @@ int pin_to_cpu_from_env() {
   while (const dirent* e = ::readdir(dir)) {
     if (e->d_name[0] < '0' || e->d_name[0] > '9') continue;
     if (::sched_setaffinity(static_cast<pid_t>(std::atoi(e->d_name)), sizeof set, &set) != 0) {
+      if (errno == ESRCH) continue;  // a thread that ended meanwhile
       pinned = -1;
       break;
     }

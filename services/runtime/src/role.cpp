@@ -158,6 +158,21 @@ int parse_cpu(const char* text) {
   return static_cast<int>(v);
 }
 
+namespace {
+/// Calls `fn(tid)` for every thread of this process until it returns false; false if /proc/self/task is unreadable.
+template <class Fn>
+bool for_each_thread(Fn fn) {
+  DIR* dir = ::opendir("/proc/self/task");
+  if (dir == nullptr) return false;
+  while (const dirent* e = ::readdir(dir)) {
+    if (e->d_name[0] < '0' || e->d_name[0] > '9') continue;
+    if (!fn(static_cast<pid_t>(std::atoi(e->d_name)))) break;
+  }
+  ::closedir(dir);
+  return true;
+}
+}  // namespace
+
 int pin_to_cpu_from_env() {
   const int cpu = parse_cpu(std::getenv("TANDEM_CPU"));
   if (cpu < 0) return 0;
@@ -165,18 +180,16 @@ int pin_to_cpu_from_env() {
   CPU_ZERO(&set);
   CPU_SET(cpu, &set);
   int pinned = 0;
-  DIR* dir = ::opendir("/proc/self/task");
-  if (dir == nullptr) return ::sched_setaffinity(0, sizeof set, &set) == 0 ? 1 : -1;
-  while (const dirent* e = ::readdir(dir)) {
-    if (e->d_name[0] < '0' || e->d_name[0] > '9') continue;
-    if (::sched_setaffinity(static_cast<pid_t>(std::atoi(e->d_name)), sizeof set, &set) != 0) {
-      if (errno == ESRCH) continue;  // a thread that ended meanwhile
-      pinned = -1;
-      break;
+  const bool listed = for_each_thread([&](pid_t tid) {
+    if (::sched_setaffinity(tid, sizeof set, &set) == 0) {
+      ++pinned;
+      return true;
     }
-    ++pinned;
-  }
-  ::closedir(dir);
+    if (errno == ESRCH) return true;  // a thread that ended meanwhile
+    pinned = -1;
+    return false;
+  });
+  if (!listed) return ::sched_setaffinity(0, sizeof set, &set) == 0 ? 1 : -1;
   return pinned;
 }
 
@@ -192,12 +205,10 @@ int raise_to_realtime_from_env(bool per_tick) {
     errno = 0;
     const int nice_now = ::getpriority(PRIO_PROCESS, 0);
     if (!per_tick || errno != 0 || nice_now >= 0) return 0;
-    if (DIR* dir = ::opendir("/proc/self/task")) {
-      while (const dirent* e = ::readdir(dir)) {
-        if (e->d_name[0] >= '0' && e->d_name[0] <= '9') (void)::setpriority(PRIO_PROCESS, static_cast<id_t>(std::atoi(e->d_name)), 0);
-      }
-      ::closedir(dir);
-    }
+    (void)for_each_thread([](pid_t tid) {
+      (void)::setpriority(PRIO_PROCESS, static_cast<id_t>(tid), 0);
+      return true;
+    });
     // And its autogroup (launcher::spawn gave it its own, at the niceness it inherited).
     if (launcher::leads_session()) (void)launcher::set_autogroup_nice(0);
     return 0;
@@ -205,17 +216,15 @@ int raise_to_realtime_from_env(bool per_tick) {
   sched_param sp{};
   sp.sched_priority = priority;
   int raised = 0;
-  DIR* dir = ::opendir("/proc/self/task");
-  if (dir == nullptr) return ::sched_setscheduler(0, SCHED_FIFO, &sp) == 0 ? 1 : -1;
-  while (const dirent* e = ::readdir(dir)) {
-    if (e->d_name[0] < '0' || e->d_name[0] > '9') continue;
-    if (::sched_setscheduler(static_cast<pid_t>(std::atoi(e->d_name)), SCHED_FIFO, &sp) != 0) {
+  const bool listed = for_each_thread([&](pid_t tid) {
+    if (::sched_setscheduler(tid, SCHED_FIFO, &sp) != 0) {
       raised = -1;
-      break;
+      return false;
     }
     ++raised;
-  }
-  ::closedir(dir);
+    return true;
+  });
+  if (!listed) return ::sched_setscheduler(0, SCHED_FIFO, &sp) == 0 ? 1 : -1;
   return raised;
 }
 

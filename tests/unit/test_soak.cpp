@@ -569,6 +569,55 @@ TEST_CASE("soak checker: progress is judged per module in service, and a module'
   CHECK(find(two(false, true), "progress") == nullptr);   // a fault on m2 meanwhile: excused
 }
 
+TEST_CASE("soak checker: the overall progress gap counts only time with a module in service") {
+  // m1 alone; no task done from 20 s to 90 s (70 s on the wall clock).
+  auto gap = [](double paused_from, double paused_to, bool drop_samples) {
+    History h = quiet_history(120.0);
+    std::vector<std::string> kept_names, kept_done, kept_by;
+    std::vector<Event> kept;
+    for (const Event& e : h.events) {
+      const bool task = e.type == Event::Type::TaskAssigned || e.type == Event::Type::TaskDone;
+      if (task && e.t > 20.0 && e.t < 90.0) continue;
+      kept.push_back(e);
+    }
+    h.events = kept;
+    for (size_t i = 0; i < h.tasks_done.size(); ++i) {
+      const int k = std::atoi(h.tasks_done[i].c_str() + 1);
+      if (4.0 * k > 20.0 && 4.0 * k < 90.0) continue;
+      kept_done.push_back(h.tasks_done[i]);
+      kept_by.push_back(h.tasks_done_by[i]);
+    }
+    for (const std::string& n : h.task_names) {
+      const int k = std::atoi(n.c_str() + 1);
+      if (!(4.0 * k > 20.0 && 4.0 * k < 90.0)) kept_names.push_back(n);
+    }
+    h.tasks_done = kept_done;
+    h.tasks_done_by = kept_by;
+    h.task_names = kept_names;
+    std::vector<ModuleSample> series;
+    for (ModuleSample s : h.modules["m1"]) {
+      const bool inside = s.t > paused_from && s.t < paused_to;
+      if (inside && drop_samples) continue;  // unplugged or parked: no world, no samples
+      if (inside) s.load_paused = true;
+      series.push_back(s);
+    }
+    h.modules["m1"] = series;
+    return check(h, Bounds{});
+  };
+  // In service throughout: 70 s without a task is a violation, and the text says how much of it was in service.
+  const Verdict busy = gap(0.0, 0.0, false);
+  const Violation* x = find(busy, "progress");
+  REQUIRE(x != nullptr);
+  CHECK_THAT(x->text, Catch::Contains("no task was done from 20.0 s to 92.0 s") && Catch::Contains("72.0 s of it with a module in service"));
+  // Paused for load from 30 s to 80 s: 22.1 s in service, under the 45 s bound.
+  CHECK(find(gap(30.0, 80.0, false), "progress") == nullptr);
+  // Out (no samples) from 30 s to 80 s: the same.
+  CHECK(find(gap(30.0, 80.0, true), "progress") == nullptr);
+  // Paused only from 50 s to 60 s: 62.1 s in service, still a violation.
+  REQUIRE(find(gap(50.0, 60.0, false), "progress") != nullptr);
+  CHECK_THAT(find(gap(50.0, 60.0, false), "progress")->text, Catch::Contains("62.1 s of it with a module in service"));
+}
+
 TEST_CASE("soak checker: anything left behind is a violation") {
   History h = quiet_history(30.0);
   h.leftover_shm.push_back("fast_datasharing_x");

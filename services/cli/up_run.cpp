@@ -361,6 +361,7 @@ void UpRun::step() {
     if (ps.role() == "world" && ps.deployment() == d_.name) L_.on_world_load(ps.module_id(), ps.detail(), ps.tick(), now_s());
   }
   serve_requests();
+  watch_spins();
   if (recorder_stop_->exited()) {
     std::printf("tandem up: the recorder exited during the run (code %d); %s is incomplete\n", recorder_stop_->status(),
                 d_.record.c_str());
@@ -390,6 +391,28 @@ void UpRun::step() {
     view_.print(stdout);
     std::fflush(stdout);
     last_print_ = now;
+  }
+}
+
+void UpRun::watch_spins() {
+  if (d_.timing != "realtime" || !d_.hosts.empty() || d_.spin_limit <= 0.0 ||
+      Clock::now() - spins_seen_ < std::chrono::seconds(1)) {
+    return;
+  }
+  spins_seen_ = Clock::now();
+  std::vector<launcher::ProcessThreads> procs;
+  std::map<int, const launcher::Child*> by_pid;
+  for (const launcher::Child& c : L_.children()) {
+    if (!c.running || c.pid <= 0 || !c.host.empty() || c.role == "coordinator") continue;
+    procs.push_back({c.pid, launcher::thread_times(c.pid)});
+    by_pid[c.pid] = &c;
+  }
+  for (const launcher::SpinWatch::Spin& s : spins_.look(now_s(), procs)) {
+    std::printf("tandem up: %s (pid %d): its thread %ld used %.0f%% of a core for %.1f s at %s, which no per-tick "
+                "process does (a thread spinning: docs/soak.md, finding 85); killed, its restart policy takes over\n",
+                by_pid.at(s.pid)->label.c_str(), s.pid, s.tid, 100.0 * s.share, s.over_s, launcher::policy_name(s.policy));
+    std::fflush(stdout);
+    ::kill(s.pid, SIGKILL);
   }
 }
 

@@ -18,6 +18,7 @@
 
 #include "live_view.hpp"
 #include "tandem/launcher/helper_process.hpp"
+#include "tandem/launcher/spin_watch.hpp"
 #include "tandem/runtime/shm_clean.hpp"
 #include "up_parts.hpp"
 
@@ -53,6 +54,7 @@ class UpRun {
   void publish_launcher_status();
   void serve_requests();
   int finish();            ///< the summary, the helpers stopped, the shared memory cleaned; the exit code
+  void watch_spins();      ///< real time, once a second: kills a per-tick process with a spinning thread
 
   std::atomic<bool>& stop_;
   Deployment d_;
@@ -97,7 +99,8 @@ class UpRun {
   std::optional<launcher::HelperProcess> viewer_stop_;
 
   Heard heard_;
-  Clock::time_point t0_, last_print_, launcher_published_, heartbeat_sent_;
+  launcher::SpinWatch spins_{d_.spin_limit};
+  Clock::time_point t0_, last_print_, launcher_published_, heartbeat_sent_, spins_seen_;
   std::vector<std::string> running_labels_;
 };
 

@@ -299,6 +299,22 @@ TEST_CASE("one module runs its task in real time: the grasp always held, the tas
   CHECK(kv.at("m1/right.min_normal_force") >= 19.62);
   CHECK(kv.at("m1/left.min_normal_force") >= 19.62);
   CHECK(r.output.find("latency p50") != std::string::npos);
+  CHECK(r.output.find("a thread spinning") == std::string::npos);  // the spin watch (limit 0.9) names nothing here
+  CHECK_FALSE(processes_left(domain));
+}
+
+TEST_CASE("real time: the launcher kills a per-tick process whose thread uses more than the spin limit of a core", "[distributed]") {
+  // A spinning thread cannot be made to order, so the limit is lowered to 5% of a core: a world's tick thread uses
+  // more (about 10%), and the launcher must name it within seconds, kill its process, and leave nothing behind.
+  const int domain = test_domain(28);
+  const std::string deploy = write_deployment("spin", domain, "SOSM", "realtime", 0, "spin_limit: 0.05\n");
+  const Run r = run("timeout 60 " + kBin + "/tandem up " + deploy);
+  INFO(r.output);
+  const auto at = r.output.find("of a core for 3.0 s at SCHED_");
+  REQUIRE(at != std::string::npos);
+  const std::string line = r.output.substr(r.output.rfind('\n', at) + 1, r.output.find('\n', at) - r.output.rfind('\n', at) - 1);
+  CHECK_THAT(line, Catch::StartsWith("tandem up: m1/") && Catch::Contains("killed, its restart policy takes over"));
+  CHECK(r.exit_code != 124);  // the run ended (the killed process's policy ends it), not the timeout
   CHECK_FALSE(processes_left(domain));
 }
 
@@ -1229,6 +1245,7 @@ TEST_CASE("every shipped deployment file loads, and bad live-replacement keys ar
   const std::string mod = "modules:\n  - {name: m1, scenario: " + kSrc + "/config/scenarios/paper.yaml, case: SOSM";
   refused(mod + ", restart_as: leader}\n", "restart_as");
   refused("realtime_priority: 99\n" + mod + "}\n", "realtime_priority");
+  refused("spin_limit: 1.5\n" + mod + "}\n", "spin_limit");
   refused(mod + ", supervisor_standby: 4}\n", "supervisor_standby");
   refused(mod + ", autostart: maybe}\n", "autostart");
   refused(mod + "}\ncoordinator:\n  standby: 9\n  tasks:\n    - {name: a, segments: [{to: [0.0, 0.8, 0.0], duration: 1.0}]}\n",

@@ -8,7 +8,9 @@
 //   resume after the backoff, with no slip.
 #include <catch2/catch.hpp>
 
+#include <signal.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
@@ -20,6 +22,7 @@
 #include "tandem/launcher/capacity.hpp"
 #include "tandem/launcher/governor.hpp"
 #include "tandem/launcher/restart_policy.hpp"
+#include "tandem/launcher/spin_watch.hpp"
 #include "tandem/plan/plan.hpp"
 #include "tandem/robot/input_watch.hpp"
 #include "tandem/runtime/peer_wait.hpp"
@@ -1174,6 +1177,70 @@ TEST_CASE("launcher component: the capacity model from a calibration, and the ca
   CHECK(real.wake_us > 0.0);
   CHECK(::waitpid(-1, nullptr, WNOHANG) <= 0);  // no child left behind (none, or none exited unreaped)
   CHECK(tandem::launcher::describe(c).find("wake-up 5.0 us, plant step 40.0 us, law 1.0 us") != std::string::npos);
+}
+
+TEST_CASE("spin watch: a thread over 90% of a core for 3 s is named once, a busy one for less is not, and a gone process is forgotten", "[components]") {
+  using tandem::launcher::ProcessThreads;
+  using tandem::launcher::SpinWatch;
+  SpinWatch w;  // 0.9 of a core over 3 s
+  // pid 10: thread 11 spins (0.95 s of CPU a second), thread 12 works (0.1 s a second). pid 20: thread 21 spins
+  // for 2 s, then idles.
+  auto procs = [](double t, bool with10) {
+    std::vector<ProcessThreads> p;
+    if (with10) p.push_back({10, {{11, 0.95 * t, 1}, {12, 0.1 * t, 1}}});
+    p.push_back({20, {{21, 0.95 * std::min(t, 2.0), 0}}});
+    return p;
+  };
+  std::vector<SpinWatch::Spin> named;
+  for (int t = 0; t <= 5; ++t) {
+    const auto spins = w.look(t, procs(t, true));
+    if (t < 3) CHECK(spins.empty());
+    for (const auto& s : spins) named.push_back(s);
+  }
+  REQUIRE(named.size() == 1);  // once, at 3 s
+  CHECK(named[0].pid == 10);
+  CHECK(named[0].tid == 11);
+  CHECK(named[0].share == Approx(0.95));
+  CHECK(named[0].over_s == Approx(3.0));
+  CHECK(named[0].policy == 1);
+  CHECK(std::string(tandem::launcher::policy_name(named[0].policy)) == "SCHED_FIFO");
+  // pid 10 gone for a look (exited), then a new process with that pid: judged afresh, 3 s of looks again.
+  CHECK(w.look(6, procs(6, false)).empty());
+  for (int t = 7; t <= 9; ++t) CHECK(w.look(t, procs(t, true)).empty());
+  const auto again = w.look(10, procs(10, true));
+  REQUIRE(again.size() == 1);
+  CHECK(again[0].pid == 10);
+  // Just under the share (0.89 of a core) is never named.
+  SpinWatch under;
+  for (int t = 0; t <= 10; ++t) CHECK(under.look(t, {{30, {{31, 0.89 * t, 1}}}}).empty());
+}
+
+TEST_CASE("spin watch: /proc shows a real spinning child's thread CPU, and nothing once it is reaped", "[components]") {
+  const pid_t child = ::fork();
+  REQUIRE(child >= 0);
+  if (child == 0) {
+    volatile unsigned long n = 0;
+    for (;;) n = n + 1;  // killed by the test
+  }
+  struct Reap {
+    pid_t pid;
+    ~Reap() {  // when a REQUIRE below throws
+      if (pid <= 0) return;
+      ::kill(pid, SIGKILL);
+      ::waitpid(pid, nullptr, 0);
+    }
+  } reap{child};
+  ::usleep(700000);
+  const std::vector<tandem::launcher::ThreadTime> t = tandem::launcher::thread_times(child);
+  REQUIRE(t.size() == 1);
+  CHECK(t[0].tid == child);
+  CHECK(t[0].cpu_s > 0.05);  // most of 0.7 s, unless the machine is very busy
+  CHECK(t[0].cpu_s < 1.0);
+  CHECK(t[0].policy == 0);
+  ::kill(child, SIGKILL);
+  ::waitpid(child, nullptr, 0);
+  reap.pid = 0;  // reaped
+  CHECK(tandem::launcher::thread_times(child).empty());
 }
 
 TEST_CASE("governor: a hog of a few seconds parks nothing, a load that does not fit parks the lowest-priority module, then the next", "[components]") {

@@ -28,6 +28,7 @@ void check_same(const Deployment& a, const Deployment& b) {
   CHECK(a.start_timeout == b.start_timeout);
   CHECK(a.realtime_priority == b.realtime_priority);
   CHECK(a.cpu_affinity == b.cpu_affinity);
+  CHECK(a.spin_limit == b.spin_limit);
   CHECK(a.overload_brake == b.overload_brake);
   CHECK(a.shed_modules == b.shed_modules);
   CHECK(a.test_no_brakes == b.test_no_brakes);
@@ -117,7 +118,7 @@ TEST_CASE("deployment: a multi-host deployment with placements, a coordinator an
   const TempDir tmp;
   const std::string src = tmp.path + "/src.yaml";
   std::ofstream(src) << "name: rich\ndomain_id: 17\ntransport: udp\ntiming: realtime\ntimeout: 7.5\nstart_timeout: 33\n"
-                        "realtime_priority: 40\ncpu_affinity: module\noverload_brake: false\nshed_modules: false\ndiscovery: server\n"
+                        "realtime_priority: 40\ncpu_affinity: module\nspin_limit: 0.75\noverload_brake: false\nshed_modules: false\ndiscovery: server\n"
                         "discovery_port: 12000\ndiscovery_address: 10.1.0.1\ndiscovery_start: external\nhost_timeout: 2.5\n"
                         "hosts:\n  a: {address: 10.1.0.1}\n  b: {address: 10.1.0.2}\n"
                         "record: run.mcap\nrecord_topics: ticks,events\n"
@@ -132,6 +133,7 @@ TEST_CASE("deployment: a multi-host deployment with placements, a coordinator an
   const Deployment d = tandem::runtime::load_deployment(src);
   REQUIRE(d.modules.size() == 1);
   REQUIRE(d.modules[0].robot_hosts.size() == 1);
+  CHECK(d.spin_limit == 0.75);
   const std::string copy = tmp.path + "/copy.yaml";
   std::ofstream(copy) << tandem::runtime::deployment_yaml(d);
   check_same(d, tandem::runtime::load_deployment(copy));

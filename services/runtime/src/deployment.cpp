@@ -103,6 +103,7 @@ Deployment load_deployment(const std::string& path) {
   top.num("start_timeout", d.start_timeout, 1.0, 3600.0);
   top.integer("realtime_priority", d.realtime_priority, 0, 98);
   top.choice("cpu_affinity", d.cpu_affinity, {"module", "none"});
+  top.num("spin_limit", d.spin_limit, 0.0, 1.0);
   top.boolean("overload_brake", d.overload_brake);
   top.boolean("shed_modules", d.shed_modules);
   top.boolean("test_no_brakes", d.test_no_brakes);
@@ -359,6 +360,7 @@ std::string deployment_yaml(const Deployment& d) {
   out << YAML::Key << "start_timeout" << YAML::Value << d.start_timeout;
   out << YAML::Key << "realtime_priority" << YAML::Value << d.realtime_priority;
   out << YAML::Key << "cpu_affinity" << YAML::Value << d.cpu_affinity;
+  out << YAML::Key << "spin_limit" << YAML::Value << d.spin_limit;
   out << YAML::Key << "overload_brake" << YAML::Value << d.overload_brake;
   out << YAML::Key << "shed_modules" << YAML::Value << d.shed_modules;
   if (d.test_no_brakes) out << YAML::Key << "test_no_brakes" << YAML::Value << true;

@@ -73,6 +73,10 @@ struct Deployment {
   /// a Fast DDS thread of a world spun at SCHED_FIFO for 15 minutes and took its CPU and the machine with it, soak
   /// run 58, docs/soak.md finding 85).
   std::string cpu_affinity = "none";
+  /// Real time, processes on this machine: a thread of a world, supervisor or robot that uses more than this share
+  /// of a core over 3 s is spinning (docs/soak.md, finding 85), and its process is killed and restarted by its
+  /// policy (launcher::SpinWatch). 0 = not watched.
+  double spin_limit = 0.9;
   bool overload_brake = true;  ///< real time: brake and pause a module whose commands keep coming late
   /// Real time with a coordinator: park whole modules when the load does not fit (launcher::Governor), and
   /// start the ones the calibrated estimate does not fit parked.

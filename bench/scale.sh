@@ -11,7 +11,8 @@
 # runtime's CPU per module as a ratio to it (docs/benchmarks.md, "Capacity" and "Floor").
 #
 # Usage: bash bench/scale.sh [N ...]        default: 1 2 4 8 16
-#   env: SECONDS_RUN (scenario duration, default 8), DOMAIN_BASE (default 170), PRIO (realtime_priority,
+#   env: SECONDS_RUN (scenario duration, default 8), STANDBY (hot standby robots per arm, default 0: the estimate
+#        then counts them, and the CPU per module includes them), DOMAIN_BASE (default 170), PRIO (realtime_priority,
 #        default 20), TRANSPORT (shm|udp, default shm), DISCOVERY (simple|server, default server: the launcher
 #        starts a Fast DDS Discovery Server), KEEP (a folder to keep the logs in)
 set -euo pipefail
@@ -27,13 +28,15 @@ dur="${SECONDS_RUN:-8}"
 prio="${PRIO:-20}"
 transport="${TRANSPORT:-shm}"
 discovery="${DISCOVERY:-server}"
+standby="${STANDBY:-0}"
+[[ "$standby" =~ ^[0-3]$ ]] || { echo "scale.sh: STANDBY must be 0-3, got '$standby'" >&2; exit 2; }
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 . bench/lib.sh
 echo "machine: $(nproc) cores, $(lscpu | sed -n 's/^Model name: *//p'), kernel $(uname -r)"
-echo "command: bash bench/scale.sh ${ns[*]}  (duration ${dur} s, realtime_priority $prio, transport $transport, discovery $discovery, commit $(git rev-parse --short HEAD 2>/dev/null || echo '?'))"
+echo "command: bash bench/scale.sh ${ns[*]}  (duration ${dur} s, standby $standby, realtime_priority $prio, transport $transport, discovery $discovery, commit $(git rev-parse --short HEAD 2>/dev/null || echo '?'))"
 sed "s/^  duration: .*/  duration: $dur/" config/scenarios/paper.yaml > "$work/scenario.yaml"
-printf "%-4s %-8s %-8s %-8s %-8s %-8s %-8s %-6s %-6s %-13s %-7s %-8s %-8s %-8s %-7s %-10s\n" N late% p50_us p99_us cpu/mod rss_MB start_s slips drops "paused(n/s)" timer% est/mod est_err% floor/mod ratio result
+printf "%-4s %-8s %-8s %-8s %-8s %-8s %-8s %-6s %-6s %-13s %-7s %-8s %-8s %-8s %-7s %-10s %s\n" N late% p50_us p99_us cpu/mod rss_MB start_s slips drops "paused(n/s)" timer% est/mod est_err% floor/mod ratio result wake_us
 idx=0
 for n in "${ns[@]}"; do
   domain=$(( ${DOMAIN_BASE:-170} + idx ))
@@ -49,11 +52,15 @@ for n in "${ns[@]}"; do
     echo "timeout: 60"
     echo "modules:"
     for i in $(seq 1 "$n"); do
-      echo "  - {name: m$i, scenario: scenario.yaml, case: SOSM}"
+      echo "  - {name: m$i, scenario: scenario.yaml, case: SOSM, standby: $standby}"
     done
   } > "$dep"
   # The calibrated estimate, before the run (tandem up --check: well under a second).
-  est=$("$bin/tandem" up "$dep" --check | sed -n 's/.*(\([0-9.]*\) per module.*/\1/p' | head -1)
+  # Per module with its standbys: per module + 2 arms x STANDBY x per standby robot.
+  check=$("$bin/tandem" up "$dep" --check)
+  wake=$(printf '%s\n' "$check" | sed -n 's/.*wake-up \([0-9.]*\) us.*/\1/p' | head -1)
+  est=$(printf '%s\n' "$check" | sed -n 's/.*(\([0-9.]*\) per module, \([0-9.]*\) per standby robot.*/\1 \2/p' | head -1 |
+        awk -v s="$standby" 'NF == 2 {printf "%.3f", $1 + 2 * s * $2}')
   log="$work/up$n.log"
   : > "$log"
   start=$(date +%s.%N)
@@ -106,7 +113,7 @@ for n in "${ns[@]}"; do
   floor=$("$bin/tandem_bench_floor" --modules "$n" --seconds 4 --robot-us "${FLOOR_ROBOT_US:-1}" --world-us "${FLOOR_WORLD_US:-45}" "${ffifo[@]}" | sed -n 's/.*cpu_per_module=\([0-9.]*\).*/\1/p')
   err=$(awk -v e="${est:-nan}" -v c="$cpu" 'BEGIN {if (c + 0 > 0 && e != "") printf "%+.0f", 100 * (e - c) / c; else print "nan"}')
   ratio=$(awk -v f="${floor:-0}" -v c="$cpu" 'BEGIN {if (f + 0 > 0 && c + 0 > 0) printf "%.2f", c / f; else print "nan"}')
-  printf "%-4s %-8s %-8s %-8s %-8s %-8s %-8s %-6s %-6s %-13s %-7s %-8s %-8s %-8s %-7s %-10s\n" "$n" "$pct" "$p50" "$p99" "$cpu" "$rss" "$startup" "$slips" "$drops" "$pauses/$paused_s" "${tl:-nan}" "${est:-nan}" "$err" "${floor:-nan}" "$ratio" "$result"
+  printf "%-4s %-8s %-8s %-8s %-8s %-8s %-8s %-6s %-6s %-13s %-7s %-8s %-8s %-8s %-7s %-10s %s\n" "$n" "$pct" "$p50" "$p99" "$cpu" "$rss" "$startup" "$slips" "$drops" "$pauses/$paused_s" "${tl:-nan}" "${est:-nan}" "$err" "${floor:-nan}" "$ratio" "$result" "${wake:-nan}"
   if [ -n "${KEEP:-}" ]; then mkdir -p "$KEEP"; cp "$log" "$sum" "$work/timer$n.txt" "$KEEP/" 2>/dev/null || true; fi
   sleep 1
 done

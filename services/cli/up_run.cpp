@@ -51,7 +51,10 @@ int UpRun::run() {
               lines_.rt_priority_ > 0 ? (", SCHED_FIFO " + std::to_string(lines_.rt_priority_)).c_str() : "",
               lines_.pins_modules() ? ", each module's world and robots on one CPU" : "");
   capacity_ = launcher::capacity_estimate(load_of(d_));
-  if (capacity_.text.find("warning") != std::string::npos) std::printf("tandem up: %s\n", capacity_.text.c_str());
+  if (capacity_.realtime) {  // the calibrated estimate, or its warning (tandem soak waits for this line)
+    std::printf("tandem up: %s\n", capacity_.text.c_str());
+    std::fflush(stdout);
+  }
   if (!start_recorder()) return 2;
   start_viewer();
   L_.restart_host_clock(now_s());  // the recorder was awaited without reading agent states

@@ -1169,9 +1169,9 @@ TEST_CASE("launcher component: the capacity model from a calibration, and the ca
   c.ok = true;
   tandem::launcher::CapacityModel m;
   m.dds_factor = 3.0;
-  // 1000 ticks/s x (5 wake-ups x 5 us x 3 + 40 us + 2 x 1 us) = 0.117 core; a standby: 1000 x (2 x 5 x 3 + 1) us.
+  // 1000 ticks/s x (5 wake-ups x 5 us x 3 + 40 us + 2 x 1 us) = 0.117 core; a standby: 1000 x (1.1 x 5 x 3 + 1) us.
   CHECK(m.core_per_module(c) == Approx(0.117));
-  CHECK(m.core_per_standby(c) == Approx(0.031));
+  CHECK(m.core_per_standby(c) == Approx(0.0175));
   const tandem::launcher::Calibration real = tandem::launcher::calibrate_wakeup(50);
   CHECK(real.ok);
   CHECK(real.wake_us > 0.0);

@@ -34,13 +34,18 @@ struct CapacityModel {
   /// Wake-ups per tick of a basic module: the world's timer, a robot's listener per sample (2), the world's
   /// listener per command (2).
   static constexpr double kWakesPerTick = 5.0;
-  /// A standby robot: its listener per sample and the world's per command.
-  static constexpr double kWakesPerStandby = 2.0;
+  /// A standby robot: its listener per sample, and the world's reader taking its command (which exclusive
+  /// ownership then drops). Measured, not counted: a standby robot costs 1.1 wake-ups' worth a tick (2026-11-28,
+  /// `STANDBY=1 bash bench/scale.sh 1 2` beside `bash bench/scale.sh 1 2`: 0.54-0.64 core per module with its two
+  /// standbys against 0.42-0.43 without, at a calibrated wake-up of 14-22 us). It was 2 until then, which put
+  /// soak-small at 2.1-3.6 cores when it used 1.1-1.3.
+  static constexpr double kWakesPerStandby = 1.1;
   /// The middleware's delivery costs this many bare wake-ups per wake-up (data-sharing, listener hand-offs,
-  /// history bookkeeping, the participants' event threads). Fitted 2026-11-24 with bench/scale.sh 1 4 8 on this
-  /// project's 2-core machine: 0.156-0.183 core per module measured beside a calibrated wake-up of 3.9 us and a
-  /// 43 us plant step (docs/benchmarks.md, "Capacity measured here").
-  double dds_factor = 6.5;
+  /// history bookkeeping, the participants' event threads). Fitted with bench/scale.sh on this project's 2-core
+  /// machines: 4.4 on 2026-11-28 (0.42-0.43 core per module at a calibrated 14-20 us, plant 50 us), 5.5 on
+  /// 2026-11-24 (0.153 at 3.9 us, plant 43 us); 6.5, the 2026-11-24 fit with 8 modules, overestimated by 31-73%
+  /// on 2026-11-28 (docs/benchmarks.md, "Capacity measured here").
+  double dds_factor = 4.5;
   double ticks_per_s = 1000.0;
   /// Cores one module needs: ticks/s x (W x wake x dds_factor + plant + 2 x law).
   double core_per_module(const Calibration& c) const;

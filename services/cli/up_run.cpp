@@ -398,7 +398,7 @@ void UpRun::step() {
 }
 
 void UpRun::watch_spins() {
-  if (d_.timing != "realtime" || !d_.hosts.empty() || d_.spin_limit <= 0.0 ||
+  if (d_.timing != "realtime" || d_.spin_limit <= 0.0 ||
       Clock::now() - spins_seen_ < std::chrono::seconds(1)) {
     return;
   }
@@ -412,7 +412,7 @@ void UpRun::watch_spins() {
   }
   for (const launcher::SpinWatch::Spin& s : spins_.look(now_s(), procs)) {
     std::printf("tandem up: %s (pid %d): its thread %ld used %.0f%% of a core for %.1f s at %s, which no per-tick "
-                "process does (a thread spinning: docs/soak.md, finding 85); killed, its restart policy takes over\n",
+                "process does (a thread spinning: docs/soak.md, finding 85); killed (its exit is handled as a crash)\n",
                 by_pid.at(s.pid)->label.c_str(), s.pid, s.tid, 100.0 * s.share, s.over_s, launcher::policy_name(s.policy));
     std::fflush(stdout);
     ::kill(s.pid, SIGKILL);

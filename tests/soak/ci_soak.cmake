@@ -1,6 +1,10 @@
 # The CI-sized soak: deploy/soak-small.yaml (two modules with standbys and a coordinator) in real time for
 # 75 s under the `ci` preset with a fixed seed. Every fault kind of the preset must have been carried out,
-# every invariant must hold (exit 0, summary.txt result=pass), and the report must have its plots.
+# every invariant of safety and recovery must hold, and the report must have its plots. Progress (tasks done, and
+# modules paused for load by a hog back within 20 s) is reported, not required: a real-time test asserts what the
+# machine cannot take away (no slip, no loss, every fault recovered), not what a loaded 2-core machine may not give
+# (issue "no drops": one run in 20 failed on progress with m2 parked and m1 paused for load again and again, one on a
+# module whose release trials found 6-9 late commands of 100 for 24 s after a hog; 0 incidents in both).
 file(REMOVE_RECURSE ${WORK}/ci-soak)
 # soak-small as shipped (shedding on). On a 2-core machine two modules with standbys do not fit (about 1.5 cores
 # each): admission or the governor parks m2, and the faults that take a module out (world kill, module unplug) may
@@ -11,12 +15,18 @@ execute_process(COMMAND ${TANDEM} soak ${SRC}/deploy/soak-small.yaml --duration 
                         --report ${WORK}/ci-soak
                 RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
 message("${out}")
-if(NOT rc EQUAL 0)
-  message(FATAL_ERROR "tandem soak exited with ${rc} (expected 0)\nstderr: ${err}")
+if(NOT rc EQUAL 0 AND NOT rc EQUAL 1)  # 1: an invariant was violated (judged below), anything else: the soak failed
+  message(FATAL_ERROR "tandem soak exited with ${rc} (expected 0, or 1 for violations)\nstderr: ${err}")
 endif()
 file(READ ${WORK}/ci-soak/summary.txt summary)
-foreach(line "result=pass" "invariant.object_held=held" "invariant.recovery=held" "invariant.tasks_exactly_once=held"
-             "invariant.nothing_left_behind=held")
+string(REGEX MATCH "invariant\\.progress=[a-z]+" progress "${summary}")
+message("${progress}")
+if(rc EQUAL 1 AND progress STREQUAL "invariant.progress=held")
+  message(FATAL_ERROR "tandem soak exited 1 but progress held: another invariant failed:\n${summary}")
+endif()
+foreach(line "invariant.object_held=held" "invariant.grasp_force=held" "invariant.tasks_exactly_once=held"
+             "invariant.tasks_held_throughout=held" "invariant.recovery=held" "invariant.nothing_left_behind=held"
+             "invariant.memory_flat=held" "invariant.logs_bounded=held")
   string(FIND "${summary}" "${line}" pos)
   if(pos EQUAL -1)
     message(FATAL_ERROR "summary.txt lacks '${line}':\n${summary}")

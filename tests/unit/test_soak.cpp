@@ -616,6 +616,46 @@ TEST_CASE("soak checker: the overall progress gap counts only time with a module
   // Paused only from 50 s to 60 s: 62.1 s in service, still a violation.
   REQUIRE(find(gap(50.0, 60.0, false), "progress") != nullptr);
   CHECK_THAT(find(gap(50.0, 60.0, false), "progress")->text, Catch::Contains("62.1 s of it with a module in service"));
+  // Out of service for good is no excuse on the wall clock: paused for load from 30 s to the end of a 200 s run,
+  // no task after 20 s: at most 3 x 45 s without a task, whatever the modules say.
+  History stuck = quiet_history(200.0);
+  std::vector<Event> kept;
+  for (const Event& e : stuck.events) {
+    if ((e.type == Event::Type::TaskAssigned || e.type == Event::Type::TaskDone) && e.t > 20.0) continue;
+    kept.push_back(e);
+  }
+  stuck.events = kept;
+  stuck.tasks_done.resize(5);
+  stuck.tasks_done_by.resize(5);
+  stuck.task_names.resize(5);
+  for (ModuleSample& s : stuck.modules["m1"]) s.load_paused = s.t > 30.0;
+  const Verdict v = check(stuck, Bounds{});
+  REQUIRE(find(v, "progress") != nullptr);
+  CHECK_THAT(find(v, "progress")->text, Catch::Contains("no task was done after 20.0 s (10.0 s of it with a module in service)"));
+}
+
+TEST_CASE("soak checker: a module paused for load by a hog must resume within 20 s of its end, judged under progress") {
+  // A 2 s hog from 40 s; m1 paused for load from 41 s until `resume` (tasks go on: the gap rule is not what is judged).
+  auto hogged = [](double resume) {
+    History h = quiet_history(120.0);
+    FaultRecord f;
+    f.fault.index = 1;
+    f.fault.kind = FaultKind::Hog;
+    f.fault.duration_s = 2.0;
+    f.t = 40.0;
+    f.end_t = 42.0;
+    f.label = "2 core(s)";
+    h.faults.push_back(f);
+    for (ModuleSample& s : h.modules["m1"]) s.load_paused = s.t > 41.0 && s.t < resume;
+    return check(h, Bounds{});
+  };
+  CHECK(find(hogged(50.0), "progress") == nullptr);  // resumed 8 s after the hog
+  CHECK(find(hogged(50.0), "recovery") == nullptr);
+  const Verdict late = hogged(70.0);  // 28 s after it
+  const Violation* x = find(late, "progress");
+  REQUIRE(x != nullptr);
+  CHECK_THAT(x->text, Catch::Contains("a module paused for load did not resume within 20.0 s"));
+  CHECK(find(late, "recovery") == nullptr);
 }
 
 TEST_CASE("soak checker: anything left behind is a violation") {

@@ -73,7 +73,7 @@ Calibration calibrate_wakeup(int round_trips, int cpu) {
       while ((v = __atomic_load_n(word, __ATOMIC_ACQUIRE)) == 0) futex(word, FUTEX_WAIT, 0);
       if (v == 2) ::_exit(0);
       if (n % per_block == 0 && n / per_block <= kBlocks) {
-        ::getrusage(RUSAGE_SELF, &ru);
+        ::getrusage(RUSAGE_SELF, &ru);  // the child has this one thread
         child_cpu[n / per_block] = cpu_s(ru);
       }
       __atomic_store_n(word, 0, __ATOMIC_RELEASE);
@@ -81,7 +81,8 @@ Calibration calibrate_wakeup(int round_trips, int cpu) {
     }
   }
   rusage before{}, after{}, child{};
-  ::getrusage(RUSAGE_SELF, &before);
+  // The calling thread only: the launcher's participant may already have threads busy with discovery.
+  ::getrusage(RUSAGE_THREAD, &before);
   std::vector<double> parent_cpu{cpu_s(before)};  // at the end of each block
   // Paced as a tick: the parent wakes on an absolute 1 ms timer, wakes the child, and waits for its answer, so
   // the cores go idle between ticks as they do in a running deployment (a wake-up from idle is what costs).
@@ -99,11 +100,11 @@ Calibration calibrate_wakeup(int round_trips, int cpu) {
     while (__atomic_load_n(word, __ATOMIC_ACQUIRE) == 1) futex(word, FUTEX_WAIT, 1);
     if ((i + 1) % per_block == 0 && (i + 1) / per_block <= kBlocks) {
       rusage ru{};
-      ::getrusage(RUSAGE_SELF, &ru);
+      ::getrusage(RUSAGE_THREAD, &ru);
       parent_cpu.push_back(cpu_s(ru));
     }
   }
-  ::getrusage(RUSAGE_SELF, &after);
+  ::getrusage(RUSAGE_THREAD, &after);
   std::vector<double> per_wake;  // [us], one per block: both processes' CPU over its 3 wake-ups a tick
   for (size_t b = 1; b < parent_cpu.size(); ++b) {
     const double used = parent_cpu[b] - parent_cpu[b - 1] + child_cpu[b] - child_cpu[b - 1];

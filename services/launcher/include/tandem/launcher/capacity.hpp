@@ -43,8 +43,8 @@ struct CapacityModel {
   /// The middleware's delivery costs this many bare wake-ups per wake-up (data-sharing, listener hand-offs,
   /// history bookkeeping, the participants' event threads). Fitted with bench/scale.sh on this project's 2-core
   /// machines: 4.4 on 2026-11-28 (0.42-0.43 core per module at a calibrated 14-20 us, plant 50 us), 5.5 on
-  /// 2026-11-24 (0.153 at 3.9 us, plant 43 us); 6.5, the 2026-11-24 fit with 8 modules, overestimated by 31-73%
-  /// on 2026-11-28 (docs/benchmarks.md, "Capacity measured here").
+  /// 2026-11-24 (0.153 at 3.9 us, plant 43 us); 6.5, the 2026-11-24 fit with 8 modules, overestimated one module
+  /// without standbys by 16-69% on 2026-11-28 (docs/benchmarks.md, "Capacity measured here").
   double dds_factor = 4.5;
   double ticks_per_s = 1000.0;
   /// Cores one module needs: ticks/s x (W x wake x dds_factor + plant + 2 x law).

@@ -3,8 +3,8 @@
 // ran again, and the other processes queued behind it (load 34). No per-tick process ever needs most of a core
 // for seconds: a world uses about 0.15-0.25 core, a robot or a supervisor under 0.1. So the launcher looks at the
 // CPU of every thread of its local per-tick processes once a second, and a thread that used more than `share` of a
-// core over the last `window_s` seconds is a fault: the process is killed and its restart policy replaces it, as
-// after any crash.
+// core over the last `window_s` seconds is a fault: the process is killed and its exit handled as any crash's (a
+// robot or supervisor restarted by its policy, a world's module failed).
 #pragma once
 
 #include <map>

@@ -590,7 +590,7 @@ class Judge {
     // Overall: the gap between tasks is measured in time with some module in service, not on the wall clock. A
     // machine that cannot give the modules their time pauses them for load (a safe stop), and a module parked,
     // unplugged, failed or braked does no task by design; the soak judges that they stopped safely and came back
-    // (recovery), not that the machine was fast enough (CI: m2 parked at start by the estimate and m1 paused for
+    // (recovery, and the wall-clock backstop below), not that the machine was fast enough (CI: m2 parked at start by the estimate and m1 paused for
     // load again and again, then unplugged by the schedule: 50 s without a task and no module in service).
     const std::vector<std::pair<double, double>> service = in_service();
     auto overlap = [](const std::vector<std::pair<double, double>>& spans, double a, double b) {

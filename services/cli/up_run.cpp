@@ -361,7 +361,12 @@ void UpRun::step() {
       const double cpu = launcher::process_cpu_s(static_cast<int>(ps.pid()));
       if (cpu >= 0.0) heard_.start_cpu[first_active->role].push_back(cpu);
     }
-    if (ps.role() == "world" && ps.deployment() == d_.name) L_.on_world_load(ps.module_id(), ps.detail(), ps.tick(), now_s());
+    if (ps.role() == "world" && ps.deployment() == d_.name) {
+      L_.on_world_load(ps.module_id(), ps.detail(), ps.tick(), now_s());
+      if (ps.state() == static_cast<uint8_t>(runtime::Lifecycle::Finalized) && ps.detail() == "task done") {
+        L_.on_world_done(ps.process_id(), ps.pid(), now_s());
+      }
+    }
   }
   serve_requests();
   watch_spins();

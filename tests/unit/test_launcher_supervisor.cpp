@@ -259,6 +259,49 @@ TEST_CASE("launcher supervisor: a pending restart of a module that is stopped is
   CHECK_FALSE(f.sup.failed());
 }
 
+TEST_CASE("launcher supervisor: a world that said its task is done but does not exit is stopped, and a pending restart dropped", "[launcher]") {
+  // CI, 2026-11-28: a world hung in its teardown after its last tick, with a robot's restart pending (backoff 60 s);
+  // the launcher waited for it until the test's limit.
+  ModuleSpec m = module_m1(1, "on-failure");
+  m.restart.backoff = 60.0;
+  Fixture f(false, m);
+  f.exit("m1/left", 128 + SIGKILL, 5.0);
+  REQUIRE(f.rec.said("tandem up: restarting m1/left in 60.00 s (restart 1 of at most 3 within 30 s)\n"));
+  f.rec.now = 10.0;
+  f.sup.on_world_done("m1/world", f.pid("m1/world"), 10.0);
+  f.poll(10.0);
+  CHECK(f.rec.said("tandem up: not restarting m1/left: module m1 is done with its task\n"));  // at once, not at 65 s
+  // The others end by themselves; the world does not.
+  f.exit("m1/supervisor", 0, 10.5);
+  f.exit("m1/right", 0, 10.5);
+  f.exit("m1/right@50", 0, 10.5);
+  f.exit("m1/left@50", 0, 10.5);
+  f.poll(14.9);
+  CHECK(f.rec.signals_to("m1/world").empty());
+  f.poll(15.1);
+  CHECK(f.rec.said("tandem up: m1/world said its task is done 5.1 s ago and has not exited; stopping it (its task is over)\n"));
+  auto sig = f.rec.signals_to("m1/world");
+  REQUIRE(sig.size() == 1);
+  CHECK(sig[0].sig == SIGTERM);
+  f.poll(20.2);
+  sig = f.rec.signals_to("m1/world");
+  REQUIRE(sig.size() == 2);
+  CHECK(sig[1].sig == SIGKILL);
+  // Its forced exit is no failure, and nothing is restarted.
+  f.exit("m1/world", 128 + SIGKILL, 20.3);
+  f.poll(70.0);
+  CHECK_FALSE(f.sup.failed());
+  CHECK_FALSE(f.sup.busy());
+  CHECK(f.starts_after(5.0).empty());
+  SECTION("a coordinated module's world is never done alone") {
+    Fixture g(true, m);
+    g.rec.now = 3.0;
+    g.sup.on_world_done("m1/world", g.pid("m1/world"), 3.0);
+    g.poll(20.0);
+    CHECK(g.rec.signals_to("m1/world").empty());
+  }
+}
+
 TEST_CASE("launcher supervisor: a process never heard within the silent-start limit is SIGKILLed and its policy applies", "[launcher]") {
   Recorder rec;
   SupervisorConfig cfg;

@@ -573,6 +573,15 @@ const Child* Supervisor::on_status(const std::string& label, long long pid, bool
   return first_active;
 }
 
+void Supervisor::on_world_done(const std::string& label, long long pid, double now) {
+  if (cfg_.coordinated) return;  // a coordinated module's world runs until stopped: its task is never over alone
+  for (auto& c : children_) {
+    if (!(c.running && c.role == "world" && c.label == label && c.pid == pid) || c.done_said >= 0.0) continue;
+    c.done_said = now;
+    if (!c.module.empty()) modules_.at(c.module).task_over = true;
+  }
+}
+
 void Supervisor::on_world_load(const std::string& module, const std::string& detail, unsigned long long tick,
                                double now) {
   const auto it = modules_.find(module);
@@ -662,13 +671,22 @@ void Supervisor::poll(double now) {
     terminate(*c, now);
     it = pending_unplugs_.erase(it);
   }
+  // A world that said its task is done but does not exit (hung in its teardown): stopped, and its task is over.
+  for (auto& c : children_) {
+    if (!c.running || c.done_said < 0.0 || c.term_at >= 0.0 || c.expected || now - c.done_said < kWorldExitGraceS) continue;
+    logf("tandem up: %s said its task is done %.1f s ago and has not exited; stopping it (its task is over)\n",
+         c.label.c_str(), now - c.done_said);
+    c.expected = true;
+    terminate(c, now);
+    world_done_.emplace(c.module, now);
+  }
   for (auto it = world_done_.begin(); it != world_done_.end();) {
     if (now - it->second < 2.0) {
       ++it;
       continue;
     }
     for (auto& c : children_) {
-      if (c.module != it->first || !c.running) continue;
+      if (c.module != it->first || !c.running || c.term_at >= 0.0) continue;  // (one asked to stop: SIGKILL 5 s on)
       logf("tandem up: %s is still waiting after its module's task ended; stopping it\n", c.label.c_str());
       c.expected = true;
       terminate(c, now);

@@ -35,6 +35,10 @@ namespace tandem::launcher {
 inline constexpr int kPrimaryStrength = 100;
 /// A child not heard on the domain (its status) within this long of its start is cut off: killed and restarted.
 inline constexpr double kSilentStartS = 15.0;
+/// A world that said its task is done and has not exited this long after is stopped (SIGTERM, SIGKILL 5 s on) and
+/// its module's task counts as over: a world once hung in its teardown after its last tick (CI, 2026-11-28), and
+/// the launcher waited for it, with a robot's restart pending, until the test's 120 s ran out.
+inline constexpr double kWorldExitGraceS = 5.0;
 
 /// One process of the deployment, as the launcher tracks it.
 struct Child {
@@ -57,6 +61,7 @@ struct Child {
   bool cut_off = false;     ///< killed because it was never heard (kSilentStartS)
   bool active_seen = false; ///< its status said active once
   bool leads = false;       ///< supervisors: its latest status says it leads its module
+  double done_said = -1.0;  ///< worlds: when its status first said its task is done (-1: not yet)
   double status_at = -1.0;  ///< when its latest status was heard (the time of the launcher's last poll then)
   // Multi-host: started by the agent of `host` ("" = by the launcher, on this machine).
   std::string host;
@@ -202,6 +207,9 @@ class Supervisor {
   /// A status sample from process `label` (pid): it is part of the domain. Returns the child if this is its first
   /// active status (the caller measures its start-up CPU), else nullptr.
   const Child* on_status(const std::string& label, long long pid, bool active, bool serving_known, bool leads);
+  /// A world's final status said its task is done: the module's task is over (a restart pending is dropped), and
+  /// the world is stopped if it has not exited kWorldExitGraceS later.
+  void on_world_done(const std::string& label, long long pid, double now);
   /// A world's status: its tick and detail ("paused for load ..." for the governor).
   void on_world_load(const std::string& module, const std::string& detail, unsigned long long tick, double now);
   /// A module's task state (plan::TaskStateCode).

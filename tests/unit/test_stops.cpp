@@ -63,6 +63,8 @@ struct Rig {
   std::array<bool, 2> sup_alive{true, true};
   std::array<std::unique_ptr<RobotCore>, 2> robot;
   std::optional<tp::PlanData> last_plan;  // what a robot that joins hears first (transient-local)
+  long plan_delay = 0;  // plans reach the world and the robots this many ticks after they are made (a stall)
+  std::vector<std::pair<long, tp::PlanData>> in_flight;  // plans on their way to them
   std::string log;
   std::array<tandem::world::SampleOut, 2> out{};
   double min_normal = 1e300;      // after the start-up transient
@@ -97,16 +99,25 @@ struct Rig {
     for (int j = 0; j < 2; ++j) robot[static_cast<size_t>(j)] = std::make_unique<RobotCore>(m, j, cont, 0.1);
   }
   void publish(const tp::PlanData& p) {
-    std::string why;
-    if (w.offer_plan(p, &why) == tp::PlanFollower::Offer::Rejected) {
-      ++plan_refusals;
-      log += "world refused a plan: " + why + "\n";
+    if (plan_delay > 0 || !in_flight.empty()) {
+      in_flight.emplace_back(k + plan_delay, p);
+    } else {
+      deliver(p);
     }
-    offer_robots(p);
     for (size_t i = 0; i < 2; ++i) {
       if (sup[i] && sup_alive[i] && p.supervisor_id != (i == 0 ? "m1/supervisor" : "m1/supervisor@50")) sup[i]->on_plan(p, k * kMs);
     }
     last_plan = p;
+  }
+  void deliver(const tp::PlanData& p) {
+    std::string why;
+    if (w.offer_plan(p, &why) == tp::PlanFollower::Offer::Rejected) {
+      ++plan_refusals;
+      log += "world refused a plan: " + why + "\n";
+    } else if (!why.empty()) {
+      log += "world: " + why + "\n";
+    }
+    offer_robots(p);
   }
   void offer_robots(const tp::PlanData& p) {
     std::string why;
@@ -120,6 +131,10 @@ struct Rig {
   void tick() {
     const int64_t now = k * kMs;
     w.begin_tick(k, now, out);
+    while (!in_flight.empty() && in_flight.front().first <= k) {
+      deliver(in_flight.front().second);
+      in_flight.erase(in_flight.begin());
+    }
     std::array<std::optional<tmo::JointVec>, 2> late_tau;
     const bool report = w.report_due(1L << 40);
     tandem::supervisor::ReportIn in;
@@ -234,6 +249,44 @@ TEST_CASE("the last controller of an arm dies at peak speed: the object is broug
     CHECK(rig.max_decel <= a_max(rig.m));         // the stop stayed inside the bound
     CHECK(rig.w.plant().state().cd.norm() < 1e-3);
     CHECK(rig.sup[0]->state() == tp::TaskStateCode::Paused);
+  }
+}
+
+TEST_CASE("a plan version that reaches the followers 170 ticks after its change is blended in: continuous references, no slip (finding 86)", "[stops]") {
+  // Soak run 59: a machine stall of 0.34 s; the leader's next version, made at tick 1082200, reached the world and
+  // the robots at 1082367, 6.66 mm from the reference they followed; the object slid 2.1 mm. Here at the task's peak
+  // speed, the versions of a stop reach the followers 170 ticks late: a pause asked for, or both robots standing
+  // still 150 ms (the world drives both arms to rest and brakes them; the leader's stop comes late).
+  for (const bool stall : {false, true}) {
+    Rig rig;
+    const double hsg = rig.m.safe_grasp_force;
+    rig.run_to(kPeakTick);
+    const double v_peak = rig.w.plant().state().cd.norm();
+    rig.plan_delay = 170;
+    if (stall) {
+      rig.mute_until = {kPeakTick + 150, kPeakTick + 150};
+    } else {
+      rig.sup[0]->on_request(SupervisorCore::Request::Pause);
+    }
+    tmo::Vec3 prev = rig.w.follower().sample(rig.k - 1).pose;
+    double max_step = 0.0, max_acc = 0.0;
+    while (rig.k < kPeakTick + 2500) {
+      if (rig.k == kPeakTick + 1000) rig.plan_delay = 0;
+      rig.tick();
+      const tmo::PoseSample s = rig.w.follower().sample(rig.k - 1);  // as the world followed tick k - 1
+      max_step = std::max(max_step, (s.pose - prev).head<2>().norm());
+      max_acc = std::max(max_acc, s.acc.head<2>().norm());
+      prev = s.pose;
+    }
+    INFO((stall ? "both robots stood still 150 ms" : "a pause") << "\n" << rig.log);
+    CHECK(rig.log.find("reference jumps by") != std::string::npos);  // the case arose: a late version
+    CHECK(rig.log.find("blended into over") != std::string::npos);
+    // No jump (a catch-up after a late resume runs faster than the task, never more than twice its peak speed).
+    CHECK(max_step <= 2.0 * v_peak * rig.m.period);
+    CHECK(max_acc <= 0.5 * a_max(rig.m));              // a stop ramp's quarter of eq. (14)'s bound, and the blend's
+    CHECK(rig.slips() == 0);
+    CHECK(rig.contact_lost() == 0);
+    CHECK(rig.min_normal >= hsg);
   }
 }
 
@@ -406,15 +459,26 @@ TEST_CASE("followers adopt a takeover plan that jumps (and say so), and a standb
   leader.export_to(next);
   next.supervisor_id = "m1/supervisor";
   std::string why, why_lagging;
+  const tmo::ArmReference before = f.reference(0, 2500);
   CHECK(f.offer(next, &why, 2500) == tp::PlanFollower::Offer::Adopted);
   CHECK(lagging.offer(next, &why_lagging, 2100) == tp::PlanFollower::Offer::Adopted);
   // The current one got a change 200 ticks in its past: the jump is said (soak finding 58), though it is no
-  // takeover; the lagging one got it before the change: nothing to say.
+  // takeover; the lagging one got it before the change: nothing to say, nothing to blend.
   CHECK(why.find("a plan version whose reference jumps by") != std::string::npos);
   CHECK(why.find("version " + std::to_string(next.version) + " after " + std::to_string(p.version)) != std::string::npos);
+  CHECK(why.find("adopted, blended into over") != std::string::npos);
   CHECK(why_lagging.empty());
+  CHECK_FALSE(lagging.blending(2100));
   CHECK(f.jump() == 0.0);  // jump() stays a takeover's
-  for (long k : {2100L, 2400L, 2600L}) CHECK((f.reference(0, k).x - lagging.reference(0, k).x).norm() == 0.0);
+  // Bumpless (finding 86): the current one's reference goes on from where it was, in position and velocity ...
+  CHECK((f.reference(0, 2500).x - before.x).norm() < 1e-12);
+  CHECK((f.reference(0, 2500).xd - before.xd).norm() < 1e-12);
+  REQUIRE(f.blending(2500));
+  // ... and is the plan as made once the blend is over: both followers agree again, and at every tick before the
+  // change.
+  const long end = 2500 + f.blend_ticks();
+  for (long k : {2100L, 2400L, end, end + 500}) CHECK((f.reference(0, k).x - lagging.reference(0, k).x).norm() == 0.0);
+  CHECK((f.reference(0, 2600).x - lagging.reference(0, 2600).x).norm() > 1e-3);
   // A takeover plan (a new epoch) from a supervisor that paused the path at tick 1000 long ago: 0.2 m behind at
   // tick 2500. Reported, and adopted as every follower adopts it.
   tp::ModulePlan drifted(m, false);

@@ -2,6 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <optional>
+
+#include "tandem/model/grasp.hpp"
 
 namespace tandem::plan {
 
@@ -156,37 +160,100 @@ PlanFollower::Offer PlanFollower::offer(const PlanData& p, std::string* why, lon
     refused_version_ = p.version;
     return Offer::Ignored;
   }
-  if (have_ && now_tick >= 0) {
+  const bool takeover = have_ && (r.outranks(rank_) || rank_.outranks(r));
+  const std::optional<model::PoseSample> before =
+      have_ && now_tick >= 0 ? std::optional<model::PoseSample>(sample(now_tick)) : std::nullopt;
+  plan_.import_from(p);
+  have_ = true;
+  rank_ = r;
+  if (before) {
     // Measured for every plan adopted, a takeover's or the same leader's next version: a version that reaches a
     // follower after the tick its change was scheduled for (a lost sample its stalled leader could not send again,
-    // and a lockstep world that went on once the lease lapsed: soak finding 58) jumps the references too.
-    ModulePlan next = plan_;
-    next.import_from(p);
-    const model::Vec3 d = next.sample(now_tick).pose - plan_.sample(now_tick).pose;
+    // and a lockstep world that went on once the lease lapsed: soak finding 58; a machine stall: finding 86) would
+    // jump the references. Blended instead (bumpless adoption), and said.
+    const model::Vec3 d = plan_.sample(now_tick).pose - before->pose;
     const double jump = std::max(d.head<2>().norm(), std::abs(d(2)));
-    const bool takeover = r.outranks(rank_) || rank_.outranks(r);
     if (takeover) jump_ = jump;
+    const double blend_s = start_blend(*before, now_tick);
     if (jump > kMaxJump && why != nullptr) {
+      char ms[32];
+      std::snprintf(ms, sizeof ms, "%.0f", blend_s * 1e3);
       *why = std::string(takeover ? "a takeover plan" : "a plan version") + " whose reference jumps by " +
              std::to_string(d.head<2>().norm() * 1e3).substr(0, 6) + " mm at tick " + std::to_string(now_tick) +
              " (from " + p.supervisor_id + ", epoch " + std::to_string(p.epoch) + ", version " +
              std::to_string(p.version) + " after " + std::to_string(version_) + ", made at tick " +
-             std::to_string(p.heard_tick) + "); followed, as every follower does";
+             std::to_string(p.heard_tick) + "); adopted, blended into over " + ms + " ms";
     }
   }
-  plan_.import_from(p);
-  have_ = true;
-  rank_ = r;
   version_ = p.version;
   return Offer::Adopted;
 }
 
-bool PlanFollower::adopt_refused(const SupervisorRank& r, uint64_t version) {
+namespace {
+
+// Quintic Hermite basis on s in [0, 1]: h0 takes a difference in position to 0, h1 (times the blend's length) one
+// in velocity, each with zero velocity and acceleration at s = 1 and zero acceleration at s = 0.
+double h0(double s) { return 1.0 + s * s * s * (-10.0 + s * (15.0 - 6.0 * s)); }
+double h0d(double s) { return s * s * (-30.0 + s * (60.0 - 30.0 * s)); }
+double h0dd(double s) { return s * (-60.0 + s * (180.0 - 120.0 * s)); }
+double h1(double s) { return s + s * s * s * (-6.0 + s * (8.0 - 3.0 * s)); }
+double h1d(double s) { return 1.0 + s * s * (-18.0 + s * (32.0 - 15.0 * s)); }
+double h1dd(double s) { return s * (-36.0 + s * (96.0 - 60.0 * s)); }
+
+}  // namespace
+
+double PlanFollower::start_blend(const model::PoseSample& from, long now_tick) {
+  const model::PoseSample to = plan_.sample(now_tick);
+  blend_dp_ = from.pose - to.pose;
+  blend_dv_ = from.vel - to.vel;
+  blend_from_ = -1;
+  blend_ticks_ = 0;
+  if (blend_dp_.cwiseAbs().maxCoeff() < kBlendMin && blend_dv_.cwiseAbs().maxCoeff() < kBlendMin) return 0.0;
+  // The shortest length whose peak acceleration at the faster stick tip stays within the share of the bound.
+  const double stick = std::max(m_->geometry.stick_length[0], m_->geometry.stick_length[1]);
+  const model::ObjectParams& o = m_->plant.object;
+  const double a_max = model::stop_deceleration_bound(m_->reference_force, m_->safe_grasp_force, o.mass, o.mu_s, m_->plant.g0);
+  const double limit = kBlendShare * (a_max > 0.0 ? a_max : 1.0);
+  const auto peak = [&](double T) {
+    double p = 0.0;
+    for (int i = 0; i <= 64; ++i) {
+      const double s = i / 64.0;
+      const model::Vec3 a = blend_dp_ * (h0dd(s) / (T * T)) + blend_dv_ * (h1dd(s) / T);
+      p = std::max(p, a.head<2>().norm() + stick * std::abs(a(2)));
+    }
+    return p;
+  };
+  double T = 10.0 * m_->period;
+  while (peak(T) > limit && T < 10.0) T *= 1.1;
+  blend_from_ = now_tick;
+  blend_ticks_ = static_cast<long>(std::ceil(T / m_->period));
+  return static_cast<double>(blend_ticks_) * m_->period;
+}
+
+model::PoseSample PlanFollower::sample(long k) const {
+  model::PoseSample x = plan_.sample(k);
+  if (!blending(k)) return x;
+  const double T = static_cast<double>(blend_ticks_) * m_->period;
+  const double s = static_cast<double>(k - blend_from_) / static_cast<double>(blend_ticks_);
+  x.pose += blend_dp_ * h0(s) + blend_dv_ * (T * h1(s));
+  x.vel += blend_dp_ * (h0d(s) / T) + blend_dv_ * h1d(s);
+  x.acc += blend_dp_ * (h0dd(s) / (T * T)) + blend_dv_ * (h1dd(s) / T);
+  return x;
+}
+
+model::ArmReference PlanFollower::reference(int j, long k) const {
+  if (!blending(k)) return plan_.reference(j, k);
+  return model::arm_reference(j, sample(k), m_->geometry, m_->reference_force);
+}
+
+bool PlanFollower::adopt_refused(const SupervisorRank& r, uint64_t version, long now_tick) {
   if (refused_rank_.strength == 0 || refused_rank_.epoch != r.epoch || refused_rank_.strength != r.strength ||
       refused_version_ != version || !r.outranks(rank_)) {
     return false;
   }
+  const model::PoseSample before = sample(std::max(now_tick, 0L));
   plan_.import_from(refused_);
+  if (have_ && now_tick >= 0) (void)start_blend(before, now_tick);
   rank_ = r;
   version_ = version;
   refused_rank_ = SupervisorRank{};

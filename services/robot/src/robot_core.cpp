@@ -21,7 +21,7 @@ void RobotCore::world_plan(const plan::SupervisorRank& world, uint64_t version, 
   const bool planless = !follower_.has_plan() && world.outranks(plan::SupervisorRank{});
   // The world follows a takeover this robot refused as older than its own plan (the world had not heard the newer
   // version): the world decides, the robot follows it too.
-  if (world.outranks(follower_.rank()) && follower_.adopt_refused(world, version)) ++adopted_refused_;
+  if (world.outranks(follower_.rank()) && follower_.adopt_refused(world, version, done_)) ++adopted_refused_;
   const plan::SupervisorRank own = follower_.rank();
   const bool same_rank = world.epoch == own.epoch && world.strength == own.strength;
   const bool older = same_rank && version > follower_.version() && k - since > kVersionGraceTicks;

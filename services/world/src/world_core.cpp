@@ -250,6 +250,7 @@ void WorldCore::begin_tick(long k, int64_t /*now_ns*/, std::array<SampleOut, 2>&
 
 bool WorldCore::plan_at_rest(long k, double still_speed) const {
   if (!follower_.has_plan()) return true;
+  if (follower_.blending(k)) return false;  // a late version's blend still moves the reference
   const plan::ModulePlan& p = follower_.plan();
   if (p.paused_at(k)) return true;
   const model::PoseSample now = p.sample(k);

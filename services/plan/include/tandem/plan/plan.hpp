@@ -145,7 +145,7 @@ class ModulePlan {
 /// successor's. Until a plan is heard, the follower holds the plan every supervisor starts from.
 class PlanFollower {
  public:
-  PlanFollower(const sim::ModuleSetup& m, bool continuous) : plan_(m, continuous) {}
+  PlanFollower(const sim::ModuleSetup& m, bool continuous) : m_(&m), plan_(m, continuous) {}
   enum class Offer { Adopted, Ignored, Rejected };
   /// A plan of a new rank (a takeover) whose object pose at the follower's current tick is this far from the
   /// pose of the plan it follows is reported (`jump()`), and adopted all the same. It is never refused: the
@@ -169,17 +169,38 @@ class PlanFollower {
   /// The world is the arbiter: a follower that refused an older takeover which the world follows all the same (the
   /// world had not heard the newer version this follower holds) adopts it, so that the module follows one plan. True
   /// if the last plan refused is of rank `r` and version `version` and was adopted now.
-  bool adopt_refused(const SupervisorRank& r, uint64_t version);
+  bool adopt_refused(const SupervisorRank& r, uint64_t version, long now_tick = -1);
   /// The jump of the last plan of a new rank adopted, at the follower's tick then [m] (0: none measured).
   double jump() const { return jump_; }
   bool has_plan() const { return have_; }
-  model::ArmReference reference(int j, long k) const { return plan_.reference(j, k); }
+  /// The object's reference at tick k: the plan's, plus what is left of a blend (below).
+  model::PoseSample sample(long k) const;
+  model::ArmReference reference(int j, long k) const;
+  /// The plan followed, without a blend (what its supervisor made).
   const ModulePlan& plan() const { return plan_; }
+  /// Bumpless adoption. A plan (a version or a takeover) that reaches this follower after the tick its change was
+  /// scheduled for would move the reference at once (soak finding 86: a stop version 167 ticks late jumped both arms'
+  /// references 6.66 mm and the object slid 2.1 mm). Adopted all the same, but the reference starts where the
+  /// previous plan had it, in pose and velocity, and blends into the new plan (a quintic, zero acceleration at both
+  /// ends) over the shortest time whose peak acceleration of the difference, at the faster stick tip, stays within
+  /// kBlendShare of the friction bound (model::stop_deceleration_bound, eq. 14): a stop ramp takes kStopMargin of it
+  /// (supervisor::SupervisorCore), so a blend on top of a stop stays within half of it. After the blend every follower
+  /// is on the plan as made. A change under kBlendMin (a version whose change is still ahead) is no blend.
+  static constexpr double kBlendShare = 0.25;
+  static constexpr double kBlendMin = 1e-7;  ///< [m], [m/s] (and the same in rad, rad/s)
+  /// True while a blend moves the reference off the plan at tick k.
+  bool blending(long k) const { return blend_from_ >= 0 && k >= blend_from_ && k < blend_from_ + blend_ticks_; }
+  long blend_ticks() const { return blend_ticks_; }
   SupervisorRank rank() const { return rank_; }
   uint64_t version() const { return version_; }
 
  private:
+  /// Starts a blend at `now_tick` from `from` (the reference before) to the plan now held; returns its length [s].
+  double start_blend(const model::PoseSample& from, long now_tick);
+  const sim::ModuleSetup* m_;
   ModulePlan plan_;
+  long blend_from_ = -1, blend_ticks_ = 0;
+  model::Vec3 blend_dp_ = model::Vec3::Zero(), blend_dv_ = model::Vec3::Zero();  ///< before minus after, at blend_from_
   bool have_ = false;
   SupervisorRank rank_{};
   uint64_t version_ = 0;

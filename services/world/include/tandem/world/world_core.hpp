@@ -175,6 +175,7 @@ class WorldCore {
   /// The version of the plan followed (0 before any), and the tick at which it was adopted: sent with every sample
   /// too, so that a robot with an older version of the same plan can tell (robot::RobotCore::world_plan).
   uint64_t plan_version() const { return follower_.has_plan() ? follower_.version() : 0; }
+  const plan::PlanFollower& follower() const { return follower_; }  ///< the plan as this world follows it
   long plan_since() const { return plan_since_; }
 
   /// Starts tick k at `now_ns`: applies pending releases, measures the tracking error (the plan's eq. 15 as

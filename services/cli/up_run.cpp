@@ -420,6 +420,7 @@ void UpRun::watch_spins() {
                 "process does (a thread spinning: docs/soak.md, finding 85); killed (its exit is handled as a crash)\n",
                 by_pid.at(s.pid)->label.c_str(), s.pid, s.tid, 100.0 * s.share, s.over_s, launcher::policy_name(s.policy));
     std::fflush(stdout);
+    L_.on_spun(s.pid);
     ::kill(s.pid, SIGKILL);
   }
 }

@@ -357,6 +357,36 @@ TEST_CASE("launcher supervisor: a module whose supervisor lost its plan is stopp
   CHECK(f.sup.modules().at("m1").end.running());
 }
 
+TEST_CASE("launcher supervisor: a coordinated module whose world was killed for spinning restarts from its initial grasp, at most 3 times", "[launcher]") {
+  Fixture f(true);
+  double t = 10.0;
+  for (int i = 1; i <= Supervisor::kSpinRepairs + 1; ++i, t += 10.0) {
+    INFO("spin kill " << i);
+    f.sup.on_spun(f.pid("m1/world"));
+    f.exit("m1/world", 128 + SIGKILL, t);
+    if (i > Supervisor::kSpinRepairs) {  // past the bound: failed, as any world's crash, until cleared
+      CHECK(f.rec.said("tandem up: module m1 failed (m1/world exited with code 137); stopping its processes, the others go on\n"));
+      CHECK(f.sup.modules().at("m1").end.text() == "failed: m1/world exited with code 137");
+      break;
+    }
+    CHECK(f.rec.said("tandem up: module m1's world was killed for a spinning thread (no physical event); restarting the "
+                     "module from its initial grasp (" + std::to_string(i) + " of at most 3), its task is re-planned\n"));
+    for (const char* l : {"m1/supervisor", "m1/left", "m1/right"}) f.exit(l, 128 + SIGTERM, t + 0.5);
+    const auto s = f.starts_after(t);
+    REQUIRE(s.size() == 4);
+    CHECK(s[0].label == "m1/world");
+    CHECK(f.sup.modules().at("m1").end.running());
+    f.hear_all(t + 1.0);
+    f.sup.on_world_load("m1", "", 1, t + 1.0);
+  }
+  CHECK(f.sup.plan_restarts() == 0);  // (its own count: the plan was not lost)
+  SECTION("a world that crashed by itself fails its module") {
+    Fixture g(true);
+    g.exit("m1/world", 128 + SIGKILL, 5.0);
+    CHECK(g.rec.said("tandem up: module m1 failed (m1/world exited with code 137); stopping its processes, the others go on\n"));
+  }
+}
+
 TEST_CASE("launcher supervisor: a standby with no plan to follow while another supervisor leads restarts alone", "[launcher]") {
   ModuleSpec m = module_m1(0, "on-failure");
   m.supervisor_standby = 1;

@@ -582,6 +582,12 @@ void Supervisor::on_world_done(const std::string& label, long long pid, double n
   }
 }
 
+void Supervisor::on_spun(int pid) {
+  for (auto& c : children_) {
+    if (c.running && c.host.empty() && c.pid == pid && pid > 0) c.spun = true;
+  }
+}
+
 void Supervisor::on_world_load(const std::string& module, const std::string& detail, unsigned long long tick,
                                double now) {
   const auto it = modules_.find(module);
@@ -855,6 +861,16 @@ void Supervisor::handle_exit(Child& c, double now) {
       }
       return;
     case ExitVerdict::ModuleFailed:
+      if (*role == Role::World && c.spun && mr->spin_repairs < kSpinRepairs) {
+        ++mr->spin_repairs;
+        logf("tandem up: module %s's world was killed for a spinning thread (no physical event); restarting the "
+             "module from its initial grasp (%d of at most %d), its task is re-planned\n",
+             c.module.c_str(), mr->spin_repairs, kSpinRepairs);
+        mr->end = ModuleEnd::of(ModuleEnd::Kind::Repairing);
+        stop_module(c.module, now);
+        pending_clears_.push_back(c.module);
+        return;
+      }
       logf("tandem up: module %s failed (%s exited with code %d); stopping its processes, the others go on\n",
            c.module.c_str(), c.label.c_str(), c.status);
       mr->end = ModuleEnd::of(ModuleEnd::Kind::Failed, c.label + " exited with code " + code);

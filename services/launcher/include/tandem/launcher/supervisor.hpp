@@ -62,6 +62,7 @@ struct Child {
   bool active_seen = false; ///< its status said active once
   bool leads = false;       ///< supervisors: its latest status says it leads its module
   double done_said = -1.0;  ///< worlds: when its status first said its task is done (-1: not yet)
+  bool spun = false;        ///< killed by the launcher for a spinning thread (launcher::SpinWatch)
   double status_at = -1.0;  ///< when its latest status was heard (the time of the launcher's last poll then)
   // Multi-host: started by the agent of `host` ("" = by the launcher, on this machine).
   std::string host;
@@ -93,6 +94,7 @@ struct ModuleRun {
   bool paused_for_unplug = false;  ///< a pause was asked for an unplug without standby: resume on plug
   bool ticked = false;             ///< its world has reported a tick past 0 (the module came up)
   int repairs = 0;                 ///< restarts because it did not come up (docs/security.md, "Start-up")
+  int spin_repairs = 0;            ///< restarts because its world was killed for a spinning thread
   double started_at = 0.0;         ///< when its processes were last started [s]
   DrainWatch drain;                ///< draining: the bounds of its drain
   double load_paused_since = -1.0; ///< its world has said "paused for load" since then [s]; -1: it has not
@@ -184,6 +186,10 @@ class Outbox {
 class Supervisor {
  public:
   static constexpr int kStartRepairs = 3;
+  /// A coordinated module whose world was killed for a spinning thread (a Fast DDS loop, docs/soak.md finding 85: no
+  /// physical event) is restarted from its initial grasp, as a module that lost its plan is, at most this often; past
+  /// that it stays failed until cleared.
+  static constexpr int kSpinRepairs = 3;
 
   Supervisor(SupervisorConfig cfg, Executor& exec, Outbox& out);
 
@@ -210,6 +216,8 @@ class Supervisor {
   /// A world's final status said its task is done: the module's task is over (a restart pending is dropped), and
   /// the world is stopped if it has not exited kWorldExitGraceS later.
   void on_world_done(const std::string& label, long long pid, double now);
+  /// The caller is about to SIGKILL process `pid` of this machine for a spinning thread (launcher::SpinWatch).
+  void on_spun(int pid);
   /// A world's status: its tick and detail ("paused for load ..." for the governor).
   void on_world_load(const std::string& module, const std::string& detail, unsigned long long tick, double now);
   /// A module's task state (plan::TaskStateCode).

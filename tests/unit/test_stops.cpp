@@ -479,6 +479,22 @@ TEST_CASE("followers adopt a takeover plan that jumps (and say so), and a standb
   const long end = 2500 + f.blend_ticks();
   for (long k : {2100L, 2400L, end, end + 500}) CHECK((f.reference(0, k).x - lagging.reference(0, k).x).norm() == 0.0);
   CHECK((f.reference(0, 2600).x - lagging.reference(0, 2600).x).norm() > 1e-3);
+  {
+    // A follower behind the tick the version was made at (a robot back from a stall, a standby just joined) takes it
+    // as made: it skips to the newest tick, where a blend anchored in its past would leave it off the module's plan.
+    tp::PlanData late = next;
+    late.heard_tick = 2480;
+    tp::PlanFollower current(m, false), behind(m, false);
+    REQUIRE(current.offer(p, nullptr, 2500) == tp::PlanFollower::Offer::Adopted);
+    REQUIRE(behind.offer(p, nullptr, 1500) == tp::PlanFollower::Offer::Adopted);
+    std::string why_current, why_behind;
+    CHECK(current.offer(late, &why_current, 2500) == tp::PlanFollower::Offer::Adopted);
+    CHECK(behind.offer(late, &why_behind, 2400) == tp::PlanFollower::Offer::Adopted);
+    CHECK(current.blending(2500));
+    CHECK_FALSE(behind.blending(2400));
+    CHECK(why_behind.find("adopted, as made (this follower is 80 ticks behind it)") != std::string::npos);
+    for (long k : {2400L, 2500L, 2600L}) CHECK((behind.reference(0, k).x - lagging.reference(0, k).x).norm() == 0.0);
+  }
   // A takeover plan (a new epoch) from a supervisor that paused the path at tick 1000 long ago: 0.2 m behind at
   // tick 2500. Reported, and adopted as every follower adopts it.
   tp::ModulePlan drifted(m, false);

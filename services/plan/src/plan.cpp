@@ -174,15 +174,23 @@ PlanFollower::Offer PlanFollower::offer(const PlanData& p, std::string* why, lon
     const model::Vec3 d = plan_.sample(now_tick).pose - before->pose;
     const double jump = std::max(d.head<2>().norm(), std::abs(d(2)));
     if (takeover) jump_ = jump;
-    const double blend_s = start_blend(*before, now_tick);
+    // A follower behind the tick the plan was made at (a robot back from a stall, or a standby that just joined: it
+    // skips to the newest tick) is not serving that tick: it takes the plan as made, which the others follow.
+    const bool behind = now_tick < p.heard_tick;
+    const double blend_s = behind ? stop_blend() : start_blend(*before, now_tick);
     if (jump > kMaxJump && why != nullptr) {
-      char ms[32];
-      std::snprintf(ms, sizeof ms, "%.0f", blend_s * 1e3);
+      char ms[80];
+      if (behind) {
+        std::snprintf(ms, sizeof ms, "as made (this follower is %lld ticks behind it)",
+                      static_cast<long long>(p.heard_tick - now_tick));
+      } else {
+        std::snprintf(ms, sizeof ms, "blended into over %.0f ms", blend_s * 1e3);
+      }
       *why = std::string(takeover ? "a takeover plan" : "a plan version") + " whose reference jumps by " +
              std::to_string(d.head<2>().norm() * 1e3).substr(0, 6) + " mm at tick " + std::to_string(now_tick) +
              " (from " + p.supervisor_id + ", epoch " + std::to_string(p.epoch) + ", version " +
              std::to_string(p.version) + " after " + std::to_string(version_) + ", made at tick " +
-             std::to_string(p.heard_tick) + "); adopted, blended into over " + ms + " ms";
+             std::to_string(p.heard_tick) + "); adopted, " + ms;
     }
   }
   version_ = p.version;
@@ -201,6 +209,12 @@ double h1d(double s) { return 1.0 + s * s * (-18.0 + s * (32.0 - 15.0 * s)); }
 double h1dd(double s) { return s * (-36.0 + s * (96.0 - 60.0 * s)); }
 
 }  // namespace
+
+double PlanFollower::stop_blend() {
+  blend_from_ = -1;
+  blend_ticks_ = 0;
+  return 0.0;
+}
 
 double PlanFollower::start_blend(const model::PoseSample& from, long now_tick) {
   const model::PoseSample to = plan_.sample(now_tick);
@@ -253,7 +267,11 @@ bool PlanFollower::adopt_refused(const SupervisorRank& r, uint64_t version, long
   }
   const model::PoseSample before = sample(std::max(now_tick, 0L));
   plan_.import_from(refused_);
-  if (have_ && now_tick >= 0) (void)start_blend(before, now_tick);
+  if (have_ && now_tick >= refused_.heard_tick) {
+    (void)start_blend(before, now_tick);
+  } else {
+    (void)stop_blend();
+  }
   rank_ = r;
   version_ = version;
   refused_rank_ = SupervisorRank{};

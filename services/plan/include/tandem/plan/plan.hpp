@@ -185,7 +185,9 @@ class PlanFollower {
   /// ends) over the shortest time whose peak acceleration of the difference, at the faster stick tip, stays within
   /// kBlendShare of the friction bound (model::stop_deceleration_bound, eq. 14): a stop ramp takes kStopMargin of it
   /// (supervisor::SupervisorCore), so a blend on top of a stop stays within half of it. After the blend every follower
-  /// is on the plan as made. A change under kBlendMin (a version whose change is still ahead) is no blend.
+  /// is on the plan as made. A change under kBlendMin (a version whose change is still ahead) is no blend, nor is a
+  /// plan that reaches a follower behind the world tick its supervisor had heard (a robot back from a stall or just
+  /// joined, which skips to the newest tick: a blend anchored in its past would leave it off the module's plan).
   static constexpr double kBlendShare = 0.25;
   static constexpr double kBlendMin = 1e-7;  ///< [m], [m/s] (and the same in rad, rad/s)
   /// True while a blend moves the reference off the plan at tick k.
@@ -197,6 +199,7 @@ class PlanFollower {
  private:
   /// Starts a blend at `now_tick` from `from` (the reference before) to the plan now held; returns its length [s].
   double start_blend(const model::PoseSample& from, long now_tick);
+  double stop_blend();  ///< no blend (returns 0)
   const sim::ModuleSetup* m_;
   ModulePlan plan_;
   long blend_from_ = -1, blend_ticks_ = 0;

@@ -129,9 +129,11 @@ class RobotProcess {
     if (core_.cut_off()) return;  // a stale plan is never served: the main loop leaves the arm
     const std::optional<model::JointVec> tau =
         core_.on_sample(static_cast<long>(smp.tick()), robot_wire::inputs(smp), smp.braked(), other ? &applied : nullptr);
+    newest_tick_ = static_cast<long>(smp.tick());
     if (!tau) return;
     robot_wire::fill_command(core_, *tau, cmd_);
     torque_writer_->write(cmd_);
+    watch_.on_answer(seconds(t_in));
     interval_worst_us_ = std::max(interval_worst_us_, std::chrono::duration<double, std::micro>(Clock::now() - t_in).count());
   }
 
@@ -260,6 +262,11 @@ class RobotProcess {
     // Samples stopped while the module's plan still comes (robot::InputWatch): a new reader, outside the lock (its
     // listener takes it).
     const double now = seconds(Clock::now());
+    if (watch_.silent_while_fed(now)) {
+      std::fprintf(stderr, "tandem-robot %s: answered no tick for %.0f ms while samples came (last computed %ld, "
+                   "newest sample %ld): %s\n", robot_id_.c_str(), 1e3 * watch_.answer_age_s(now), core_.done(),
+                   newest_tick_, *core_.silent_reason() != '\0' ? core_.silent_reason() : "its samples were not handled");
+    }
     const robot::InputWatch::Action act = watch_.on_pass(now, activated_, reader_matched);
     if (act == robot::InputWatch::Action::GiveUp) {
       if (watch_.gave_up_unmatched()) {
@@ -337,6 +344,7 @@ class RobotProcess {
   msg::ArmSensors s_;
   std::string why_;
   double interval_worst_us_ = 0.0;
+  long newest_tick_ = -1;  ///< the newest sample's tick (under mu_)
   long reported_tick_ = -1;
   Clock::time_point last_status_ = Clock::now();  ///< the last status published from pass()
   bool activated_ = false;

@@ -254,17 +254,21 @@ TEST_CASE("a robot component answers new ticks, repeats the last one, and reject
   tmo::ArmSensors in;
   in.q = m.initial.q[1];
   CHECK_FALSE(r.on_sample(0, in, false).has_value());  // no plan heard yet: nothing to follow
+  CHECK(std::string(r.silent_reason()) == "no plan heard yet");  // (said by a robot that falls silent)
   r.offer_plan(initial_plan(m, false));
   const auto t0 = r.on_sample(0, in, false);
   REQUIRE(t0.has_value());
+  CHECK(std::string(r.silent_reason()).empty());
   const auto again = r.on_sample(0, in, false);  // lockstep asks again: the same answer
   REQUIRE(again.has_value());
   CHECK(*again == *t0);
   REQUIRE(r.on_sample(1, in, false).has_value());
   CHECK_FALSE(r.on_sample(0, in, false).has_value());  // older than the last: nothing
+  CHECK(std::string(r.silent_reason()) == "a sample older than the last tick computed");
   tmo::ArmSensors bad = in;
   bad.qd(1) = std::numeric_limits<double>::quiet_NaN();
   CHECK_FALSE(r.on_sample(2, bad, false).has_value());
+  CHECK(std::string(r.silent_reason()).find("non-finite") != std::string::npos);
   CHECK(r.rejected() == 1);
   CHECK(r.done() == 1);
   const auto t2 = r.on_sample(2, in, false);
@@ -299,6 +303,7 @@ TEST_CASE("a robot behind the world's plan answers nothing, and is cut off after
   // nothing (a standby with the plan serves those ticks), then it goes on.
   CHECK(ticks(3, successor.rank()) == 0);
   CHECK(r.behind());
+  CHECK(std::string(r.silent_reason()).find("the world follows a plan this robot has not heard") == 0);
   REQUIRE(r.offer_plan(successor) == tp::PlanFollower::Offer::Adopted);
   CHECK(ticks(2000, successor.rank()) == 2000);
   CHECK_FALSE(r.cut_off());
@@ -1547,6 +1552,34 @@ TEST_CASE("robot input watch: a deaf sensor reader is renewed while the plan com
     still.on_plan(u, 5000 + 150);
     CHECK(still.on_pass(u, false) == A::None);
   }
+}
+
+TEST_CASE("robot input watch: a robot that answers nothing for 0.1 s while samples come is said once per silence, with the reason", "[components]") {
+  using tandem::robot::InputWatch;
+  InputWatch w(InputWatch::Rules{}, 0.0);
+  // Before any answer: start-up, nothing to say.
+  for (double t = 0.0; t < 0.5; t += 0.001) w.on_sample(t);
+  CHECK_FALSE(w.silent_while_fed(0.5));
+  double t = 0.5;
+  for (; t < 1.0; t += 0.001) {  // serving: every sample answered
+    w.on_sample(t);
+    w.on_answer(t);
+    REQUIRE_FALSE(w.silent_while_fed(t));
+  }
+  const double last = t - 0.001;
+  for (; t < last + 0.1; t += 0.001) {  // samples, no answer: not yet
+    w.on_sample(t);
+    REQUIRE_FALSE(w.silent_while_fed(t));
+  }
+  w.on_sample(last + 0.101);
+  CHECK(w.silent_while_fed(last + 0.101));
+  CHECK(w.answer_age_s(last + 0.101) == Approx(0.101));
+  CHECK_FALSE(w.silent_while_fed(last + 0.2));  // once per silence
+  w.on_answer(last + 0.3);
+  // No samples either (the world stands still, or the reader is deaf): the input rules' case, not this one.
+  CHECK_FALSE(w.silent_while_fed(last + 0.5));
+  w.on_sample(last + 0.45);
+  CHECK(w.silent_while_fed(last + 0.46));  // a new silence, with a sample in it: said again
 }
 
 TEST_CASE("peer wait: every peer's need, less that is enough after half the timeout, and what is missing at the timeout", "[components]") {

@@ -45,14 +45,25 @@ std::optional<model::JointVec> RobotCore::on_sample(long k, const model::ArmSens
   if (in.q.size() != n || in.qd.size() != n || !plan::all_finite(in.q) || !plan::all_finite(in.qd) ||
       !plan::all_finite(in.h)) {
     ++rejected_;
+    silent_ = "a sample with a non-finite value or of another joint count";
     return std::nullopt;
   }
   // Behind the world's plan (a takeover's plan not heard yet): no command from a plan the module has left. The
   // world serves the tick from a robot that has the plan (a standby), or keeps the last torque for a few ticks.
-  if (behind_) return std::nullopt;
-  if (k < done_) return std::nullopt;
+  if (behind_) {
+    silent_ = "the world follows a plan this robot has not heard (another rank, or a newer version)";
+    return std::nullopt;
+  }
+  if (k < done_) {
+    silent_ = "a sample older than the last tick computed";
+    return std::nullopt;
+  }
+  silent_ = "";
   if (k == done_) return tau_;                         // the world asks again: the same answer
-  if (!follower_.has_plan()) return std::nullopt;      // nothing to follow yet
+  if (!follower_.has_plan()) {                         // nothing to follow yet
+    silent_ = "no plan heard yet";
+    return std::nullopt;
+  }
   const model::ArmReference ref = follower_.reference(j_, k);
   // Continue from what the arm actually got over the last period, not from this controller's own last output
   // (bumpless transfer): its owner's torque when this robot is in shadow, the world's drive, or, while the

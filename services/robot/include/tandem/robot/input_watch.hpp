@@ -31,12 +31,31 @@ class InputWatch {
     /// timeout, while each restarted one served within seconds. Discovery of a new participant on this machine
     /// takes 0.1-2 s, 3-4 s under a one-core hog (docs/soak.md); 6 s leaves room for that.
     double unmatched_s = 6.0;
+    /// A robot that has answered a tick and then answers none for this long while samples keep coming is silent by
+    /// its own rules (soak finding 84: a standby that had turned active answered nothing for 60 ms before its
+    /// primary was killed, and the arm waited 1.3 s for it): said once per silence, with the reason.
+    double silent_answer_s = 0.1;
   };
   enum class Action { None, RenewReader, GiveUp };
 
   InputWatch(Rules rules, double now) : r_(rules), last_input_(now), last_plan_(now), last_pass_(now), renewed_at_(now) {}
 
   void on_sample(double now) { last_input_ = now; }
+  /// A command went out for a tick.
+  void on_answer(double now) {
+    last_answer_ = now;
+    silence_said_ = false;
+  }
+  /// True once per silence: answered before, nothing answered for silent_answer_s, and a sample came within it.
+  bool silent_while_fed(double now) {
+    if (last_answer_ < 0.0 || silence_said_ || now - last_answer_ <= r_.silent_answer_s ||
+        last_input_ <= last_answer_ || now - last_input_ > r_.silent_answer_s) {
+      return false;
+    }
+    silence_said_ = true;
+    return true;
+  }
+  double answer_age_s(double now) const { return last_answer_ < 0.0 ? -1.0 : now - last_answer_; }
   /// A plan heard; `heard_tick`: the newest world tick its supervisor had heard (-1: it does not say).
   void on_plan(double now, long heard_tick = -1) {
     last_plan_ = now;
@@ -91,6 +110,8 @@ class InputWatch {
  private:
   Rules r_;
   double last_input_, last_plan_, last_pass_, renewed_at_;
+  double last_answer_ = -1.0;
+  bool silence_said_ = false;
   int renewals_ = 0;
   long passes_ = 0;
   double unmatched_since_ = -1.0;

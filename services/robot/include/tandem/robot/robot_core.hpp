@@ -66,6 +66,8 @@ class RobotCore {
                                            const model::JointVec* applied = nullptr);
 
   long done() const { return done_; }                  ///< the last tick computed (-1: none)
+  /// Why the last sample got no command ("" if it got one): for a robot that falls silent (soak finding 84).
+  const char* silent_reason() const { return silent_; }
   bool has_plan() const { return follower_.has_plan(); }  ///< a plan has been adopted (the law can run)
   plan::SupervisorRank plan_rank() const { return follower_.rank(); }  ///< the rank of the plan followed
   uint64_t plan_version() const { return follower_.version(); }        ///< and its version
@@ -94,6 +96,7 @@ class RobotCore {
   model::HybridController ctl_;
   sim::RobotMeter meter_;
   long done_ = -1;
+  const char* silent_ = "";
   model::JointVec tau_;
   model::ControlOutput out_{};
   model::ArmReference ref_{};

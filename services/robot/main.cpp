@@ -265,7 +265,7 @@ class RobotProcess {
     if (watch_.silent_while_fed(now)) {
       std::fprintf(stderr, "tandem-robot %s: answered no tick for %.0f ms while samples came (last computed %ld, "
                    "newest sample %ld): %s\n", robot_id_.c_str(), 1e3 * watch_.answer_age_s(now), core_.done(),
-                   newest_tick_, *core_.silent_reason() != '\0' ? core_.silent_reason() : "its samples were not handled");
+                   newest_tick_, *core_.silent_reason() != '\0' ? core_.silent_reason() : "cut off, or an arm of another type");
     }
     const robot::InputWatch::Action act = watch_.on_pass(now, activated_, reader_matched);
     if (act == robot::InputWatch::Action::GiveUp) {

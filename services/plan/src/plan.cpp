@@ -166,6 +166,7 @@ PlanFollower::Offer PlanFollower::offer(const PlanData& p, std::string* why, lon
   plan_.import_from(p);
   have_ = true;
   rank_ = r;
+  if (!before) (void)stop_blend();  // (no tick to anchor a blend at: a blend of the plan before would not fit this one)
   if (before) {
     // Measured for every plan adopted, a takeover's or the same leader's next version: a version that reaches a
     // follower after the tick its change was scheduled for (a lost sample its stalled leader could not send again,
@@ -267,7 +268,7 @@ bool PlanFollower::adopt_refused(const SupervisorRank& r, uint64_t version, long
   }
   const model::PoseSample before = sample(std::max(now_tick, 0L));
   plan_.import_from(refused_);
-  if (have_ && now_tick >= refused_.heard_tick) {
+  if (have_ && now_tick >= 0 && now_tick >= refused_.heard_tick) {
     (void)start_blend(before, now_tick);
   } else {
     (void)stop_blend();

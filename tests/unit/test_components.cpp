@@ -15,11 +15,16 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <chrono>
+#include <thread>
+#include <iterator>
+#include <fstream>
 #include <limits>
 #include <set>
 #include <string>
 
 #include "tandem/launcher/capacity.hpp"
+#include "tandem/launcher/estimate.hpp"
 #include "tandem/launcher/governor.hpp"
 #include "tandem/launcher/restart_policy.hpp"
 #include "tandem/launcher/spin_watch.hpp"
@@ -1246,6 +1251,45 @@ TEST_CASE("spin watch: /proc shows a real spinning child's thread CPU, and nothi
   ::waitpid(child, nullptr, 0);
   reap.pid = 0;  // reaped
   CHECK(tandem::launcher::thread_times(child).empty());
+}
+
+TEST_CASE("spin watch: /proc files of a process that ends while they are read give nothing, never an exception", "[components]") {
+  // The hazard (soak run 60 lost its launcher to it): a /proc file opened while its process lives and read once it is
+  // reaped fails with ESRCH, and an ifstream's buffer throws on that.
+  pid_t child = ::fork();
+  REQUIRE(child >= 0);
+  if (child == 0) {
+    ::pause();
+    ::_exit(0);
+  }
+  const std::string stat = "/proc/" + std::to_string(child) + "/stat";
+  std::ifstream opened(stat);
+  ::kill(child, SIGKILL);
+  ::waitpid(child, nullptr, 0);
+  CHECK_THROWS(std::string((std::istreambuf_iterator<char>(opened)), std::istreambuf_iterator<char>()));
+  CHECK(tandem::launcher::read_proc_text(stat).empty());
+  CHECK(tandem::launcher::process_cpu_s(child) < 0.0);
+  CHECK(tandem::launcher::thread_times(child).empty());
+  CHECK_FALSE(tandem::launcher::read_proc_text("/proc/self/stat").empty());
+  // A process whose threads come and go while it is looked at, until it exits: never a throw.
+  child = ::fork();
+  REQUIRE(child >= 0);
+  if (child == 0) {
+    const auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(1500);
+    while (std::chrono::steady_clock::now() < end) {
+      std::thread([] { ::usleep(200); }).join();
+    }
+    ::_exit(0);
+  }
+  long looks = 0;
+  int status = 0;
+  while (::waitpid(child, &status, WNOHANG) == 0) {
+    REQUIRE_NOTHROW(tandem::launcher::thread_times(child));
+    REQUIRE_NOTHROW(tandem::launcher::process_cpu_s(child));
+    ++looks;
+  }
+  CHECK(looks > 10);
+  CHECK(WIFEXITED(status));
 }
 
 TEST_CASE("governor: a hog of a few seconds parks nothing, a load that does not fit parks the lowest-priority module, then the next", "[components]") {

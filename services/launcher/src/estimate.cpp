@@ -2,6 +2,7 @@
 #include "tandem/launcher/estimate.hpp"
 
 #include "tandem/launcher/cpu_plan.hpp"
+#include "tandem/launcher/spin_watch.hpp"
 
 #include <time.h>
 #include <unistd.h>
@@ -31,8 +32,7 @@ constexpr double kUsableShare = 0.8;
 }  // namespace
 
 double process_cpu_s(int pid) {
-  std::ifstream f("/proc/" + std::to_string(pid) + "/stat");
-  std::string text((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  const std::string text = read_proc_text("/proc/" + std::to_string(pid) + "/stat");  // (no throw on a process gone)
   const size_t close = text.rfind(')');
   if (close == std::string::npos) return -1.0;
   std::istringstream in(text.substr(close + 2));

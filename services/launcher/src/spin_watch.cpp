@@ -1,16 +1,34 @@
 #include "tandem/launcher/spin_watch.hpp"
 
 #include <dirent.h>
+#include <fcntl.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <cstdlib>
-#include <fstream>
-#include <iterator>
 #include <set>
 #include <sstream>
 #include <string>
 
 namespace tandem::launcher {
+
+std::string read_proc_text(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return "";
+  std::string text;
+  char buf[1024];
+  for (;;) {
+    const ssize_t n = ::read(fd, buf, sizeof buf);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      if (n < 0) text.clear();  // cut short: no half a line
+      break;
+    }
+    text.append(buf, static_cast<size_t>(n));
+  }
+  ::close(fd);
+  return text;
+}
 
 std::vector<ThreadTime> thread_times(int pid) {
   std::vector<ThreadTime> out;
@@ -20,8 +38,7 @@ std::vector<ThreadTime> thread_times(int pid) {
   static const double hz = static_cast<double>(::sysconf(_SC_CLK_TCK));
   while (const dirent* e = ::readdir(d)) {
     if (e->d_name[0] < '0' || e->d_name[0] > '9') continue;
-    std::ifstream f(dir + "/" + e->d_name + "/stat");
-    const std::string text((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+    const std::string text = read_proc_text(dir + "/" + e->d_name + "/stat");
     const auto close = text.rfind(')');  // the thread's name may hold spaces and parentheses
     if (close == std::string::npos) continue;  // it ended meanwhile
     std::istringstream rest(text.substr(close + 1));

@@ -31,6 +31,7 @@
 #include "tandem/dds/bus.hpp"
 #include "tandem/launcher/sched_group.hpp"
 #include "tandem/launcher/spawn.hpp"
+#include "tandem/launcher/spin_watch.hpp"
 #include "tandem/runtime/shm_clean.hpp"
 #include "tandem/runtime/status.hpp"
 #include "tandem/sim/module_setup.hpp"
@@ -56,8 +57,7 @@ bool pid_alive(long long pid) {
 }
 
 std::string cmdline(long long pid) {
-  std::ifstream in("/proc/" + std::to_string(pid) + "/cmdline");
-  std::string s((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::string s = launcher::read_proc_text("/proc/" + std::to_string(pid) + "/cmdline");  // (no throw once it is gone)
   std::replace(s.begin(), s.end(), '\0', ' ');
   return s;
 }

@@ -8,6 +8,7 @@
 #pragma once
 
 #include <map>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -22,6 +23,10 @@ struct ThreadTime {
 
 /// The threads of a process (/proc/<pid>/task/*/stat); empty if it is gone.
 std::vector<ThreadTime> thread_times(int pid);
+/// A small /proc file whole, read with read(2); "" if it cannot be (the process or thread ended meanwhile). Not an
+/// ifstream: its buffer throws when read(2) fails with ESRCH on a /proc file whose process is gone, and that took
+/// `tandem up` down once in a soak hour (run 60: "basic_filebuf::underflow error reading the file: No such process").
+std::string read_proc_text(const std::string& path);
 
 /// "SCHED_FIFO", "SCHED_OTHER", ... for a policy number.
 const char* policy_name(int policy);

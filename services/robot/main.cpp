@@ -238,6 +238,10 @@ class RobotProcess {
       status_.set(runtime::Lifecycle::Active, "controlling");
       if (runtime::raise_to_realtime_from_env() < 0) std::fprintf(stderr, "tandem-robot: could not raise to SCHED_FIFO once active\n");
     }
+    if (activated_) {  // behind the world's plan, or back on it: said at once (a standby behind cannot take over)
+      const char* detail = core_.behind() ? robot::RobotCore::kBehindDetail : "controlling";
+      if (status_.msg().detail() != detail) status_.set(runtime::Lifecycle::Active, detail);
+    }
     // Every 100 ticks, and at least every 250 ms: in lockstep 100 ticks can take seconds (a slow or waiting module),
     // and observers tell a live robot from a dead or stalled one by its status (soak runs 50 and 51: robots resumed
     // after a stall were heard only at their next 100th tick, 2.1-3.5 s later).

@@ -320,6 +320,37 @@ TEST_CASE("nemesis: a supervisor kill records whether a standby held the leader'
   CHECK(h.faults[1].had_standby);
 }
 
+TEST_CASE("nemesis: a robot kill counts a standby behind the world's plan as no standby") {
+  // Soak run 60: m1/left@49 missed a new leader's plan for 2 s (it answers nothing meanwhile, and says so in its
+  // status); the serving m1/left@48 was killed then, and the checker held the arm to the 0.2 s of a warm standby.
+  Schedule s;
+  s.duration_s = 60;
+  s.faults = {fault(5.0, FaultKind::Kill, Target::Robot), fault(10.0, FaultKind::Kill, Target::Robot)};
+  History h;
+  Recorder act;
+  Nemesis n(s, {"m1"}, h, act);
+  add_module(n, "m1", 100, 0.0);
+  // Both arms' standbys are behind the world's plan: neither kill had a standby.
+  for (const char* label : {"m1/left@50", "m1/right@50"}) {
+    ProcessView p = n.processes().at(label);
+    p.behind = true;
+    n.on_status(label, p);
+  }
+  run(n, 0.0, 5.5);
+  REQUIRE(h.faults.size() == 1);
+  CHECK_FALSE(h.faults[0].had_standby);
+  // Back on the plan: the next kill of a primary had one.
+  for (const char* label : {"m1/left@50", "m1/right@50"}) {
+    ProcessView p = n.processes().at(label);
+    p.behind = false;
+    n.on_status(label, p);
+  }
+  run(n, 5.5, 10.5);
+  REQUIRE(h.faults.size() == 2);
+  CHECK(h.faults[1].label.find("@50") == std::string::npos);  // a primary (the other arm's, or this one's)
+  CHECK(h.faults[1].had_standby);
+}
+
 TEST_CASE("nemesis: a coordinator kill records whether an active standby coordinator was there") {
   // Run 27: coordinator@r11 was killed 3 s after it took over, both other coordinators restarting; the checker judges
   // such a kill by the restart bound, one with an active standby by the takeover bound.

@@ -134,8 +134,9 @@ std::vector<std::string> Nemesis::candidates(Target target, double t, FaultKind 
 int Nemesis::live_robots_of(const std::string& arm, double t) const {
   int n = 0;
   for (const auto& [label, p] : procs_) {
-    // Active only: a robot still starting (inactive) cannot take the arm over yet.
-    if (p.role == "robot" && p.state == 2 && live(p, t) && (label == arm || label.rfind(arm + "@", 0) == 0)) ++n;
+    // Active only: a robot still starting (inactive) cannot take the arm over yet, nor one behind the world's plan
+    // (soak run 60: a standby that missed a new leader's plan for 2 s counted as one, and its arm's primary was killed).
+    if (p.role == "robot" && p.state == 2 && !p.behind && live(p, t) && (label == arm || label.rfind(arm + "@", 0) == 0)) ++n;
   }
   return n;
 }

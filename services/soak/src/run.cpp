@@ -32,6 +32,7 @@
 #include "tandem/launcher/sched_group.hpp"
 #include "tandem/launcher/spawn.hpp"
 #include "tandem/launcher/spin_watch.hpp"
+#include "tandem/robot/robot_core.hpp"
 #include "tandem/runtime/shm_clean.hpp"
 #include "tandem/runtime/status.hpp"
 #include "tandem/sim/module_setup.hpp"
@@ -334,6 +335,7 @@ class Observer : public NemesisActions {
       now.state = s.state();
       now.serving = serving;
       now.replica = s.detail() == supervisor::SupervisorCore::kReplicaDetail;
+      now.behind = s.detail() == robot::RobotCore::kBehindDetail;
       now.last_t = t;
       nemesis_.on_status(label, now);
     }

@@ -66,6 +66,9 @@ class RobotCore {
                                            const model::JointVec* applied = nullptr);
 
   long done() const { return done_; }                  ///< the last tick computed (-1: none)
+  /// The status detail of an active robot behind the world's plan (behind()): it answers nothing until it has that
+  /// plan, so it is no standby that can take its arm over (observers such as tandem soak tell so by it).
+  static constexpr const char* kBehindDetail = "behind the module's plan: answers nothing until it has it";
   /// Why the last sample got no command ("" if it got one): for a robot that falls silent (soak finding 84).
   const char* silent_reason() const { return silent_; }
   bool has_plan() const { return follower_.has_plan(); }  ///< a plan has been adopted (the law can run)

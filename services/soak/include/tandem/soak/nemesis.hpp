@@ -33,6 +33,7 @@ struct ProcessView {
   std::string module;   ///< "" for the coordinator
   std::string serving;  ///< supervisor, coordinator: "primary" | "standby"
   bool replica = false; ///< a standby supervisor that holds its leader's plan (a warm replica: it can take over)
+  bool behind = false;  ///< a robot behind the world's plan (robot::RobotCore::kBehindDetail): it cannot take over
   long long pid = 0;
   int state = 0;        ///< lifecycle: 2 active, 3 finalized, 4 error
   double last_t = -1.0; ///< when its status was last heard [s]

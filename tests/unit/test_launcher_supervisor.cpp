@@ -18,6 +18,7 @@
 #include "tandem/launcher/estimate.hpp"
 #include "tandem/launcher/exit_codes.hpp"
 #include "tandem/launcher/supervisor.hpp"
+#include "tandem/plan/plan.hpp"
 #include "tandem/runtime/shm_clean.hpp"
 
 using namespace tandem::launcher;
@@ -383,6 +384,14 @@ TEST_CASE("launcher supervisor: a coordinated module whose world was killed for 
   SECTION("a world that crashed by itself fails its module") {
     Fixture g(true);
     g.exit("m1/world", 128 + SIGKILL, 5.0);
+    CHECK(g.rec.said("tandem up: module m1 failed (m1/world exited with code 137); stopping its processes, the others go on\n"));
+  }
+  SECTION("a module failed by a drop stays failed when its world is then killed for spinning") {
+    Fixture g(true);
+    g.sup.on_task_state("m1", static_cast<int>(tandem::plan::TaskStateCode::Failed));
+    g.sup.on_spun(g.pid("m1/world"));
+    g.exit("m1/world", 128 + SIGKILL, 5.0);
+    CHECK(g.rec.saying("spinning thread") == 0);
     CHECK(g.rec.said("tandem up: module m1 failed (m1/world exited with code 137); stopping its processes, the others go on\n"));
   }
 }

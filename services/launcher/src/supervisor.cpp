@@ -861,7 +861,9 @@ void Supervisor::handle_exit(Child& c, double now) {
       }
       return;
     case ExitVerdict::ModuleFailed:
-      if (*role == Role::World && c.spun && mr->spin_repairs < kSpinRepairs) {
+      // (Not a module failed by a drop: it stays out until cleared, whatever ends its world.)
+      if (*role == Role::World && c.spun && mr->spin_repairs < kSpinRepairs &&
+          task_state(c.module) != static_cast<int>(plan::TaskStateCode::Failed)) {
         ++mr->spin_repairs;
         logf("tandem up: module %s's world was killed for a spinning thread (no physical event); restarting the "
              "module from its initial grasp (%d of at most %d), its task is re-planned\n",

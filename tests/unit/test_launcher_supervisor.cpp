@@ -386,6 +386,30 @@ TEST_CASE("launcher supervisor: a coordinated module whose world was killed for 
     g.exit("m1/world", 128 + SIGKILL, 5.0);
     CHECK(g.rec.said("tandem up: module m1 failed (m1/world exited with code 137); stopping its processes, the others go on\n"));
   }
+  SECTION("plugged in by a person, it has its 3 spin repairs again") {
+    const Request plug = request(Request::Command::Plug, Request::Target::Module, "m1", 7);
+    f.sup.on_request(plug, t + 1.0);
+    for (const char* l : {"m1/supervisor", "m1/left", "m1/right"}) f.exit(l, 128 + SIGTERM, t + 1.5);
+    f.poll(t + 2.0);
+    REQUIRE(f.sup.modules().at("m1").end.running());
+    f.hear_all(t + 2.5);
+    f.sup.on_world_load("m1", "", 1, t + 2.5);
+    f.sup.on_spun(f.pid("m1/world"));
+    f.exit("m1/world", 128 + SIGKILL, t + 5.0);
+    CHECK(f.rec.said("tandem up: module m1's world was killed for a spinning thread (no physical event); restarting "
+                     "the module from its initial grasp (1 of at most 3), its task is re-planned\n"));
+  }
+  SECTION("a draining module whose world is killed for spinning is not restarted: its unplug stands") {
+    Fixture g(true);
+    g.sup.on_request(request(Request::Command::Unplug, Request::Target::Module, "m1"), 4.0);
+    REQUIRE(g.sup.modules().at("m1").end.text() == "draining");
+    g.sup.on_spun(g.pid("m1/world"));
+    g.exit("m1/world", 128 + SIGKILL, 5.0);
+    CHECK(g.rec.saying("spinning thread") == 0);
+    CHECK_FALSE(g.sup.modules().at("m1").end.running());
+    g.poll(6.0);
+    CHECK(g.starts_after(5.0).empty());
+  }
   SECTION("a module failed by a drop stays failed when its world is then killed for spinning") {
     Fixture g(true);
     g.sup.on_task_state("m1", static_cast<int>(tandem::plan::TaskStateCode::Failed));

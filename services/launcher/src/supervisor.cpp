@@ -443,6 +443,7 @@ void Supervisor::plug_module(const std::string& name, const std::string& scenari
       say(true, "%s\n", dec.text.c_str());
       task_states_.erase(name);
       modules_.at(name).end = ModuleEnd::of(ModuleEnd::Kind::Cleared);
+      modules_.at(name).spin_repairs = 0;  // a person plugged it: its spin repairs count from 0 again
       if (governor_) governor_->set_available(name, true);
       stop_module(name, now);
       pending_clears_.push_back(name);  // started again once its processes are gone
@@ -454,6 +455,7 @@ void Supervisor::plug_module(const std::string& name, const std::string& scenari
     case Action::StartRobot:
       break;
   }
+  if (dec.action != Action::StartRobot) modules_.at(name).spin_repairs = 0;
   const bool waiting = std::find(pending_clears_.begin(), pending_clears_.end(), name) != pending_clears_.end();
   if (waiting) {
     say(false, "'plug module %s': it starts already, once its previous processes have stopped\n", name.c_str());
@@ -861,8 +863,9 @@ void Supervisor::handle_exit(Child& c, double now) {
       }
       return;
     case ExitVerdict::ModuleFailed:
-      // (Not a module failed by a drop: it stays out until cleared, whatever ends its world.)
-      if (*role == Role::World && c.spun && mr->spin_repairs < kSpinRepairs &&
+      // (Not a module failed by a drop: it stays out until cleared, whatever ends its world. Nor a draining one: its
+      // unplug stands, and it ends failed rather than come back as if never unplugged.)
+      if (*role == Role::World && c.spun && mr->end.running() && mr->spin_repairs < kSpinRepairs &&
           task_state(c.module) != static_cast<int>(plan::TaskStateCode::Failed)) {
         ++mr->spin_repairs;
         logf("tandem up: module %s's world was killed for a spinning thread (no physical event); restarting the "

@@ -351,6 +351,27 @@ TEST_CASE("nemesis: a robot kill counts a standby behind the world's plan as no 
   CHECK(h.faults[1].had_standby);
 }
 
+TEST_CASE("nemesis: a robot kill of a primary behind the plan counts its arm's good standby") {
+  // The review of run 60's fix: the killed robot itself is not its own standby, whether or not it is behind.
+  Schedule s;
+  s.duration_s = 60;
+  s.faults = {fault(5.0, FaultKind::Kill, Target::Robot)};
+  History h;
+  Recorder act;
+  Nemesis n(s, {"m1"}, h, act);
+  add_module(n, "m1", 100, 0.0);
+  for (const char* label : {"m1/left", "m1/right"}) {  // both primaries behind; their standbys on the plan
+    ProcessView p = n.processes().at(label);
+    p.behind = true;
+    n.on_status(label, p);
+  }
+  run(n, 0.0, 5.5);
+  REQUIRE(h.faults.size() == 1);
+  INFO("killed " << h.faults[0].label);
+  // A primary killed had its standby; a standby killed had only a primary behind the plan: no standby.
+  CHECK(h.faults[0].had_standby == (h.faults[0].label.find("@50") == std::string::npos));
+}
+
 TEST_CASE("nemesis: a coordinator kill records whether an active standby coordinator was there") {
   // Run 27: coordinator@r11 was killed 3 s after it took over, both other coordinators restarting; the checker judges
   // such a kill by the restart bound, one with an active standby by the takeover bound.

@@ -499,12 +499,20 @@ TEST_CASE("followers adopt a takeover plan that jumps (and say so), and a standb
     // as made: it skips to the newest tick, where a blend anchored in its past would leave it off the module's plan.
     tp::PlanData late = next;
     late.heard_tick = 2480;
-    tp::PlanFollower current(m, false), behind(m, false);
+    tp::PlanFollower current(m, false), behind(m, false), close(m, false);
     REQUIRE(current.offer(p, nullptr, 2500) == tp::PlanFollower::Offer::Adopted);
     REQUIRE(behind.offer(p, nullptr, 1500) == tp::PlanFollower::Offer::Adopted);
-    std::string why_current, why_behind;
+    REQUIRE(close.offer(p, nullptr, 1500) == tp::PlanFollower::Offer::Adopted);
+    std::string why_current, why_behind, why_close;
     CHECK(current.offer(late, &why_current, 2500) == tp::PlanFollower::Offer::Adopted);
     CHECK(behind.offer(late, &why_behind, 2400) == tp::PlanFollower::Offer::Adopted);
+    // A follower a tick or a few behind the heard tick (it answers the sample its supervisor heard, a little later)
+    // is serving: it blends from its own tick like the current one, and ends on the same plan.
+    CHECK(close.offer(late, &why_close, 2480 - tp::PlanFollower::kBehindGraceTicks) == tp::PlanFollower::Offer::Adopted);
+    CHECK(why_close.find("adopted, blended into over") != std::string::npos);
+    CHECK(close.blending(2480 - tp::PlanFollower::kBehindGraceTicks));
+    CHECK((close.reference(0, 2500).x - current.reference(0, 2500).x).norm() < 2e-4);
+    for (long k : {3500L, 4000L}) CHECK((close.reference(0, k).x - current.reference(0, k).x).norm() == 0.0);
     CHECK(current.blending(2500));
     CHECK_FALSE(behind.blending(2400));
     CHECK(why_behind.find("adopted, as made (this follower is 80 ticks behind it)") != std::string::npos);

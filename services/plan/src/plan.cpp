@@ -177,7 +177,9 @@ PlanFollower::Offer PlanFollower::offer(const PlanData& p, std::string* why, lon
     if (takeover) jump_ = jump;
     // A follower behind the tick the plan was made at (a robot back from a stall, or a standby that just joined: it
     // skips to the newest tick) is not serving that tick: it takes the plan as made, which the others follow.
-    const bool behind = now_tick < p.heard_tick;
+    // A few ticks behind is no stall (a robot answers the world's sample the supervisor also heard): it blends, from
+    // its own tick, as the others do.
+    const bool behind = now_tick + kBehindGraceTicks < p.heard_tick;
     const double blend_s = behind ? stop_blend() : start_blend(*before, now_tick);
     if (jump > kMaxJump && why != nullptr) {
       char ms[80];

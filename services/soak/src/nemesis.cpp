@@ -131,9 +131,10 @@ std::vector<std::string> Nemesis::candidates(Target target, double t, FaultKind 
   return c;
 }
 
-int Nemesis::live_robots_of(const std::string& arm, double t) const {
+int Nemesis::live_robots_of(const std::string& arm, const std::string& except, double t) const {
   int n = 0;
   for (const auto& [label, p] : procs_) {
+    if (label == except) continue;
     // Active only: a robot still starting (inactive) cannot take the arm over yet, nor one behind the world's plan
     // (soak run 60: a standby that missed a new leader's plan for 2 s counted as one, and its arm's primary was killed).
     if (p.role == "robot" && p.state == 2 && !p.behind && live(p, t) && (label == arm || label.rfind(arm + "@", 0) == 0)) ++n;
@@ -203,7 +204,7 @@ void Nemesis::fire(const Fault& f, double t) {
                        : owners_now().count(target) ? Target::Robot
                                                     : Target::Standby;
     }
-    if (it->second.role == "robot") r.had_standby = live_robots_of(target.substr(0, target.find('@')), t) > 1;
+    if (it->second.role == "robot") r.had_standby = live_robots_of(target.substr(0, target.find('@')), target, t) > 0;
     if (it->second.role == "supervisor") r.had_standby = warm_standbys_of(r.module, target, t) > 0;
     if (it->second.role == "coordinator") r.had_standby = standby_coordinators(target, t) > 0;
     if (const auto tk = ticks_.find(r.module); tk != ticks_.end()) r.module_tick = tk->second;

@@ -189,6 +189,10 @@ class PlanFollower {
   /// plan that reaches a follower behind the world tick its supervisor had heard (a robot back from a stall or just
   /// joined, which skips to the newest tick: a blend anchored in its past would leave it off the module's plan).
   static constexpr double kBlendShare = 0.25;
+  /// A follower up to this many ticks behind the world tick the supervisor had heard is no stalled one: it blends
+  /// like the others, anchored at its own tick (the anchors differ by these few ticks: 0.1-0.3 N of normal force for
+  /// their duration, measured in tests/unit/test_stops.cpp). A robot back from a stall is hundreds of ticks behind.
+  static constexpr long kBehindGraceTicks = 10;
   static constexpr double kBlendMin = 1e-7;  ///< [m], [m/s] (and the same in rad, rad/s)
   /// True while a blend moves the reference off the plan at tick k.
   bool blending(long k) const { return blend_from_ >= 0 && k >= blend_from_ && k < blend_from_ + blend_ticks_; }

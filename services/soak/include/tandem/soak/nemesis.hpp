@@ -124,7 +124,8 @@ class Nemesis {
   std::set<std::string> owners_now() const;
   std::vector<std::string> modules_up(double t) const;
   bool settling(const std::string& module, double t) const;
-  int live_robots_of(const std::string& arm, double t) const;
+  /// Active robots of `arm` (its label) other than `except` that are on the world's plan: those that can serve it.
+  int live_robots_of(const std::string& arm, const std::string& except, double t) const;
   /// Live standby supervisors of `module` other than `except` that hold the leader's plan (ProcessView::replica).
   int warm_standbys_of(const std::string& module, const std::string& except, double t) const;
   /// Live, active standby coordinators other than `except`.

@@ -10,6 +10,7 @@
 
 #include <signal.h>
 #include <sys/wait.h>
+#include <fcntl.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -1264,9 +1265,16 @@ TEST_CASE("spin watch: /proc files of a process that ends while they are read gi
   }
   const std::string stat = "/proc/" + std::to_string(child) + "/stat";
   std::ifstream opened(stat);
+  const int fd = ::open(stat.c_str(), O_RDONLY | O_CLOEXEC);
+  REQUIRE(fd >= 0);
   ::kill(child, SIGKILL);
   ::waitpid(child, nullptr, 0);
   CHECK_THROWS(std::string((std::istreambuf_iterator<char>(opened)), std::istreambuf_iterator<char>()));
+  // The same moment for the read(2) path: open while it lived, read once it is gone.
+  std::string text = "unset";
+  CHECK_NOTHROW(text = tandem::launcher::read_fd_text(fd));
+  CHECK(text.empty());
+  ::close(fd);
   CHECK(tandem::launcher::read_proc_text(stat).empty());
   CHECK(tandem::launcher::process_cpu_s(child) < 0.0);
   CHECK(tandem::launcher::thread_times(child).empty());

@@ -12,20 +12,22 @@
 
 namespace tandem::launcher {
 
-std::string read_proc_text(const std::string& path) {
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) return "";
+std::string read_fd_text(int fd) {
   std::string text;
   char buf[1024];
   for (;;) {
     const ssize_t n = ::read(fd, buf, sizeof buf);
     if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) {
-      if (n < 0) text.clear();  // cut short: no half a line
-      break;
-    }
+    if (n < 0) return "";  // cut short: no half a line
+    if (n == 0) return text;
     text.append(buf, static_cast<size_t>(n));
   }
+}
+
+std::string read_proc_text(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return "";
+  std::string text = read_fd_text(fd);
   ::close(fd);
   return text;
 }

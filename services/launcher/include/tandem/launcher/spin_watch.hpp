@@ -27,6 +27,8 @@ std::vector<ThreadTime> thread_times(int pid);
 /// ifstream: its buffer throws when read(2) fails with ESRCH on a /proc file whose process is gone, and that took
 /// `tandem up` down once in a soak hour (run 60: "basic_filebuf::underflow error reading the file: No such process").
 std::string read_proc_text(const std::string& path);
+/// The rest of an open file, read with read(2) (the fd stays open); "" if a read fails (ESRCH: its process is gone).
+std::string read_fd_text(int fd);
 
 /// "SCHED_FIFO", "SCHED_OTHER", ... for a policy number.
 const char* policy_name(int policy);

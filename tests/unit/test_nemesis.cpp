@@ -74,6 +74,29 @@ void add_module(Nemesis& n, const std::string& m, long long base, double t) {
   n.on_owners(m, {{"left", m + "/left"}, {"right", m + "/right"}});
 }
 
+/// A nemesis over `modules` with its schedule (`faults` in 60 s, or a schedule given), history and actions; m1 is up
+/// (add_module) from t = 0.
+struct Rig {
+  Schedule s;
+  History h;
+  Recorder act;
+  Nemesis n;
+  explicit Rig(Schedule schedule, const std::vector<std::string>& modules = {"m1"})
+      : s(std::move(schedule)), n(s, modules, h, act) {
+    add_module(n, "m1", 100, 0.0);
+  }
+  explicit Rig(std::vector<Fault> faults, const std::vector<std::string>& modules = {"m1"})
+      : Rig(sixty(std::move(faults)), modules) {}
+
+ private:
+  static Schedule sixty(std::vector<Fault> faults) {
+    Schedule out;
+    out.duration_s = 60;
+    out.faults = std::move(faults);
+    return out;
+  }
+};
+
 /// Keeps every process of `labels` heard at t (as their status every 100 ms would).
 void heard(Nemesis& n, double t) {
   const auto procs = n.processes();
@@ -106,14 +129,9 @@ void run(Nemesis& n, double from, double to) {
 TEST_CASE("nemesis: faults fire at their time, a waiting one never releases a burst") {
   // One module up (three parked for load): a module unplug has no target (one module always runs) and waits;
   // the kills behind it still fire at their own times, not all at once when the unplug gives up.
-  Schedule s;
-  s.duration_s = 60;
-  s.faults = {fault(5.0, FaultKind::Unplug, Target::Module), fault(6.0, FaultKind::Kill, Target::Robot),
-              fault(7.0, FaultKind::Kill, Target::Standby), fault(9.0, FaultKind::Kill, Target::Robot)};
-  History h;
-  Recorder act;
-  Nemesis n(s, {"m1", "m2"}, h, act);
-  add_module(n, "m1", 100, 0.0);
+  Rig rig({fault(5.0, FaultKind::Unplug, Target::Module), fault(6.0, FaultKind::Kill, Target::Robot),
+           fault(7.0, FaultKind::Kill, Target::Standby), fault(9.0, FaultKind::Kill, Target::Robot)}, {"m1", "m2"});
+  auto& [s, h, act, n] = rig;
   run(n, 0.0, 5.0 + Nemesis::kTargetWaitS + 5.0);
   REQUIRE(h.faults.size() == 4);
   // The kills: at 6, 7 and 9 s (within one pass), each a different process.
@@ -135,14 +153,9 @@ TEST_CASE("nemesis: faults fire at their time, a waiting one never releases a bu
 }
 
 TEST_CASE("nemesis: a fault that waited fires once a target comes, at least 1 s after the last fault, one at a time") {
-  Schedule s;
-  s.duration_s = 60;
-  s.faults = {fault(5.0, FaultKind::Unplug, Target::Module, 2.0), fault(8.0, FaultKind::Stall, Target::Supervisor, 0.5),
-              fault(8.2, FaultKind::Stall, Target::Robot, 0.5)};
-  History h;
-  Recorder act;
-  Nemesis n(s, {"m1", "m2"}, h, act);
-  add_module(n, "m1", 100, 0.0);
+  Rig rig({fault(5.0, FaultKind::Unplug, Target::Module, 2.0), fault(8.0, FaultKind::Stall, Target::Supervisor, 0.5),
+           fault(8.2, FaultKind::Stall, Target::Robot, 0.5)}, {"m1", "m2"});
+  auto& [s, h, act, n] = rig;
   run(n, 0.0, 7.0);
   CHECK(h.faults.empty());  // the unplug waits for a second module
   CHECK(n.waiting() == 1);
@@ -167,13 +180,8 @@ TEST_CASE("nemesis: a fault that waited fires once a target comes, at least 1 s 
 }
 
 TEST_CASE("nemesis: one module always runs, and a settling module is left alone") {
-  Schedule s;
-  s.duration_s = 60;
-  s.faults = {fault(1.0, FaultKind::Kill, Target::World, 2.0), fault(2.0, FaultKind::Kill, Target::Robot)};
-  History h;
-  Recorder act;
-  Nemesis n(s, {"m1"}, h, act);
-  add_module(n, "m1", 100, 0.0);
+  Rig rig({fault(1.0, FaultKind::Kill, Target::World, 2.0), fault(2.0, FaultKind::Kill, Target::Robot)});
+  auto& [s, h, act, n] = rig;
   CHECK(n.candidates(Target::World, 0.5).empty());  // the only module
   CHECK(n.candidates(Target::Robot, 0.5).empty());  // settling: its world turned active at 0 s
   heard(n, 3.5);
@@ -200,13 +208,8 @@ TEST_CASE("nemesis: one module always runs, and a settling module is left alone"
 }
 
 TEST_CASE("nemesis: a stall continues after its duration, a killed world's module is plugged in again") {
-  Schedule s;
-  s.duration_s = 60;
-  s.faults = {fault(4.0, FaultKind::Stall, Target::Robot, 1.5, 1), fault(6.0, FaultKind::Kill, Target::World, 2.0)};
-  History h;
-  Recorder act;
-  Nemesis n(s, {"m1", "m2"}, h, act);
-  add_module(n, "m1", 100, 0.0);
+  Rig rig({fault(4.0, FaultKind::Stall, Target::Robot, 1.5, 1), fault(6.0, FaultKind::Kill, Target::World, 2.0)}, {"m1", "m2"});
+  auto& [s, h, act, n] = rig;
   add_module(n, "m2", 200, 0.0);
   run(n, 0.0, 4.5);
   REQUIRE(act.of("stop").size() == 1);
@@ -237,13 +240,8 @@ TEST_CASE("nemesis: a stall continues after its duration, a killed world's modul
 }
 
 TEST_CASE("nemesis: an unplugged robot is plugged in again as a standby if a restarted robot took the primary's place") {
-  Schedule s;
-  s.duration_s = 60;
-  s.faults = {fault(4.0, FaultKind::Unplug, Target::Robot, 1.0, 0)};
-  History h;
-  Recorder act;
-  Nemesis n(s, {"m1"}, h, act);
-  add_module(n, "m1", 100, 0.0);
+  Rig rig({fault(4.0, FaultKind::Unplug, Target::Robot, 1.0, 0)});
+  auto& [s, h, act, n] = rig;
   run(n, 0.0, 5.1);
   REQUIRE(act.of("unplug").size() == 1);
   CHECK(act.of("unplug")[0].target == "robot m1/left");
@@ -261,14 +259,10 @@ TEST_CASE("nemesis: an unplugged robot is plugged in again as a standby if a res
 }
 
 TEST_CASE("nemesis: calm continues every stalled process and stops every hog") {
-  Schedule s;
-  s.duration_s = 60;
-  s.faults = {fault(4.0, FaultKind::Stall, Target::Standby, 30.0), fault(4.5, FaultKind::Hog, Target::None, 30.0)};
-  s.faults[1].cores = 2;
-  History h;
-  Recorder act;
-  Nemesis n(s, {"m1"}, h, act);
-  add_module(n, "m1", 100, 0.0);
+  Fault hog = fault(4.5, FaultKind::Hog, Target::None, 30.0);
+  hog.cores = 2;
+  Rig rig({fault(4.0, FaultKind::Stall, Target::Standby, 30.0), hog});
+  auto& [s, h, act, n] = rig;
   run(n, 0.0, 5.0);
   REQUIRE(act.of("stop").size() == 1);
   REQUIRE(act.of("hog").size() == 1);
@@ -285,13 +279,8 @@ TEST_CASE("nemesis: calm continues every stalled process and stops every hog") {
 TEST_CASE("nemesis: a supervisor kill records whether a standby held the leader's plan") {
   // Run 13: m1's only standby supervisor had been restarted 1.9 s before its leader's kill and never heard its plan;
   // the checker judges such a kill by the lost-plan path's bound, and a warm standby's by the takeover bound.
-  Schedule s;
-  s.duration_s = 60;
-  s.faults = {fault(5.0, FaultKind::Kill, Target::Supervisor), fault(10.0, FaultKind::Kill, Target::Supervisor)};
-  History h;
-  Recorder act;
-  Nemesis n(s, {"m1"}, h, act);
-  add_module(n, "m1", 100, 0.0);
+  Rig rig({fault(5.0, FaultKind::Kill, Target::Supervisor), fault(10.0, FaultKind::Kill, Target::Supervisor)});
+  auto& [s, h, act, n] = rig;
   ProcessView standby;
   standby.role = "supervisor";
   standby.module = "m1";
@@ -323,13 +312,8 @@ TEST_CASE("nemesis: a supervisor kill records whether a standby held the leader'
 TEST_CASE("nemesis: a robot kill counts a standby behind the world's plan as no standby") {
   // Soak run 60: m1/left@49 missed a new leader's plan for 2 s (it answers nothing meanwhile, and says so in its
   // status); the serving m1/left@48 was killed then, and the checker held the arm to the 0.2 s of a warm standby.
-  Schedule s;
-  s.duration_s = 60;
-  s.faults = {fault(5.0, FaultKind::Kill, Target::Robot), fault(10.0, FaultKind::Kill, Target::Robot)};
-  History h;
-  Recorder act;
-  Nemesis n(s, {"m1"}, h, act);
-  add_module(n, "m1", 100, 0.0);
+  Rig rig({fault(5.0, FaultKind::Kill, Target::Robot), fault(10.0, FaultKind::Kill, Target::Robot)});
+  auto& [s, h, act, n] = rig;
   // Both arms' standbys are behind the world's plan: neither kill had a standby.
   for (const char* label : {"m1/left@50", "m1/right@50"}) {
     ProcessView p = n.processes().at(label);
@@ -353,13 +337,8 @@ TEST_CASE("nemesis: a robot kill counts a standby behind the world's plan as no 
 
 TEST_CASE("nemesis: a robot kill of a primary behind the plan counts its arm's good standby") {
   // The review of run 60's fix: the killed robot itself is not its own standby, whether or not it is behind.
-  Schedule s;
-  s.duration_s = 60;
-  s.faults = {fault(5.0, FaultKind::Kill, Target::Robot)};
-  History h;
-  Recorder act;
-  Nemesis n(s, {"m1"}, h, act);
-  add_module(n, "m1", 100, 0.0);
+  Rig rig({fault(5.0, FaultKind::Kill, Target::Robot)});
+  auto& [s, h, act, n] = rig;
   for (const char* label : {"m1/left", "m1/right"}) {  // both primaries behind; their standbys on the plan
     ProcessView p = n.processes().at(label);
     p.behind = true;
@@ -375,13 +354,8 @@ TEST_CASE("nemesis: a robot kill of a primary behind the plan counts its arm's g
 TEST_CASE("nemesis: a coordinator kill records whether an active standby coordinator was there") {
   // Run 27: coordinator@r11 was killed 3 s after it took over, both other coordinators restarting; the checker judges
   // such a kill by the restart bound, one with an active standby by the takeover bound.
-  Schedule s;
-  s.duration_s = 60;
-  s.faults = {fault(5.0, FaultKind::Kill, Target::Coordinator), fault(10.0, FaultKind::Kill, Target::Coordinator)};
-  History h;
-  Recorder act;
-  Nemesis n(s, {"m1"}, h, act);
-  add_module(n, "m1", 100, 0.0);
+  Rig rig({fault(5.0, FaultKind::Kill, Target::Coordinator), fault(10.0, FaultKind::Kill, Target::Coordinator)});
+  auto& [s, h, act, n] = rig;
   ProcessView c;
   c.role = "coordinator";
   c.serving = "primary";
@@ -412,23 +386,13 @@ TEST_CASE("nemesis: a coordinator kill records whether an active standby coordin
   CHECK(h.faults[1].had_standby);
 }
 
-namespace {
-// One module m1 (a primary robot of strength 100 on each arm) under a nemesis with schedule `s`, its history and actions.
-struct OneModule {
-  History h;
-  Recorder act;
-  Nemesis n;
-  explicit OneModule(const Schedule& s) : n(s, {"m1"}, h, act) { add_module(n, "m1", 100, 0.0); }
-};
-}  // namespace
-
 TEST_CASE("nemesis: a run is over only once no fault waits for a target, and kTailS after the last that waited") {
   // Finding 75: a robot kill fell due while no robot served an arm (the module paused for load); the run ended
   // with the kill still waiting, as though the schedule had none. Now the run goes on until it fires.
   Schedule s;
   s.duration_s = 20;
   s.faults = {fault(15.0, FaultKind::Kill, Target::Robot)};
-  OneModule a(s);
+  Rig a(s);
   a.n.on_owners("m1", {});  // paused for load: the world reports no robot serving either arm
   run(a.n, 0.0, 19.0);
   CHECK_FALSE(a.n.over(19.0));  // before the duration
@@ -447,14 +411,14 @@ TEST_CASE("nemesis: a run is over only once no fault waits for a target, and kTa
   CHECK(a.n.over(30.0 + Nemesis::kTailS + 0.01));
 
   // A run whose faults all fired on time is over at its duration.
-  OneModule b(s);
+  Rig b(s);
   run(b.n, 0.0, 19.99);
   CHECK(b.h.faults.size() == 1);
   CHECK_FALSE(b.n.over(19.99));
   CHECK(b.n.over(20.0));
 
   // A fault that never finds a target is skipped after kTargetWaitS, and then the run ends too (bounded).
-  OneModule c(s);
+  Rig c(s);
   c.n.on_owners("m1", {});
   run(c.n, 0.0, 15.0 + Nemesis::kTargetWaitS + 0.05);
   REQUIRE(c.h.faults.size() == 1);
@@ -466,7 +430,7 @@ TEST_CASE("nemesis: a run is over only once no fault waits for a target, and kTa
   Schedule late;
   late.duration_s = 20;
   late.faults = {fault(19.995, FaultKind::Kill, Target::Robot)};
-  OneModule d(late);
+  Rig d(late);
   run(d.n, 0.0, 19.99);
   CHECK(d.h.faults.empty());
   CHECK_FALSE(d.n.over(20.0));

@@ -1634,6 +1634,39 @@ TEST_CASE("robot input watch: a robot that answers nothing for 0.1 s while sampl
   CHECK(w.silent_while_fed(last + 0.46));  // a new silence, with a sample in it: said again
 }
 
+TEST_CASE("robot input watch: a robot that stood still (SIGSTOP) is not said silent for the stall, only for a silence after it", "[components]") {
+  // Soak run 61: robots stopped 1.4-2 s by the nemesis were said to have "answered no tick for 1940 ms while samples
+  // came": the silence was the stall's. A silence that goes on once it runs again is said, counted from then.
+  using tandem::robot::InputWatch;
+  for (const bool answers_after : {true, false}) {
+    INFO((answers_after ? "answers at once after the stall" : "stays silent after the stall"));
+    InputWatch w(InputWatch::Rules{}, 0.0);
+    double t = 0.0;
+    for (; t < 1.0; t += 0.001) {  // serving, one loop pass every 10 ms
+      w.on_sample(t);
+      w.on_answer(t);
+      if (static_cast<int>(std::lround(t * 1e3)) % 10 == 0) REQUIRE(w.on_pass(t, true) == InputWatch::Action::None);
+    }
+    t = 2.9;  // stopped from 1.0 to 2.9 s: samples queued meanwhile arrive at once
+    w.on_sample(t);
+    CHECK_FALSE(w.silent_while_fed(t));
+    (void)w.on_pass(t, true);
+    bool said = false;
+    double said_age = 0.0;
+    for (t += 0.001; t < 3.3; t += 0.001) {
+      w.on_sample(t);
+      if (answers_after) w.on_answer(t);
+      if (w.silent_while_fed(t)) {
+        said = true;
+        said_age = w.answer_age_s(t);
+      }
+      if (static_cast<int>(std::lround(t * 1e3)) % 10 == 0) (void)w.on_pass(t, true);
+    }
+    CHECK(said == !answers_after);
+    if (said) CHECK(said_age < 0.15);  // counted from when it ran again, not from before the stall
+  }
+}
+
 TEST_CASE("peer wait: every peer's need, less that is enough after half the timeout, and what is missing at the timeout", "[components]") {
   using tandem::runtime::PeerWait;
   using V = PeerWait::Verdict;

@@ -47,7 +47,9 @@ class InputWatch {
     silence_said_ = false;
   }
   /// True once per silence: answered before, nothing answered for silent_answer_s, and a sample came within it.
+  /// (Not on the first pass after the process itself stood still, a stall's silence: counted from the pass after.)
   bool silent_while_fed(double now) {
+    if (passes_ > 0 && now - last_pass_ > r_.self_stall_s) return false;
     if (last_answer_ < 0.0 || silence_said_ || now - last_answer_ <= r_.silent_answer_s ||
         last_input_ <= last_answer_ || now - last_input_ > r_.silent_answer_s) {
       return false;
@@ -77,6 +79,7 @@ class InputWatch {
     // (The first pass has no previous one: whatever the robot waited for before its loop is not a stall.)
     if (passes_++ > 0 && now - last_pass_ > r_.self_stall_s) {
       if (now > last_input_) last_input_ = now;
+      if (last_answer_ >= 0.0 && now > last_answer_) last_answer_ = now;  // (soak run 61: stalls said as silences)
       if (unmatched_since_ >= 0.0) unmatched_since_ += now - last_pass_;  // discovery stood still with the process
     }
     last_pass_ = now;

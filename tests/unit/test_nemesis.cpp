@@ -351,6 +351,30 @@ TEST_CASE("nemesis: a robot kill of a primary behind the plan counts its arm's g
   CHECK(h.faults[0].had_standby == (h.faults[0].label.find("@50") == std::string::npos));
 }
 
+TEST_CASE("nemesis: a robot kill counts a standby that lags its world's ticks as no standby") {
+  // Soak run 61: m1/left@49, plugged 2 s before and starved in a burst of restarts, was 196 ticks behind its world
+  // when the serving m1/left@50 was killed; it served the arm after 0.4 s, judged against a warm standby's 0.2 s.
+  for (const long lag : {196L, 20L}) {
+    INFO("the standbys' lag " << lag << " ticks");
+    Rig rig({fault(5.0, FaultKind::Kill, Target::Robot)});
+    auto& [s, h, act, n] = rig;
+    run(n, 0.0, 4.9);
+    // Every robot's newest status (at 4.85 s) says its tick; at 5.0 s the world has reached tick 5000.
+    for (const auto& [label, view] : n.processes()) {
+      if (view.role != "robot") continue;
+      ProcessView p = view;
+      p.tick = label.find("@50") != std::string::npos ? 4850 - lag : 4850;
+      p.last_t = 4.85;
+      n.on_status(label, p);
+    }
+    n.on_tick("m1", 5000);
+    n.step(5.0);
+    REQUIRE(h.faults.size() == 1);
+    CHECK(h.faults[0].label.find("@50") == std::string::npos);  // a primary
+    CHECK(h.faults[0].had_standby == (lag < Nemesis::kWarmLagTicks));
+  }
+}
+
 TEST_CASE("nemesis: a coordinator kill records whether an active standby coordinator was there") {
   // Run 27: coordinator@r11 was killed 3 s after it took over, both other coordinators restarting; the checker judges
   // such a kill by the restart bound, one with an active standby by the takeover bound.

@@ -131,13 +131,24 @@ std::vector<std::string> Nemesis::candidates(Target target, double t, FaultKind 
   return c;
 }
 
+bool Nemesis::keeps_up(const ProcessView& p, double t) const {
+  const auto world = ticks_.find(p.module);
+  if (p.tick < 0 || world == ticks_.end()) return true;
+  const double now_tick = static_cast<double>(p.tick) + std::max(0.0, t - p.last_t) * kTicksPerS;
+  return static_cast<double>(world->second) - now_tick <= static_cast<double>(kWarmLagTicks);
+}
+
 int Nemesis::live_robots_of(const std::string& arm, const std::string& except, double t) const {
   int n = 0;
   for (const auto& [label, p] : procs_) {
     if (label == except) continue;
     // Active only: a robot still starting (inactive) cannot take the arm over yet, nor one behind the world's plan
-    // (soak run 60: a standby that missed a new leader's plan for 2 s counted as one, and its arm's primary was killed).
-    if (p.role == "robot" && p.state == 2 && !p.behind && live(p, t) && (label == arm || label.rfind(arm + "@", 0) == 0)) ++n;
+    // (soak run 60: a standby that missed a new leader's plan for 2 s counted as one, and its arm's primary was killed),
+    // nor one that lags the world's ticks (kWarmLagTicks).
+    if (p.role == "robot" && p.state == 2 && !p.behind && keeps_up(p, t) && live(p, t) &&
+        (label == arm || label.rfind(arm + "@", 0) == 0)) {
+      ++n;
+    }
   }
   return n;
 }

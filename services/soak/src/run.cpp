@@ -336,6 +336,7 @@ class Observer : public NemesisActions {
       now.serving = serving;
       now.replica = s.detail() == supervisor::SupervisorCore::kReplicaDetail;
       now.behind = s.detail() == robot::RobotCore::kBehindDetail;
+      if (s.role() == "robot") now.tick = static_cast<long>(s.tick());
       now.last_t = t;
       nemesis_.on_status(label, now);
     }

@@ -34,6 +34,7 @@ struct ProcessView {
   std::string serving;  ///< supervisor, coordinator: "primary" | "standby"
   bool replica = false; ///< a standby supervisor that holds its leader's plan (a warm replica: it can take over)
   bool behind = false;  ///< a robot behind the world's plan (robot::RobotCore::kBehindDetail): it cannot take over
+  long tick = -1;       ///< a robot: the newest tick it computed, as its status said (-1: not said)
   long long pid = 0;
   int state = 0;        ///< lifecycle: 2 active, 3 finalized, 4 error
   double last_t = -1.0; ///< when its status was last heard [s]
@@ -75,6 +76,12 @@ class Nemesis {
   static constexpr double kSettleS = 3.0;       ///< a module is left alone this long after its world turns active
   static constexpr double kSilentS = 1.5;       ///< a process not heard this long is not a candidate
   static constexpr double kTailS = 5.0;         ///< a run goes on this long after a fault that waited past its end
+  /// A robot whose computed tick (its status's, advanced by the time since at the control rate, kTicksPerS) is more
+  /// than this many ticks behind its world's newest is not keeping up: no warm standby (soak run 61: a standby
+  /// plugged 2 s before, starved in a burst of restarts, was 196 ticks behind when its primary was killed, and served
+  /// the arm after 0.4 s). In lockstep no robot falls behind its world, and the projection only overestimates it.
+  static constexpr long kWarmLagTicks = 100;
+  static constexpr double kTicksPerS = 1000.0;
 
   /// `modules`: the deployment's modules in order; fault records go to `history.faults`.
   Nemesis(const Schedule& schedule, std::vector<std::string> modules, History& history, NemesisActions& actions);
@@ -121,10 +128,12 @@ class Nemesis {
 
  private:
   bool live(const ProcessView& p, double t) const;
+  bool keeps_up(const ProcessView& p, double t) const;  ///< kWarmLagTicks
   std::set<std::string> owners_now() const;
   std::vector<std::string> modules_up(double t) const;
   bool settling(const std::string& module, double t) const;
-  /// Active robots of `arm` (its label) other than `except` that are on the world's plan: those that can serve it.
+  /// Active robots of `arm` (its label) other than `except` that are on the world's plan and keep up with its ticks
+  /// (kWarmLagTicks): those that can serve it at once.
   int live_robots_of(const std::string& arm, const std::string& except, double t) const;
   /// Live standby supervisors of `module` other than `except` that hold the leader's plan (ProcessView::replica).
   int warm_standbys_of(const std::string& module, const std::string& except, double t) const;

@@ -237,7 +237,7 @@ int run(int argc, char** argv) {
     return launcher::exit_code::kBadArgs;
   }
   CoordinatorProcess p(opt, d);
-  return p.run();
+  return runtime::bound_teardown("tandem-coordinator", p.run());  // (then its DDS teardown, bounded)
 }
 
 int main(int argc, char** argv) { return runtime::run_guarded("tandem-coordinator", run, argc, argv); }

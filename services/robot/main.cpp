@@ -373,7 +373,7 @@ int run(int argc, char** argv) {
     return launcher::exit_code::kBadArgs;
   }
   RobotProcess p(opt, ctx, j);
-  return p.run();
+  return runtime::bound_teardown("tandem-robot", p.run());  // (then its DDS teardown, bounded)
 }
 
 }  // namespace

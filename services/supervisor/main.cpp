@@ -241,7 +241,7 @@ int run(int argc, char** argv) {
   int code = 0;
   if (!runtime::start_role("supervisor", argc, argv, false, opt, ctx, code)) return code;
   SupervisorProcess p(opt, ctx);
-  return p.run();
+  return runtime::bound_teardown("tandem-supervisor", p.run());  // (then its DDS teardown, bounded)
 }
 
 }  // namespace

@@ -504,7 +504,7 @@ int run(int argc, char** argv) {
   int code = 0;
   if (!runtime::start_role("world", argc, argv, false, opt, ctx, code)) return code;
   WorldProcess w(opt, ctx);
-  return w.run();
+  return runtime::bound_teardown("tandem-world", w.run());  // (then its DDS teardown, bounded)
 }
 
 }  // namespace

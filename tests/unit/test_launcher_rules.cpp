@@ -628,3 +628,39 @@ TEST_CASE("TANDEM_CPU: spawn sets it or drops an inherited one, and a per-tick p
   CHECK(WIFEXITED(status));
   CHECK(WEXITSTATUS(status) == 0);
 }
+
+TEST_CASE("bound teardown: a role process whose teardown hangs ends with its own code, one whose teardown ends is untouched", "[launcher]") {
+  // A world once said "task done" in a CI run and never exited (its DDS teardown hung, 2026-11-28).
+  const auto child = [](bool hangs, int code) {
+    const pid_t pid = ::fork();
+    if (pid == 0) {
+      ::close(STDERR_FILENO);  // (its message is not this test's output)
+      const int c = tandem::runtime::bound_teardown("test-role", code, 0.3);
+      if (hangs) {
+        for (;;) ::pause();  // a teardown that never ends
+      }
+      ::_exit(c);
+    }
+    return pid;
+  };
+  for (const bool hangs : {true, false}) {
+    INFO((hangs ? "its teardown hangs" : "its teardown ends"));
+    const auto t0 = std::chrono::steady_clock::now();
+    const pid_t pid = child(hangs, 7);
+    REQUIRE(pid > 0);
+    int status = 0;
+    pid_t got = 0;
+    while ((got = ::waitpid(pid, &status, WNOHANG)) == 0 && std::chrono::steady_clock::now() - t0 < std::chrono::seconds(20)) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    if (got == 0) {
+      ::kill(pid, SIGKILL);
+      ::waitpid(pid, &status, 0);
+      FAIL("the child did not end within 20 s");
+    }
+    const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    CHECK(WIFEXITED(status));
+    CHECK(WEXITSTATUS(status) == 7);
+    if (hangs) CHECK(took >= 0.3);  // not before its bound
+  }
+}

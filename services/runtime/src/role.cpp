@@ -1,10 +1,13 @@
+#include <chrono>
 #include <exception>
+#include <thread>
 #include "tandem/launcher/exit_codes.hpp"
 #include "tandem/launcher/sched_group.hpp"
 #include "tandem/runtime/role.hpp"
 #include "tandem/runtime/args.hpp"
 
 #include <sched.h>
+#include <unistd.h>
 
 #include <dirent.h>
 #include <sys/resource.h>
@@ -148,6 +151,17 @@ int run_guarded(const char* program, int (*body)(int, char**), int argc, char** 
     std::fprintf(stderr, "%s: unknown exception\n", program);
   }
   return launcher::exit_code::kError;
+}
+
+int bound_teardown(const char* program, int code, double seconds) {
+  std::thread([program, code, seconds] {
+    std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
+    std::fprintf(stderr, "%s: its teardown did not end within %.0f s (a Fast DDS deadlock in a participant's deletion); "
+                 "exiting with code %d without it\n", program, seconds, code);
+    std::fflush(stderr);
+    ::_exit(code);
+  }).detach();
+  return code;
 }
 
 int parse_cpu(const char* text) {

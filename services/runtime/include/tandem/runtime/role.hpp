@@ -92,6 +92,15 @@ int pin_to_cpu_from_env();
 /// as "<program>: <what>" and the process exits 1, instead of aborting.
 int run_guarded(const char* program, int (*body)(int, char**), int argc, char** argv);
 
+/// The bound on a role process's teardown once its work is done [s].
+constexpr double kTeardownBoundS = 5.0;
+/// Called with the process's exit code once its work is done, before its DDS entities are deleted: returns `code`,
+/// and if the process has not ended `seconds` later, says so and ends it with `code` (_exit, no library teardown).
+/// Fast DDS 2.9 can deadlock in a participant's deletion (the soak's observer hung 8 minutes there, finding 59's
+/// neighbour); a world once said "task done" in a CI run and never exited (2026-11-28). Bounded here, the process
+/// still ends with its own code, which the launcher reads (docs/failure-model.md).
+int bound_teardown(const char* program, int code, double seconds = kTeardownBoundS);
+
 // Ranks and wire checks live with the plan (services/plan); the role processes use them under these names.
 using plan::SupervisorRank;
 using plan::valid_rank;

@@ -343,6 +343,24 @@ TEST_CASE("soak checker: failover and restart are measured from the recording, l
   braked.faults.push_back(kill_left(20.0));
   add_event(braked, {20.1, Event::Type::Owners, "m1", "left=braked,right=m1/right", {{"left", ""}, {"right", "m1/right"}}});
   CHECK(find(check(braked, Bounds{}), "recovery") != nullptr);
+
+  // ... unless the module was paused for load within the failover's bound (soak run 62): both arms braked by design,
+  // and the arm shows its new robot once the module resumes. Judged by a restart's bound on the wall clock.
+  for (const double resume : {26.0, 31.0}) {
+    INFO("the module resumes at " << resume << " s");
+    History load = braked;
+    for (ModuleSample& m : load.modules["m1"]) m.load_paused = m.t >= 20.0 && m.t < resume;
+    add_event(load, {21.8, Event::Type::State, "m1/left@49", "2 222"});  // the killed one's restart
+    add_event(load, {resume, Event::Type::Owners, "m1", "left=m1/left@50,right=m1/right", {{"left", "m1/left@50"}, {"right", "m1/right"}}});
+    v = check(load, Bounds{});
+    if (resume - 20.0 <= Bounds{}.restart_s) {
+      CHECK(find(v, "recovery") == nullptr);
+      CHECK(recovery_s(v, "kill robot: arm served again (paused for load)") == Approx(6.0));
+    } else {
+      REQUIRE(find(v, "recovery") != nullptr);
+      CHECK_THAT(find(v, "recovery")->text, Catch::Contains("within 10.0 s"));
+    }
+  }
 }
 
 TEST_CASE("soak checker: an arm's failover is judged in module time (ticks), in lockstep and in real time") {

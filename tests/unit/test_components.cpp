@@ -1276,6 +1276,12 @@ TEST_CASE("spin watch: /proc files of a process that ends while they are read gi
   CHECK(text.empty());
   ::close(fd);
   CHECK(tandem::launcher::read_proc_text(stat).empty());
+  {  // (the same read of a live process's file gives its text: "" above is the failure, not an empty file)
+    const int live = ::open("/proc/self/stat", O_RDONLY | O_CLOEXEC);
+    REQUIRE(live >= 0);
+    CHECK_FALSE(tandem::launcher::read_fd_text(live).empty());
+    ::close(live);
+  }
   CHECK(tandem::launcher::process_cpu_s(child) < 0.0);
   CHECK(tandem::launcher::thread_times(child).empty());
   CHECK_FALSE(tandem::launcher::read_proc_text("/proc/self/stat").empty());

@@ -347,8 +347,9 @@ TEST_CASE("nemesis: a robot kill of a primary behind the plan counts its arm's g
   run(n, 0.0, 5.5);
   REQUIRE(h.faults.size() == 1);
   INFO("killed " << h.faults[0].label);
-  // A primary killed had its standby; a standby killed had only a primary behind the plan: no standby.
-  CHECK(h.faults[0].had_standby == (h.faults[0].label.find("@50") == std::string::npos));
+  // A robot kill takes a serving robot (a primary here), whose standby is on the plan.
+  CHECK(h.faults[0].label.find("@50") == std::string::npos);
+  CHECK(h.faults[0].had_standby);
 }
 
 TEST_CASE("nemesis: a robot kill counts a standby that lags its world's ticks as no standby") {
@@ -358,6 +359,7 @@ TEST_CASE("nemesis: a robot kill counts a standby that lags its world's ticks as
     INFO("the standbys' lag " << lag << " ticks");
     Rig rig({fault(5.0, FaultKind::Kill, Target::Robot)});
     auto& [s, h, act, n] = rig;
+    n.set_tick_rate(1000.0);  // real time
     run(n, 0.0, 4.9);
     // Every robot's newest status (at 4.85 s) says its tick; at 5.0 s the world has reached tick 5000.
     for (const auto& [label, view] : n.processes()) {
@@ -373,6 +375,47 @@ TEST_CASE("nemesis: a robot kill counts a standby that lags its world's ticks as
     CHECK(h.faults[0].label.find("@50") == std::string::npos);  // a primary
     CHECK(h.faults[0].had_standby == (lag < Nemesis::kWarmLagTicks));
   }
+  // In lockstep (no tick rate) the rule is off: a world runs ticks as fast as it can, so a status's age says nothing.
+  Rig lockstep({fault(5.0, FaultKind::Kill, Target::Robot)});
+  run(lockstep.n, 0.0, 4.9);
+  for (const auto& [label, view] : lockstep.n.processes()) {
+    if (view.role != "robot") continue;
+    ProcessView p = view;
+    p.tick = label.find("@50") != std::string::npos ? 4654 : 4850;
+    p.last_t = 4.85;
+    lockstep.n.on_status(label, p);
+  }
+  lockstep.n.on_tick("m1", 20000);
+  lockstep.n.step(5.0);
+  REQUIRE(lockstep.h.faults.size() == 1);
+  CHECK(lockstep.h.faults[0].had_standby);
+}
+
+TEST_CASE("nemesis: a standby resumed from a stall is no warm standby until its first status after the resume") {
+  Rig rig({fault(4.0, FaultKind::Stall, Target::Standby, 1.0), fault(5.2, FaultKind::Kill, Target::Robot)});
+  auto& [s, h, act, n] = rig;
+  n.set_tick_rate(1000.0);
+  run(n, 0.0, 4.05);  // the stall: one standby stopped from 4.0 s to 5.0 s
+  REQUIRE(h.faults.size() == 1);
+  const std::string stalled = h.faults[0].label;
+  REQUIRE(stalled.find("@50") != std::string::npos);
+  const std::string arm = stalled.substr(0, stalled.find('@'));
+  // Statuses: the stalled one's last is from before its stop; every other robot's current.
+  for (double t = 4.06; t <= 5.3 + 1e-9; t += 0.01) {
+    for (const auto& [label, view] : n.processes()) {
+      if (label == stalled) continue;
+      ProcessView p = view;
+      p.last_t = t;
+      if (p.role == "robot") p.tick = std::lround(t * 1000.0);
+      n.on_status(label, p);
+    }
+    n.on_tick("m1", std::lround(t * 1000.0));
+    n.step(t);
+  }
+  REQUIRE(h.faults.size() == 2);
+  INFO("stalled " << stalled << ", killed " << h.faults[1].label);
+  // The arm whose standby stood still until 5.0 s, not heard since: no warm standby; the other arm's is warm.
+  CHECK(h.faults[1].had_standby == (h.faults[1].label != arm));
 }
 
 TEST_CASE("nemesis: a coordinator kill records whether an active standby coordinator was there") {

@@ -455,12 +455,12 @@ void Supervisor::plug_module(const std::string& name, const std::string& scenari
     case Action::StartRobot:
       break;
   }
-  if (dec.action != Action::StartRobot) modules_.at(name).spin_repairs = 0;
   const bool waiting = std::find(pending_clears_.begin(), pending_clears_.end(), name) != pending_clears_.end();
   if (waiting) {
     say(false, "'plug module %s': it starts already, once its previous processes have stopped\n", name.c_str());
     return;
   }
+  if (dec.action != Action::StartRobot) modules_.at(name).spin_repairs = 0;  // a person plugged it: 3 repairs again
   // Its previous processes may still be stopping (a plug right after an unplug's drain): the new ones start once
   // they are gone, so that none of them hears an old one (soak run 53: a module plugged back the moment its drain
   // ended stood "running" with no task for 50 s while the coordinator waited for it to be free).

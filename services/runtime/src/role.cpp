@@ -158,6 +158,7 @@ int bound_teardown(const char* program, int code, double seconds) {
     std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
     std::fprintf(stderr, "%s: its teardown did not end within %.0f s (a Fast DDS deadlock in a participant's deletion); "
                  "exiting with code %d without it\n", program, seconds, code);
+    std::fflush(stdout);  // (its final summary line, if still buffered)
     std::fflush(stderr);
     ::_exit(code);
   }).detach();

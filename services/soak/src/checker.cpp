@@ -356,16 +356,24 @@ class Judge {
     }
     return -1.0;
   }
-  /// Whether `module`'s world said it was paused for load in a bucket of [t0, t1] (or the bucket just after).
-  bool load_paused_between(const std::string& module, double t0, double t1) const {
+  /// Whether `module` was already stopping or paused for load when a fault came at t: paused for load in a bucket that
+  /// ends by t + 0.05 s (before any stop the fault itself could cause: the world drives a silent arm only after 100
+  /// ms), or holding then and paused for load by t1. A pause that a late standby's commands bring on after the kill
+  /// does not count (the review of run 62's rule).
+  bool load_stop_at(const std::string& module, double t, double t1) const {
     const auto m = h_.modules.find(module);
     if (m == h_.modules.end()) return false;
+    bool hold_then = false, paused_then = false, paused_after = false;
     for (const ModuleSample& s : m->second) {
-      if (s.t < t0) continue;
+      if (s.t < t - 0.1) continue;
       if (s.t > t1 + 0.1) break;
-      if (s.load_paused) return true;
+      if (s.t <= t + 0.05) {
+        hold_then = hold_then || s.hold;
+        paused_then = paused_then || s.load_paused;
+      }
+      if (s.t >= t) paused_after = paused_after || s.load_paused;
     }
-    return false;
+    return paused_then || (hold_then && paused_after);
   }
   /// Whether the launcher parked `module` for load in [t0, t1].
   bool parked_between(const std::string& module, double t0, double t1) const {
@@ -481,11 +489,11 @@ class Judge {
       case FaultKind::Kill:
         if (f.fault.target == Target::Robot || f.fault.target == Target::Standby) {
           if (served_before(module, robot, f.label, f.t)) {
-            // A module paused for load within the failover's bound brakes both arms (a safe stop by design), and its
+            // A module already stopping for load when the kill came brakes both arms (a safe stop by design), and its
             // world reports a braked arm, not the standby it follows, until it resumes: judged on the wall clock by
-            // a restart's bound (soak run 62: the kill came as m2's overload stop began; the world followed the
+            // a restart's bound (soak run 62: the kill came during m2's overload stop; the world followed the
             // standby 107 ms after the old one's last command, and the arm showed it 6.6 s later, on the resume).
-            const bool load = f.had_standby && load_paused_between(module, f.t, f.t + b_.failover_s);
+            const bool load = f.had_standby && load_stop_at(module, f.t, f.t + b_.failover_s);
             const bool warm = f.had_standby && !load;
             const double bound = warm ? b_.failover_s : b_.restart_s;
             judge(inv, f,

@@ -132,9 +132,11 @@ std::vector<std::string> Nemesis::candidates(Target target, double t, FaultKind 
 }
 
 bool Nemesis::keeps_up(const ProcessView& p, double t) const {
+  if (tick_rate_ <= 0.0) return true;
+  if (const auto r = resumed_.find(p.pid); r != resumed_.end() && p.last_t < r->second) return false;
   const auto world = ticks_.find(p.module);
   if (p.tick < 0 || world == ticks_.end()) return true;
-  const double now_tick = static_cast<double>(p.tick) + std::max(0.0, t - p.last_t) * kTicksPerS;
+  const double now_tick = static_cast<double>(p.tick) + std::max(0.0, t - p.last_t) * tick_rate_;
   return static_cast<double>(world->second) - now_tick <= static_cast<double>(kWarmLagTicks);
 }
 
@@ -236,7 +238,10 @@ void Nemesis::fire(const Fault& f, double t) {
       act_.stop(pid);
       stalled_[pid] = target;
       later(t + f.duration_s, [this, pid, index](double now) {
-        if (stalled_.erase(pid)) act_.resume(pid);
+        if (stalled_.erase(pid)) {
+          act_.resume(pid);
+          resumed_[pid] = now;
+        }
         h_.faults[index].end_t = now;
       });
       break;

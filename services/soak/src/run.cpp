@@ -137,6 +137,7 @@ class Observer : public NemesisActions {
     }
     h_.duration_s = sched_.duration_s;
     h_.realtime = d_.timing == "realtime";
+    if (h_.realtime) nemesis_.set_tick_rate(1000.0);  // the control rate (its warm-standby rule; none in lockstep)
     for (const auto& t : d_.tasks) h_.task_names.push_back(t.name);
     hog_exe_ = launcher::self_dir() + "/tandem_hog";
   }
@@ -336,7 +337,7 @@ class Observer : public NemesisActions {
       now.serving = serving;
       now.replica = s.detail() == supervisor::SupervisorCore::kReplicaDetail;
       now.behind = s.detail() == robot::RobotCore::kBehindDetail;
-      if (s.role() == "robot") now.tick = static_cast<long>(s.tick());
+      if (s.role() == "robot" && s.tick() > 0) now.tick = static_cast<long>(s.tick());  // (0: not said yet)
       now.last_t = t;
       nemesis_.on_status(label, now);
     }

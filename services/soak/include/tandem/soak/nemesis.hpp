@@ -76,12 +76,13 @@ class Nemesis {
   static constexpr double kSettleS = 3.0;       ///< a module is left alone this long after its world turns active
   static constexpr double kSilentS = 1.5;       ///< a process not heard this long is not a candidate
   static constexpr double kTailS = 5.0;         ///< a run goes on this long after a fault that waited past its end
-  /// A robot whose computed tick (its status's, advanced by the time since at the control rate, kTicksPerS) is more
-  /// than this many ticks behind its world's newest is not keeping up: no warm standby (soak run 61: a standby
-  /// plugged 2 s before, starved in a burst of restarts, was 196 ticks behind when its primary was killed, and served
-  /// the arm after 0.4 s). In lockstep no robot falls behind its world, and the projection only overestimates it.
+  /// In real time (set_tick_rate), a robot whose computed tick (its status's, advanced by the status's age at the
+  /// tick rate) is more than this many ticks behind its world's newest is not keeping up: no warm standby (soak run
+  /// 61: a standby plugged 2 s before, starved in a burst of restarts, was 196 ticks behind when its primary was
+  /// killed, and served the arm after 0.4 s). Not in lockstep, whose ticks follow no clock (a world runs ~4 ticks a
+  /// millisecond when it can): the rule is off there (rate 0, the default). A robot resumed from a stall is not known
+  /// to keep up until its first status after the resume.
   static constexpr long kWarmLagTicks = 100;
-  static constexpr double kTicksPerS = 1000.0;
 
   /// `modules`: the deployment's modules in order; fault records go to `history.faults`.
   Nemesis(const Schedule& schedule, std::vector<std::string> modules, History& history, NemesisActions& actions);
@@ -91,6 +92,8 @@ class Nemesis {
   void on_status(const std::string& label, const ProcessView& p);
   /// The robot each arm of `module` follows now (arm -> process label, from its world).
   void on_owners(const std::string& module, std::map<std::string, std::string> owners);
+  /// The world's ticks a second in real time (1000), for the warm-standby rule (kWarmLagTicks); 0: lockstep, no rule.
+  void set_tick_rate(double ticks_per_s) { tick_rate_ = ticks_per_s; }
   /// The newest tick heard from `module`'s world (each fault on the module records it: FaultRecord::module_tick).
   void on_tick(const std::string& module, long tick) { ticks_[module] = tick; }
   /// The launcher parked `module` for load (admission or shedding), or brought it back.
@@ -157,6 +160,8 @@ class Nemesis {
   std::map<std::string, ProcessView> procs_;
   std::map<std::string, std::map<std::string, std::string>> owners_;  ///< module -> arm -> label
   std::map<std::string, long> ticks_;  ///< module -> the newest tick heard from its world
+  double tick_rate_ = 0.0;             ///< set_tick_rate
+  std::map<long long, double> resumed_;  ///< pid -> when the nemesis last resumed it from a stall
   std::map<std::string, double> module_started_;  ///< module -> when its (latest) world turned active
   std::set<std::string> out_;                     ///< modules taken out, to be plugged in again
   std::set<std::string> parked_;                  ///< modules the launcher parked for load

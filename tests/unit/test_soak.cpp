@@ -358,6 +358,7 @@ TEST_CASE("soak checker: failover and restart are measured from the recording, l
     for (ModuleSample& m : load.modules["m1"]) {
       m.hold = m.t >= c.hold_from && m.t < c.paused_from;
       m.load_paused = m.t >= c.paused_from && m.t < c.resume;
+      if (m.hold || m.load_paused) m.stop_tick = m.tick - 50;
     }
     add_event(load, {21.8, Event::Type::State, "m1/left@49", "2 222"});  // the killed one's restart
     add_event(load, {c.resume, Event::Type::Owners, "m1", "left=m1/left@50,right=m1/right", {{"left", "m1/left@50"}, {"right", "m1/right"}}});
@@ -369,6 +370,22 @@ TEST_CASE("soak checker: failover and restart are measured from the recording, l
       REQUIRE(find(v, "recovery") != nullptr);
       CHECK_THAT(find(v, "recovery")->text, Catch::Contains(c.excused ? "within 10.0 s" : "within 0.2 s"));
     }
+  }
+  // In module time when the fault has the world's tick (run 62: the observer, starved, heard tick 4870 at the kill;
+  // the world had begun its overload stop at tick 5100 and the nemesis had heard 5250): a stop begun at a tick up to
+  // the fault's counts, one begun after it does not, whatever the buckets' wall times.
+  for (const long stop_tick : {5100L, 5300L}) {
+    INFO("the stop began at tick " << stop_tick);
+    History late_obs = braked;
+    late_obs.faults[0].module_tick = 5250;
+    for (ModuleSample& m : late_obs.modules["m1"]) {
+      m.load_paused = m.t >= 20.1 && m.t < 26.0;
+      if (m.load_paused) m.stop_tick = m.t < 20.15 ? stop_tick : m.tick - 50;
+    }
+    add_event(late_obs, {21.8, Event::Type::State, "m1/left@49", "2 222"});
+    add_event(late_obs, {26.0, Event::Type::Owners, "m1", "left=m1/left@50,right=m1/right", {{"left", "m1/left@50"}, {"right", "m1/right"}}});
+    v = check(late_obs, Bounds{});
+    CHECK((find(v, "recovery") == nullptr) == (stop_tick <= 5250));
   }
 }
 

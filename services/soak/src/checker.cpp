@@ -356,24 +356,26 @@ class Judge {
     }
     return -1.0;
   }
-  /// Whether `module` was already stopping or paused for load when a fault came at t: paused for load in a bucket that
-  /// ends by t + 0.05 s (before any stop the fault itself could cause: the world drives a silent arm only after 100
-  /// ms), or holding then and paused for load by t1. A pause that a late standby's commands bring on after the kill
-  /// does not count (the review of run 62's rule).
-  bool load_stop_at(const std::string& module, double t, double t1) const {
+  /// Whether `module` was already stopping or paused for load when a fault came at t: its world reported holding or
+  /// paused for load at a tick no later than the newest it had reported before the fault (`tick_at_fault`; in module
+  /// time, exact whatever the observer's lag: a stop the fault itself causes, the drive of a silent arm, begins 100
+  /// ticks after it), and paused for load by t1. Without a tick at the fault, a bucket ending by t + 0.05 s that
+  /// says so. A pause that a late standby's commands bring on after the kill does not count (the review of run 62's
+  /// rule).
+  bool load_stop_at(const std::string& module, double t, double t1, long tick_at_fault) const {
     const auto m = h_.modules.find(module);
     if (m == h_.modules.end()) return false;
-    bool hold_then = false, paused_then = false, paused_after = false;
+    bool stopping_then = false, paused_after = false;
     for (const ModuleSample& s : m->second) {
       if (s.t < t - 0.1) continue;
       if (s.t > t1 + 0.1) break;
-      if (s.t <= t + 0.05) {
-        hold_then = hold_then || s.hold;
-        paused_then = paused_then || s.load_paused;
+      if (tick_at_fault >= 0 ? s.stop_tick >= 0 && s.stop_tick <= tick_at_fault
+                             : s.t <= t + 0.05 && (s.hold || s.load_paused)) {
+        stopping_then = true;
       }
       if (s.t >= t) paused_after = paused_after || s.load_paused;
     }
-    return paused_then || (hold_then && paused_after);
+    return stopping_then && paused_after;
   }
   /// Whether the launcher parked `module` for load in [t0, t1].
   bool parked_between(const std::string& module, double t0, double t1) const {
@@ -493,7 +495,7 @@ class Judge {
             // world reports a braked arm, not the standby it follows, until it resumes: judged on the wall clock by
             // a restart's bound (soak run 62: the kill came during m2's overload stop; the world followed the
             // standby 107 ms after the old one's last command, and the arm showed it 6.6 s later, on the resume).
-            const bool load = f.had_standby && load_stop_at(module, f.t, f.t + b_.failover_s);
+            const bool load = f.had_standby && load_stop_at(module, f.t, f.t + b_.failover_s, f.module_tick);
             const bool warm = f.had_standby && !load;
             const double bound = warm ? b_.failover_s : b_.restart_s;
             judge(inv, f,

@@ -276,6 +276,7 @@ class Observer : public NemesisActions {
         b.s.braked = b.s.braked || r.braked()[0] || r.braked()[1];
         b.s.hold = b.s.hold || r.hold();
         b.s.load_paused = b.s.load_paused || r.load_paused();
+        if ((r.hold() || r.load_paused()) && (b.s.stop_tick < 0 || tick < b.s.stop_tick)) b.s.stop_tick = tick;
         b.s.failed = b.s.failed || r.failed();
         if (const std::string text = runtime::owners_text(r.owners()); text != b.serving) {
           b.serving = text;

@@ -22,6 +22,7 @@ struct ModuleSample {
   bool braked = false;           ///< an arm was braked in the bucket
   bool hold = false;             ///< the world asked for a hold (overload)
   bool load_paused = false;
+  long stop_tick = -1;           ///< the first tick in the bucket reported holding or paused for load (-1: none)
   bool failed = false;           ///< the world reports the module failed (object dropped)
   int world = 0;                 ///< which world instance (1, 2, ... as the module is plugged in again)
 };

@@ -700,6 +700,24 @@ TEST_CASE("soak checker: a module paused for load by a hog must resume within 20
   REQUIRE(x != nullptr);
   CHECK_THAT(x->text, Catch::Contains("a module paused for load did not resume within 20.0 s"));
   CHECK(find(late, "recovery") == nullptr);
+  // Parked for load (shed) before its resume was due: its return is the governor's, not judged here.
+  auto parked = [&](double park_t) {
+    History h = quiet_history(120.0);
+    FaultRecord f;
+    f.fault.index = 1;
+    f.fault.kind = FaultKind::Hog;
+    f.fault.duration_s = 2.0;
+    f.t = 40.0;
+    f.end_t = 42.0;
+    f.label = "2 core(s)";
+    h.faults.push_back(f);
+    for (ModuleSample& s : h.modules["m1"]) s.load_paused = s.t > 41.0 && s.t < 70.0;
+    add_event(h, {park_t, Event::Type::Parked, "m1", "overload: the running modules were paused for load 55% of the last 20 s"});
+    return check(h, Bounds{});
+  };
+  CHECK(find(parked(43.0), "progress") == nullptr);
+  CHECK(find(parked(35.0), "progress") != nullptr);  // a park before the hog excuses nothing
+  CHECK(find(parked(65.0), "progress") != nullptr);  // nor one after the resume was due
 }
 
 TEST_CASE("soak checker: anything left behind is a violation") {

@@ -573,6 +573,10 @@ class Judge {
         double worst = 0.0;
         bool stuck = false;
         for (const auto& [m, series] : h_.modules) {
+          // Parked for load (shed) before its resume was due: its processes stopped and its return is the
+          // governor's after a calm of 30 s or more (unit-tested), not a resume (run 63: m2 paused by a 1-core hog
+          // at 60.3 s, parked at 66.0 s, back at 121.0 s).
+          if (parked_between(m, f.t, end + b_.hog_s)) continue;
           bool paused = false;
           double resumed = -1.0;
           for (const ModuleSample& s : series) {

@@ -715,6 +715,24 @@ TEST_CASE("soak checker: a module paused for load by a hog must resume within 20
     add_event(h, {park_t, Event::Type::Parked, "m1", "overload: the running modules were paused for load 55% of the last 20 s"});
     return check(h, Bounds{});
   };
+  // Released after a good trial 8 s after the hog and paused again within the same 0.1 s bucket: the bucket
+  // says paused, the release counts (the machine's load paused it again, run 64).
+  History h = quiet_history(120.0);
+  FaultRecord f;
+  f.fault.index = 1;
+  f.fault.kind = FaultKind::Hog;
+  f.fault.duration_s = 2.0;
+  f.t = 40.0;
+  f.end_t = 42.0;
+  f.label = "2 core(s)";
+  h.faults.push_back(f);
+  for (ModuleSample& s : h.modules["m1"]) s.load_paused = s.t > 41.0 && s.t < 70.0;
+  REQUIRE(find(check(h, Bounds{}), "progress") != nullptr);
+  for (ModuleSample& s : h.modules["m1"]) s.released = s.t > 50.0 && s.t < 50.11;
+  CHECK(find(check(h, Bounds{}), "progress") == nullptr);
+  // A release during the hog, paused again before it ends, is no resume after it.
+  for (ModuleSample& s : h.modules["m1"]) s.released = s.t > 41.5 && s.t < 41.61;
+  CHECK(find(check(h, Bounds{}), "progress") != nullptr);
   CHECK(find(parked(43.0), "progress") == nullptr);
   CHECK(find(parked(35.0), "progress") != nullptr);  // a park before the hog excuses nothing
   CHECK(find(parked(65.0), "progress") != nullptr);  // nor one after the resume was due

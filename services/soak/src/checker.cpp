@@ -586,7 +586,10 @@ class Judge {
               continue;
             }
             if (!paused) paused = s.load_paused && s.t <= end + 0.2;
-            if (paused && !s.load_paused) {
+            // Resumed: a bucket not paused, or a release inside one (the world released both arms after a
+            // good trial and was paused again within 0.1 s: the machine's load, not a module stuck; run 64, m1
+            // released 4 s after a hog and paused again 100 ticks later, three times, the buckets all "paused").
+            if (paused && (!s.load_paused || s.released)) {
               resumed = s.t;
               break;
             }

@@ -419,12 +419,12 @@ std::string write_report(const std::string& dir, const RunInfo& info, const Hist
   std::ostringstream rss, mod, ev, fl;
   rss << "t,process,pid,rss_mib,cpu_s\n";
   for (const RssSample& s : h.rss) rss << s.t << "," << s.label << "," << s.pid << "," << s.mib << "," << s.cpu_s << "\n";
-  mod << "t,module,world,tick,normal_min,slips,contact_lost,late,failovers,braked,hold,load_paused\n";
+  mod << "t,module,world,tick,normal_min,slips,contact_lost,late,failovers,braked,hold,load_paused,released\n";
   for (const auto& [m, series] : h.modules) {
     for (const ModuleSample& s : series) {
       mod << s.t << "," << m << "," << s.world << "," << s.tick << "," << s.normal_min << "," << s.slips << ","
           << s.contact_lost << "," << s.late << "," << s.failovers << "," << s.braked << "," << s.hold << ","
-          << s.load_paused << "\n";
+          << s.load_paused << "," << s.released << "\n";
     }
   }
   static const char* kTypes[] = {"owners", "state", "serving", "task_assigned", "task_done", "queue_back", "parked", "unparked"};

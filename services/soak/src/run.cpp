@@ -244,6 +244,7 @@ class Observer : public NemesisActions {
     double end = 0.0;
     long last_tick = -1;
     int world = 0;
+    bool last_paused = false;  ///< the last report of this world said paused for load
     std::string serving;
   };
 
@@ -257,6 +258,7 @@ class Observer : public NemesisActions {
         if (tick + 100 < b.last_tick || b.world == 0) {  // a new world (the module was plugged in again)
           flush(module, b);
           ++b.world;
+          b.last_paused = false;
         }
         b.last_tick = tick;
         nemesis_.on_tick(module, tick);
@@ -276,6 +278,8 @@ class Observer : public NemesisActions {
         b.s.braked = b.s.braked || r.braked()[0] || r.braked()[1];
         b.s.hold = b.s.hold || r.hold();
         b.s.load_paused = b.s.load_paused || r.load_paused();
+        b.s.released = b.s.released || (b.last_paused && !r.load_paused());
+        b.last_paused = r.load_paused();
         if ((r.hold() || r.load_paused()) && (b.s.stop_tick < 0 || tick < b.s.stop_tick)) b.s.stop_tick = tick;
         b.s.failed = b.s.failed || r.failed();
         if (const std::string text = runtime::owners_text(r.owners()); text != b.serving) {

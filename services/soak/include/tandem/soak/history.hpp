@@ -21,7 +21,10 @@ struct ModuleSample {
   uint64_t slips = 0, contact_lost = 0, late = 0, failovers = 0;  ///< the world's running counters
   bool braked = false;           ///< an arm was braked in the bucket
   bool hold = false;             ///< the world asked for a hold (overload)
-  bool load_paused = false;
+  bool load_paused = false;      ///< a report in the bucket said paused for load
+  /// A report in the bucket said not paused for load right after one that said paused: a release, however short
+  /// (the bucket's load_paused hides a release that is paused again within it; soak run 64)
+  bool released = false;
   long stop_tick = -1;           ///< the first tick in the bucket reported holding or paused for load (-1: none)
   bool failed = false;           ///< the world reports the module failed (object dropped)
   int world = 0;                 ///< which world instance (1, 2, ... as the module is plugged in again)

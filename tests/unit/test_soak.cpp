@@ -701,7 +701,7 @@ TEST_CASE("soak checker: a module paused for load by a hog must resume within 20
   CHECK_THAT(x->text, Catch::Contains("a module paused for load did not resume within 20.0 s"));
   CHECK(find(late, "recovery") == nullptr);
   // Parked for load (shed) before its resume was due: its return is the governor's, not judged here.
-  auto parked = [&](double park_t) {
+  auto parked = [&](double park_t, double back_t = -1.0) {
     History h = quiet_history(120.0);
     FaultRecord f;
     f.fault.index = 1;
@@ -713,6 +713,7 @@ TEST_CASE("soak checker: a module paused for load by a hog must resume within 20
     h.faults.push_back(f);
     for (ModuleSample& s : h.modules["m1"]) s.load_paused = s.t > 41.0 && s.t < 70.0;
     add_event(h, {park_t, Event::Type::Parked, "m1", "overload: the running modules were paused for load 55% of the last 20 s"});
+    if (back_t > 0.0) add_event(h, {back_t, Event::Type::Unparked, "m1", "no module has run for 5 s: one always does"});
     return check(h, Bounds{});
   };
   // Released after a good trial 8 s after the hog and paused again within the same 0.1 s bucket: the bucket
@@ -734,6 +735,10 @@ TEST_CASE("soak checker: a module paused for load by a hog must resume within 20
   for (ModuleSample& s : h.modules["m1"]) s.released = s.t > 41.5 && s.t < 41.61;
   CHECK(find(check(h, Bounds{}), "progress") != nullptr);
   CHECK(find(parked(43.0), "progress") == nullptr);
+  CHECK(find(parked(43.0, 75.0), "progress") == nullptr);  // brought back after the bound: still the governor's
+  // Brought back within the bound and still paused (the series says paused until 70 s): judged, late.
+  REQUIRE(find(parked(43.0, 48.0), "progress") != nullptr);
+  CHECK_THAT(find(parked(43.0, 48.0), "progress")->text, Catch::Contains("did not resume"));
   CHECK(find(parked(35.0), "progress") != nullptr);  // a park before the hog excuses nothing
   CHECK(find(parked(65.0), "progress") != nullptr);  // nor one after the resume was due
 }

@@ -384,6 +384,16 @@ class Judge {
     }
     return false;
   }
+  /// Whether the launcher parked `module` for load in [t0, t1] and had not brought it back by t1.
+  bool parked_through(const std::string& module, double t0, double t1) const {
+    bool parked = false;
+    for (const Event& e : h_.events) {
+      if (e.subject != module || e.t > t1) continue;
+      if (e.type == Event::Type::Parked && e.t >= t0) parked = true;
+      if (e.type == Event::Type::Unparked && parked) parked = false;
+    }
+    return parked;
+  }
   /// First time after t at which a process whose label starts with `prefix`, other than `label`, serves.
   /// First time at or after t at which a process under `prefix` other than the killed one (`label`, `pid`) said it
   /// serves as the primary. A process with the killed one's label and another pid is another process: a module
@@ -573,10 +583,11 @@ class Judge {
         double worst = 0.0;
         bool stuck = false;
         for (const auto& [m, series] : h_.modules) {
-          // Parked for load (shed) before its resume was due: its processes stopped and its return is the
-          // governor's after a calm of 30 s or more (unit-tested), not a resume (run 63: m2 paused by a 1-core hog
-          // at 60.3 s, parked at 66.0 s, back at 121.0 s).
-          if (parked_between(m, f.t, end + b_.hog_s)) continue;
+          // Parked for load (shed) before its resume was due and still parked then: its processes stopped and its
+          // return is the governor's after a calm of 30 s or more (unit-tested), not a resume (run 63: m2 paused by
+          // a 1-core hog at 60.3 s, parked at 66.0 s, back at 121.0 s). One brought back within the bound is judged
+          // as any other: its new world's first report not paused is its resume (the review of a first version).
+          if (parked_through(m, f.t, end + b_.hog_s)) continue;
           bool paused = false;
           double resumed = -1.0;
           for (const ModuleSample& s : series) {

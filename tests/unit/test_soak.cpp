@@ -678,46 +678,8 @@ TEST_CASE("soak checker: the overall progress gap counts only time with a module
   CHECK_THAT(find(v, "progress")->text, Catch::Contains("no task was done after 20.0 s (10.0 s of it with a module in service)"));
 }
 
-TEST_CASE("soak checker: a module paused for load by a hog must resume within 20 s of its end, judged under progress") {
-  // A 2 s hog from 40 s; m1 paused for load from 41 s until `resume` (tasks go on: the gap rule is not what is judged).
-  auto hogged = [](double resume) {
-    History h = quiet_history(120.0);
-    FaultRecord f;
-    f.fault.index = 1;
-    f.fault.kind = FaultKind::Hog;
-    f.fault.duration_s = 2.0;
-    f.t = 40.0;
-    f.end_t = 42.0;
-    f.label = "2 core(s)";
-    h.faults.push_back(f);
-    for (ModuleSample& s : h.modules["m1"]) s.load_paused = s.t > 41.0 && s.t < resume;
-    return check(h, Bounds{});
-  };
-  CHECK(find(hogged(50.0), "progress") == nullptr);  // resumed 8 s after the hog
-  CHECK(find(hogged(50.0), "recovery") == nullptr);
-  const Verdict late = hogged(70.0);  // 28 s after it
-  const Violation* x = find(late, "progress");
-  REQUIRE(x != nullptr);
-  CHECK_THAT(x->text, Catch::Contains("a module paused for load did not resume within 20.0 s"));
-  CHECK(find(late, "recovery") == nullptr);
-  // Parked for load (shed) before its resume was due: its return is the governor's, not judged here.
-  auto parked = [&](double park_t, double back_t = -1.0) {
-    History h = quiet_history(120.0);
-    FaultRecord f;
-    f.fault.index = 1;
-    f.fault.kind = FaultKind::Hog;
-    f.fault.duration_s = 2.0;
-    f.t = 40.0;
-    f.end_t = 42.0;
-    f.label = "2 core(s)";
-    h.faults.push_back(f);
-    for (ModuleSample& s : h.modules["m1"]) s.load_paused = s.t > 41.0 && s.t < 70.0;
-    add_event(h, {park_t, Event::Type::Parked, "m1", "overload: the running modules were paused for load 55% of the last 20 s"});
-    if (back_t > 0.0) add_event(h, {back_t, Event::Type::Unparked, "m1", "no module has run for 5 s: one always does"});
-    return check(h, Bounds{});
-  };
-  // Released after a good trial 8 s after the hog and paused again within the same 0.1 s bucket: the bucket
-  // says paused, the release counts (the machine's load paused it again, run 64).
+/// 120 s of m1 with a 2 s hog of both cores from 40 s, m1 paused for load from 41 s until `resume`.
+History hog_history(double resume) {
   History h = quiet_history(120.0);
   FaultRecord f;
   f.fault.index = 1;
@@ -727,7 +689,30 @@ TEST_CASE("soak checker: a module paused for load by a hog must resume within 20
   f.end_t = 42.0;
   f.label = "2 core(s)";
   h.faults.push_back(f);
-  for (ModuleSample& s : h.modules["m1"]) s.load_paused = s.t > 41.0 && s.t < 70.0;
+  for (ModuleSample& s : h.modules["m1"]) s.load_paused = s.t > 41.0 && s.t < resume;
+  return h;
+}
+
+TEST_CASE("soak checker: a module paused for load by a hog must resume within 20 s of its end, judged under progress") {
+  // A 2 s hog from 40 s; m1 paused for load from 41 s until `resume` (tasks go on: the gap rule is not what is judged).
+  auto hogged = [](double resume) { return check(hog_history(resume), Bounds{}); };
+  CHECK(find(hogged(50.0), "progress") == nullptr);  // resumed 8 s after the hog
+  CHECK(find(hogged(50.0), "recovery") == nullptr);
+  const Verdict late = hogged(70.0);  // 28 s after it
+  const Violation* x = find(late, "progress");
+  REQUIRE(x != nullptr);
+  CHECK_THAT(x->text, Catch::Contains("a module paused for load did not resume within 20.0 s"));
+  CHECK(find(late, "recovery") == nullptr);
+  // Parked for load (shed) before its resume was due: its return is the governor's, not judged here.
+  auto parked = [&](double park_t, double back_t = -1.0) {
+    History h = hog_history(70.0);
+    add_event(h, {park_t, Event::Type::Parked, "m1", "overload: the running modules were paused for load 55% of the last 20 s"});
+    if (back_t > 0.0) add_event(h, {back_t, Event::Type::Unparked, "m1", "no module has run for 5 s: one always does"});
+    return check(h, Bounds{});
+  };
+  // Released after a good trial 8 s after the hog and paused again within the same 0.1 s bucket: the bucket
+  // says paused, the release counts (the machine's load paused it again, run 64).
+  History h = hog_history(70.0);
   REQUIRE(find(check(h, Bounds{}), "progress") != nullptr);
   for (ModuleSample& s : h.modules["m1"]) s.released = s.t > 50.0 && s.t < 50.11;
   CHECK(find(check(h, Bounds{}), "progress") == nullptr);

@@ -19,6 +19,9 @@
 
 #include "tandem/runtime/args.hpp"
 #include "tandem/runtime/deployment.hpp"
+#include "tandem/soak/checker.hpp"
+#include "tandem/soak/history_file.hpp"
+#include "tandem/soak/report.hpp"
 #include "tandem/soak/run.hpp"
 #include "tandem/soak/schedule.hpp"
 
@@ -31,7 +34,7 @@ std::atomic<bool> g_soak_stop{false};
 void on_soak_signal(int) { g_soak_stop = true; }
 
 struct SoakArgs {
-  std::string file, faults = "mixed", report, timing = "realtime", transport;
+  std::string file, faults = "mixed", report, timing = "realtime", transport, judge;
   std::string duration = "10m";
   std::string seed = "1";
   bool print_only = false;
@@ -42,7 +45,13 @@ void describe(CLI::App& app, SoakArgs& s) {
   app.description(
       "Runs the deployment (its own `tandem up`) for the given time under a seeded schedule of faults, records\n"
       "what the deployment reports over DDS, judges the recording against the invariants and writes a report.");
-  app.add_option("deploy", s.file, "the deployment file (docs/scenario-schema.md)")->required()->type_name("DEPLOY.yaml");
+  CLI::Option* deploy =
+      app.add_option("deploy", s.file, "the deployment file (docs/scenario-schema.md); required but with --judge")
+          ->type_name("DEPLOY.yaml");
+  app.add_option("--judge", s.judge,
+                 "run nothing: judge a recorded run again (DIR/history.pb, written by every run) with this build's\n"
+                 "checker and write its report again (into DIR, or --report)")
+      ->excludes(deploy)->type_name("DIR");
   app.add_option("--duration", s.duration, "how long to run: 90, 90s, 10m, 1h")
       ->check(runtime::duration())->capture_default_str()->type_name("T");
   app.add_option("--seed", s.seed, "the schedule's seed: the same seed, rules and duration give the same schedule")
@@ -73,6 +82,32 @@ void describe(CLI::App& app, SoakArgs& s) {
       "Exit: 0 every invariant held; 1 a violation (listed in the report); 2 bad arguments, deployment or schedule.");
 }
 
+/// `--judge DIR`: the recorded history judged by this build's checker, the report written again into `out`.
+int judge(const std::string& dir, const std::string& out) {
+  RunInfo info;
+  History h;
+  try {
+    load_history(dir + "/history.pb", info, h);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "tandem soak: %s\n", e.what());
+    return 2;
+  }
+  const Bounds bounds;
+  const Verdict v = check(h, bounds);
+  info.command += "  (judged again: tandem soak --judge " + dir + ")";
+  try {
+    write_report(out, info, h, bounds, v);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "tandem soak: %s\n", e.what());
+    return 2;
+  }
+  const std::string text = summary_text(info, h, bounds, v);
+  std::fputs(text.substr(0, text.find("## Plots")).c_str(), stdout);
+  std::printf("report: %s/index.html\nresult: %s\n", out.c_str(),
+              v.ok() ? "PASS (every invariant held)" : "FAIL (see the violations)");
+  return v.ok() ? 0 : 1;
+}
+
 }  // namespace
 
 void soak_usage(std::FILE* f) {
@@ -87,6 +122,12 @@ int soak_command(const std::vector<std::string>& args) {
   CLI::App app("", "tandem soak");
   describe(app, a);
   if (const int rc = runtime::parse_args(app, args); rc >= 0) return rc;
+  if (!a.judge.empty()) return judge(a.judge, a.report.empty() ? a.judge : a.report);
+  if (a.file.empty()) {
+    std::fprintf(stderr, "tandem soak: a deployment file is required (or --judge DIR to judge a recorded run); "
+                         "see tandem soak --help\n");
+    return 2;
+  }
   const double duration = runtime::parse_duration(a.duration);
   const uint64_t seed = std::strtoull(a.seed.c_str(), nullptr, 10);
   runtime::Deployment d;

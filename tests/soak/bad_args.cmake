@@ -40,6 +40,23 @@ execute_process(COMMAND ${TANDEM} soak ${WORK}/bad-soak/none.yaml RESULT_VARIABL
 if(NOT rc EQUAL 2)
   message(FATAL_ERROR "missing deployment: expected exit 2, got ${rc}: ${err}")
 endif()
+# No deployment, --judge of a directory with no recording, and both at once.
+foreach(c "|a deployment file is required" "--judge;${WORK}/bad-soak|cannot open ${WORK}/bad-soak/history.pb"
+          "${SRC}/deploy/soak-small.yaml;--judge;${WORK}/bad-soak|excludes --judge")
+  string(REPLACE "|" ";" parts "${c}")
+  list(LENGTH parts n)
+  math(EXPR last "${n} - 1")
+  list(GET parts ${last} expect)
+  list(REMOVE_AT parts ${last})
+  execute_process(COMMAND ${TANDEM} soak ${parts} RESULT_VARIABLE rc ERROR_VARIABLE err)
+  if(NOT rc EQUAL 2)
+    message(FATAL_ERROR "'soak ${parts}': expected exit 2, got ${rc}: ${err}")
+  endif()
+  string(FIND "${err}" "${expect}" pos)
+  if(pos EQUAL -1)
+    message(FATAL_ERROR "'soak ${parts}': message lacks '${expect}': ${err}")
+  endif()
+endforeach()
 # --print-schedule: the same seed prints the same schedule, and nothing starts.
 execute_process(COMMAND ${TANDEM} soak ${SRC}/deploy/soak-small.yaml --duration 90 --seed 5 --faults ci --print-schedule
                 OUTPUT_VARIABLE a RESULT_VARIABLE rca)

@@ -14,6 +14,7 @@
 #include <string>
 
 #include "tandem/soak/checker.hpp"
+#include "tandem/soak/history_file.hpp"
 #include "tandem/soak/report.hpp"
 #include "tandem/soak/schedule.hpp"
 #include "tandem/page/svg.hpp"
@@ -1008,4 +1009,185 @@ TEST_CASE("soak report: a process's share of a core over its last window, beside
   CHECK(c[0].first_share == Approx(0.1).margin(1e-9));
   CHECK(c[1].label == "coordinator");
   CHECK(c[1].share == Approx(0.05).margin(1e-9));
+}
+
+TEST_CASE("soak history file: every recorded field reads back as written, the verdict is the same, bad files are refused") {
+  // A history with every field away from its default, and a drop so that the verdict has a violation to compare.
+  History h = quiet_history(60.0);
+  h.stop_s = 59.5;
+  h.realtime = false;
+  ModuleSample& s = h.modules["m1"][300];
+  s.normal_min = 0.0;
+  s.slips = 1;
+  s.contact_lost = 2;
+  s.late = 3;
+  s.failovers = 4;
+  s.braked = s.hold = s.load_paused = s.released = s.failed = true;
+  s.stop_tick = 29990;
+  s.world = 2;
+  h.heard["m1/left"] = {{1.0, 20.0, 4242}, {21.0, 59.0, 4343}};
+  Event owners{30.0, Event::Type::Owners, "m1", "left=braked", {{"left", ""}, {"right", "m1/right"}}};
+  owners.tick = 30000;
+  owners.pid = 77;
+  owners.handover = {{"left", -1}, {"right", 12}};
+  add_event(h, owners);
+  add_event(h, Event{31.0, Event::Type::Unparked, "m2", "calm"});
+  FaultRecord f = m1_fault(7, FaultKind::Hog, Target::None, 29.0, "m1/left", 40.0);
+  f.fault.at_s = 28.9;
+  f.fault.label = "fixed";
+  f.fault.duration_s = 11.0;
+  f.fault.cores = 2;
+  f.fault.pick = 0xfedcba9876543210ULL;
+  f.skipped = true;
+  f.note = "re-plugged at 41 s";
+  f.had_standby = false;
+  f.module_tick = 29000;
+  h.faults.push_back(f);
+  h.rss.push_back({12.5, "m1/world", 99, 12.25, 3.5});
+  h.log_bytes = {{1.0, 100.0}, {2.0, 250.0}};
+  h.tasks_running = {"t99"};
+  h.tasks_done_total = 15;
+  h.leftover_processes = {"123 tandem-robot"};
+  h.leftover_shm = {"fastrtps_port7412"};
+  h.launcher_exit = 3;
+  h.ended_by_itself = true;
+  RunInfo info;
+  info.deployment = "small";
+  info.deployment_file = "deploy/soak-small.yaml";
+  info.command = "tandem soak deploy/soak-small.yaml";
+  info.faults_source = "mixed";
+  info.machine = "2 cores";
+  info.timing = "lockstep";
+  info.seed = 13;
+  info.wall_s = 61.5;
+  info.modules = 2;
+  info.processes_seen = 17;
+
+  const std::string dir = "/tmp/tandem-soak-history-" + std::to_string(::getpid());
+  REQUIRE(std::system(("mkdir -p " + dir).c_str()) == 0);
+  const std::string path = dir + "/history.pb";
+  save_history(path, info, h);
+  RunInfo i2;
+  History r;
+  load_history(path, i2, r);
+
+  CHECK(i2.deployment == info.deployment);
+  CHECK(i2.deployment_file == info.deployment_file);
+  CHECK(i2.command == info.command);
+  CHECK(i2.faults_source == info.faults_source);
+  CHECK(i2.machine == info.machine);
+  CHECK(i2.timing == info.timing);
+  CHECK(i2.seed == info.seed);
+  CHECK(i2.wall_s == info.wall_s);
+  CHECK(i2.modules == info.modules);
+  CHECK(i2.processes_seen == info.processes_seen);
+
+  CHECK(r.duration_s == h.duration_s);
+  CHECK(r.stop_s == h.stop_s);
+  CHECK(r.realtime == h.realtime);
+  CHECK(r.h_sg == h.h_sg);
+  REQUIRE(r.modules.size() == 1);
+  REQUIRE(r.modules["m1"].size() == h.modules["m1"].size());
+  for (size_t k = 0; k < h.modules["m1"].size(); ++k) {
+    const ModuleSample &a = h.modules["m1"][k], &b = r.modules["m1"][k];
+    INFO("sample " << k);
+    CHECK(b.t == a.t);
+    CHECK(b.tick == a.tick);
+    CHECK(b.normal_min == a.normal_min);
+    CHECK(b.slips == a.slips);
+    CHECK(b.contact_lost == a.contact_lost);
+    CHECK(b.late == a.late);
+    CHECK(b.failovers == a.failovers);
+    CHECK(b.braked == a.braked);
+    CHECK(b.hold == a.hold);
+    CHECK(b.load_paused == a.load_paused);
+    CHECK(b.released == a.released);
+    CHECK(b.stop_tick == a.stop_tick);
+    CHECK(b.failed == a.failed);
+    CHECK(b.world == a.world);
+  }
+  REQUIRE(r.heard["m1/left"].size() == 2);
+  CHECK(r.heard["m1/left"][1].start == 21.0);
+  CHECK(r.heard["m1/left"][1].end == 59.0);
+  CHECK(r.heard["m1/left"][1].pid == 4343);
+  REQUIRE(r.events.size() == h.events.size());
+  for (size_t k = 0; k < h.events.size(); ++k) {
+    const Event &a = h.events[k], &b = r.events[k];
+    INFO("event " << k);
+    CHECK(b.t == a.t);
+    CHECK(b.type == a.type);
+    CHECK(b.subject == a.subject);
+    CHECK(b.text == a.text);
+    CHECK(b.owners == a.owners);
+    CHECK(b.tick == a.tick);
+    CHECK(b.pid == a.pid);
+    CHECK(b.handover == a.handover);
+  }
+  REQUIRE(r.faults.size() == 1);
+  const FaultRecord& g = r.faults[0];
+  CHECK(g.fault.index == 7);
+  CHECK(g.fault.at_s == 28.9);
+  CHECK(g.fault.kind == FaultKind::Hog);
+  CHECK(g.fault.target == Target::None);
+  CHECK(g.fault.label == "fixed");
+  CHECK(g.fault.duration_s == 11.0);
+  CHECK(g.fault.cores == 2);
+  CHECK(g.fault.pick == 0xfedcba9876543210ULL);
+  CHECK(g.t == f.t);
+  CHECK(g.label == f.label);
+  CHECK(g.module == f.module);
+  CHECK(g.pid == f.pid);
+  CHECK(g.skipped == f.skipped);
+  CHECK(g.note == f.note);
+  CHECK(g.end_t == f.end_t);
+  CHECK(g.had_standby == f.had_standby);
+  CHECK(g.module_tick == f.module_tick);
+  REQUIRE(r.rss.size() == 1);
+  CHECK(r.rss[0].t == 12.5);
+  CHECK(r.rss[0].label == "m1/world");
+  CHECK(r.rss[0].pid == 99);
+  CHECK(r.rss[0].mib == 12.25);
+  CHECK(r.rss[0].cpu_s == 3.5);
+  CHECK(r.log_bytes == h.log_bytes);
+  CHECK(r.task_names == h.task_names);
+  CHECK(r.tasks_done == h.tasks_done);
+  CHECK(r.tasks_done_by == h.tasks_done_by);
+  CHECK(r.tasks_running == h.tasks_running);
+  CHECK(r.tasks_done_total == h.tasks_done_total);
+  CHECK(r.leftover_processes == h.leftover_processes);
+  CHECK(r.leftover_shm == h.leftover_shm);
+  CHECK(r.launcher_exit == h.launcher_exit);
+  CHECK(r.ended_by_itself == h.ended_by_itself);
+
+  // The checker says the same of both, violations and all.
+  const Verdict v1 = check(h, Bounds{}), v2 = check(r, Bounds{});
+  REQUIRE_FALSE(v1.ok());
+  REQUIRE(v2.violations.size() == v1.violations.size());
+  for (size_t k = 0; k < v1.violations.size(); ++k) {
+    CHECK(v2.violations[k].invariant == v1.violations[k].invariant);
+    CHECK(v2.violations[k].t == v1.violations[k].t);
+    CHECK(v2.violations[k].text == v1.violations[k].text);
+  }
+
+  // Bad files: missing, not a history, an event type this build does not know. The output is left as it was.
+  auto error_loading = [&](const std::string& file) {
+    RunInfo keep_info = info;
+    History keep = quiet_history(4.0);
+    try {
+      load_history(file, keep_info, keep);
+    } catch (const std::runtime_error& e) {
+      CHECK(keep_info.seed == 13);
+      CHECK(keep.modules["m1"].size() == 40);
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  CHECK(error_loading(dir + "/none.pb").find("cannot open " + dir + "/none.pb") != std::string::npos);
+  std::ofstream(dir + "/junk.pb") << "this is not protobuf \xff\xff\xff";
+  CHECK(error_loading(dir + "/junk.pb").find("is not a soak history") != std::string::npos);
+  History future = quiet_history(4.0);
+  future.events[0].type = static_cast<Event::Type>(42);
+  save_history(dir + "/future.pb", info, future);
+  CHECK(error_loading(dir + "/future.pb").find("an unknown event type (42; this build knows 0..7)") != std::string::npos);
+  REQUIRE(std::system(("rm -rf " + dir).c_str()) == 0);
 }

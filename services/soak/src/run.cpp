@@ -38,6 +38,7 @@
 #include "tandem/sim/module_setup.hpp"
 #include "tandem/sim/scenario_yaml.hpp"
 #include "tandem/soak/checker.hpp"
+#include "tandem/soak/history_file.hpp"
 #include "tandem/soak/nemesis.hpp"
 #include "tandem/soak/report.hpp"
 #include "tandem/supervisor/supervisor_core.hpp"
@@ -753,6 +754,11 @@ int run(const runtime::Deployment& d, const Schedule& sched, const RunOptions& o
   info.modules = static_cast<int>(d.modules.size());
   info.processes_seen = static_cast<int>(soak.processes_seen());
   const Verdict v = check(h, soak.bounds());
+  try {
+    save_history(o.report + "/history.pb", info, h);  // the whole recording: `tandem soak --judge` judges it again
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "tandem soak: %s\n", e.what());
+  }
   try {
     write_report(o.report, info, h, soak.bounds(), v);
   } catch (const std::exception& e) {

@@ -372,6 +372,31 @@ TEST_CASE("soak checker: failover and restart are measured from the recording, l
       CHECK_THAT(find(v, "recovery")->text, Catch::Contains(c.excused ? "within 10.0 s" : "within 0.2 s"));
     }
   }
+  // A restart (no standby) during which the module pauses for load: the arm is braked, then both are, and the world
+  // shows no owner until it releases them (soak run 65: released 12.1 and 37.1 s after the kill). Served again when
+  // the replacement is active, if the module stayed paused until then; the release is progress's to judge.
+  struct Restart {
+    double paused_from, paused_to, up;
+    bool ok;
+  };
+  for (const Restart c : {Restart{20.9, 57.0, 22.7, true}, Restart{20.9, 22.0, 22.7, false},
+                          Restart{20.9, 57.0, -1.0, false}, Restart{31.0, 57.0, 22.7, false}}) {
+    INFO("paused from " << c.paused_from << " to " << c.paused_to << " s, replacement up at " << c.up << " s");
+    History r = braked;
+    r.faults.back().had_standby = false;
+    for (ModuleSample& m : r.modules["m1"]) m.load_paused = m.t >= c.paused_from && m.t < c.paused_to;
+    add_event(r, {c.paused_from, Event::Type::Owners, "m1", "left=braked(load),right=braked(load)", {{"left", ""}, {"right", ""}}});
+    if (c.up > 0.0) add_event(r, {c.up, Event::Type::State, "m1/left", "2 555"});
+    add_event(r, {c.paused_to + 0.05, Event::Type::Owners, "m1", "left=m1/left,right=m1/right", {{"left", "m1/left"}, {"right", "m1/right"}}});
+    v = check(r, Bounds{});
+    if (c.ok) {
+      CHECK(find(v, "recovery") == nullptr);
+      CHECK(recovery_s(v, "kill robot: arm served again (restart, paused for load)") == Approx(c.up - 20.0));
+    } else {
+      REQUIRE(find(v, "recovery") != nullptr);
+      CHECK_THAT(find(v, "recovery")->text, Catch::Contains("no other robot served m1/left within 10.0 s"));
+    }
+  }
   // In module time when the fault has the world's tick (run 62: the observer, starved, heard tick 4870 at the kill;
   // the world had begun its overload stop at tick 5100 and the nemesis had heard 5250): a stop begun at a tick up to
   // the fault's counts, one begun after it does not, whatever the buckets' wall times.
@@ -721,6 +746,9 @@ TEST_CASE("soak checker: a module paused for load by a hog must resume within 20
   for (ModuleSample& s : h.modules["m1"]) s.released = s.t > 41.5 && s.t < 41.61;
   CHECK(find(check(h, Bounds{}), "progress") != nullptr);
   CHECK(find(parked(43.0), "progress") == nullptr);
+  // ... and the report says so: counted as left to the governor, not silently dropped (and not when judged).
+  CHECK(parked(43.0).left_to_governor.at("hog: paused modules resume") == 1);
+  CHECK(late.left_to_governor.empty());
   CHECK(find(parked(43.0, 75.0), "progress") == nullptr);  // brought back after the bound: still the governor's
   // Brought back within the bound and still paused (the series says paused until 70 s): judged, late.
   REQUIRE(find(parked(43.0, 48.0), "progress") != nullptr);
@@ -986,6 +1014,8 @@ TEST_CASE("soak checker: a fault's recovery is not judged when the launcher park
   };
   CHECK(replacement_violation(run(-1.0)));        // no replacement and no park: a violation
   CHECK_FALSE(replacement_violation(run(20.2)));  // parked 0.2 s after the kill: its restart was dropped by design
+  CHECK(run(20.2).left_to_governor.size() == 1);  // ... and counted as left to the governor in the report
+  CHECK(run(-1.0).left_to_governor.empty());
   CHECK(replacement_violation(run(35.0)));        // parked only after the bound: the violation stands
 }
 

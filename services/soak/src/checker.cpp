@@ -377,6 +377,31 @@ class Judge {
     }
     return stopping_then && paused_after;
   }
+  /// The end of the first bucket of `module` in (t0, t1] that says paused for load; -1 if none.
+  double load_paused_from(const std::string& module, double t0, double t1) const {
+    const auto m = h_.modules.find(module);
+    if (m == h_.modules.end()) return -1.0;
+    for (const ModuleSample& s : m->second) {
+      if (s.t <= t0) continue;
+      if (s.t > t1) break;
+      if (s.load_paused) return s.t;
+    }
+    return -1.0;
+  }
+  /// Whether every bucket of `module` in [t0, t1] says paused for load with no release inside, all of one world,
+  /// and there is a bucket at or after t1 (the world was heard through it).
+  bool paused_throughout(const std::string& module, double t0, double t1) const {
+    const auto m = h_.modules.find(module);
+    if (m == h_.modules.end()) return false;
+    int world = -1;
+    for (const ModuleSample& s : m->second) {
+      if (s.t < t0) continue;
+      if (world < 0) world = s.world;
+      if (s.world != world || !s.load_paused || s.released) return false;
+      if (s.t >= t1) return true;
+    }
+    return false;
+  }
   /// Whether the launcher parked `module` for load in [t0, t1].
   bool parked_between(const std::string& module, double t0, double t1) const {
     for (const Event& e : h_.events) {
@@ -487,7 +512,10 @@ class Judge {
     // restarts dropped) by design, and its return is the governor's (unit-tested). Not judged. (The CI soak loop:
     // a standby killed 0.2 s before m2 was parked, "no replacement robot ... within 10 s"; m2 parked the moment it
     // was plugged in again after its world's kill, "not running again".)
-    if (!f.module.empty() && parked_between(f.module, f.t, from + bound)) return;
+    if (!f.module.empty() && parked_between(f.module, f.t, from + bound)) {
+      ++v_.left_to_governor[kind];
+      return;
+    }
     violate(inv, f.t, f.fault.index,
             fmt("fault #%d (%s %s at %.1f s): %s within %.1f s%s", f.fault.index, label(f.fault.kind, f.fault.target).c_str(),
                 f.label.c_str(), f.t, missing.c_str(), bound,
@@ -508,12 +536,27 @@ class Judge {
             const bool load = f.had_standby && load_stop_at(module, f.t, f.t + b_.failover_s, f.module_tick);
             const bool warm = f.had_standby && !load;
             const double bound = warm ? b_.failover_s : b_.restart_s;
-            judge(inv, f,
-                  warm   ? "kill robot: arm served again (standby)"
-                  : load ? "kill robot: arm served again (paused for load)"
-                         : "kill robot: arm served again (restart)",
-                  arm_served_without(module, robot, f.label, f.pid, f.t, warm, f.module_tick), f.t, bound,
-                  "no other robot served " + arm, warm ? module_bound_end(module, f.t, f.module_tick, bound) : -1.0);
+            double served = arm_served_without(module, robot, f.label, f.pid, f.t, warm, f.module_tick);
+            std::string kind = warm   ? "kill robot: arm served again (standby)"
+                               : load ? "kill robot: arm served again (paused for load)"
+                                      : "kill robot: arm served again (restart)";
+            // A restart during which the module pauses for load (a robot's start costs the machine CPU): from the
+            // pause on the world brakes both arms and shows no owner until it releases them, which is the machine's
+            // to give and judged under progress. The arm counts as served again when its replacement is active, if
+            // the module stayed paused from before the arm was served until then (soak run 65: m1/left@47 killed
+            // with no standby, m1 paused for load 0.9 s later, the restart active 2.7 s after the kill, the
+            // release 12.1 s and 37.1 s after it). A pause that ended first leaves the world's own handover judged.
+            if (!warm && !load) {
+              const double pause = load_paused_from(module, f.t, f.t + bound);
+              const double up = slot_active(arm, f.pid, f.t);
+              if (pause >= 0.0 && (served < 0.0 || served > pause) && up >= 0.0 &&
+                  paused_throughout(module, pause, up)) {
+                served = std::max(up, pause);
+                kind = "kill robot: arm served again (restart, paused for load)";
+              }
+            }
+            judge(inv, f, kind, served, f.t, bound, "no other robot served " + arm,
+                  warm ? module_bound_end(module, f.t, f.module_tick, bound) : -1.0);
           }
           judge(inv, f, "kill robot: replacement up", slot_active(arm, f.pid, f.t), f.t, b_.restart_s,
                 "no replacement robot for " + arm + " was active");
@@ -587,7 +630,10 @@ class Judge {
           // return is the governor's after a calm of 30 s or more (unit-tested), not a resume (run 63: m2 paused by
           // a 1-core hog at 60.3 s, parked at 66.0 s, back at 121.0 s). One brought back within the bound is judged
           // as any other: its new world's first report not paused is its resume (the review of a first version).
-          if (parked_through(m, f.t, end + b_.hog_s)) continue;
+          if (parked_through(m, f.t, end + b_.hog_s)) {
+            ++v_.left_to_governor["hog: paused modules resume"];
+            continue;
+          }
           bool paused = false;
           double resumed = -1.0;
           for (const ModuleSample& s : series) {

@@ -301,6 +301,15 @@ std::string summary_text(const RunInfo& info, const History& h, const Bounds& b,
     o << "| " << kind << " | " << st.s.size() << " | " << f2(percentile(st.s, 0.5), "%.3f") << " | "
       << f2(percentile(st.s, 0.99), "%.3f") << " | " << f2(percentile(st.s, 1.0), "%.3f") << " |\n";
   }
+  if (!v.left_to_governor.empty()) {
+    o << "\nNot judged, left to the governor (the fault's module was parked for load before its recovery was due):";
+    const char* sep = " ";
+    for (const auto& [kind, n] : v.left_to_governor) {
+      o << sep << kind << " " << n;
+      sep = ", ";
+    }
+    o << ".\n";
+  }
   o << "\nBounds: arm served again " << b.failover_s << " s (with a standby" << (h.realtime ? "" : ", in module time") << "; else " << b.restart_s
     << " s), replacement robot " << b.restart_s << " s, supervisor " << b.supervisor_s << " s, coordinator "
     << b.coordinator_s << " s (" << b.coordinator_cold_s << " s with no standby), module back " << b.module_back_s << " s after it is plugged in, task re-planned "
@@ -409,6 +418,13 @@ std::string write_report(const std::string& dir, const RunInfo& info, const Hist
     kv << "recovery." << key << ".n=" << st.s.size() << "\nrecovery." << key << ".p50_s=" << percentile(st.s, 0.5)
        << "\nrecovery." << key << ".p99_s=" << percentile(st.s, 0.99) << "\nrecovery." << key
        << ".max_s=" << percentile(st.s, 1.0) << "\n";
+  }
+  for (const auto& [kind, n] : v.left_to_governor) {
+    std::string key = kind;
+    for (char& c : key) {
+      if (c == ' ' || c == ':') c = '_';
+    }
+    kv << "left_to_governor." << key << "=" << n << "\n";
   }
   for (const Violation& x : v.violations) {
     kv << "violation=" << x.t << "|" << x.invariant << "|" << x.fault << "|" << x.text << "\n";

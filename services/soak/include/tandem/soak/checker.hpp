@@ -71,6 +71,9 @@ struct Verdict {
   std::vector<Violation> violations;
   std::vector<Recovery> recoveries;
   std::map<std::string, int> faults_by_kind;  ///< carried out (skipped ones not counted)
+  /// Recoveries not judged because the fault's module was parked for load before they were due (its return is the
+  /// governor's): per recovery kind ("kill robot", "hog: paused modules resume", ...), how many.
+  std::map<std::string, int> left_to_governor;
   int skipped = 0;
   std::map<std::string, double> rss_slope;    ///< per process label judged [MiB/min]
   std::map<std::string, int> incidents;       ///< per module: buckets in which its object slipped or lost contact

@@ -48,29 +48,30 @@ void describe(CLI::App& app, SoakArgs& s) {
   CLI::Option* deploy =
       app.add_option("deploy", s.file, "the deployment file (docs/scenario-schema.md); required but with --judge")
           ->type_name("DEPLOY.yaml");
-  app.add_option("--judge", s.judge,
-                 "run nothing: judge a recorded run again (DIR/history.pb, written by every run) with this build's\n"
-                 "checker and write its report again (into DIR, or --report)")
-      ->excludes(deploy)->type_name("DIR");
+  CLI::Option* judge =
+      app.add_option("--judge", s.judge,
+                     "run nothing: judge a recorded run again (DIR/history.pb, written by every run) with this\n"
+                     "build's checker and write the new report into --report (default DIR/judged)")
+          ->excludes(deploy)->type_name("DIR");
   app.add_option("--duration", s.duration, "how long to run: 90, 90s, 10m, 1h")
-      ->check(runtime::duration())->capture_default_str()->type_name("T");
+      ->check(runtime::duration())->capture_default_str()->type_name("T")->excludes(judge);
   app.add_option("--seed", s.seed, "the schedule's seed: the same seed, rules and duration give the same schedule")
-      ->check(runtime::whole_number())->capture_default_str()->type_name("N");
+      ->check(runtime::whole_number())->capture_default_str()->type_name("N")->excludes(judge);
   app.add_option("--faults", s.faults,
                  "a schedule file (YAML, docs/soak.md) or a preset: mixed (every kind, about 20 a minute), ci (every\n"
                  "kind at least once, for short runs), kills, none")
-      ->capture_default_str()->type_name("FILE|PRESET");
+      ->capture_default_str()->type_name("FILE|PRESET")->excludes(judge);
   app.add_option("--report", s.report,
                  "where the report goes (default soak-<deployment>-<seed>): summary.md, summary.txt, index.html,\n"
                  "SVG plots, schedule.yaml, the derived deploy.yaml and launcher.log")
       ->type_name("DIR");
   app.add_option("--timing", s.timing, "realtime or lockstep, whatever the file says")
-      ->check(runtime::one_of({"realtime", "lockstep"}))->capture_default_str()->type_name("realtime|lockstep");
+      ->check(runtime::one_of({"realtime", "lockstep"}))->capture_default_str()->type_name("realtime|lockstep")->excludes(judge);
   app.add_option("--transport", s.transport,
                  "udp or shm instead of the file's: over shared memory a SIGKILLed process can leave its port to\n"
                  "stall its peers (docs/failure-model.md); lockstep, which has the CPU, can take udp")
-      ->check(runtime::one_of({"udp", "shm"}))->type_name("udp|shm");
-  app.add_flag("--print-schedule", s.print_only, "print the schedule (YAML) and exit without starting anything");
+      ->check(runtime::one_of({"udp", "shm"}))->type_name("udp|shm")->excludes(judge);
+  app.add_flag("--print-schedule", s.print_only, "print the schedule (YAML) and exit without starting anything")->excludes(judge);
   app.footer(
       "Faults: SIGKILL of a robot serving an arm, a standby robot, the serving supervisor or coordinator, or a\n"
       "module's world (plugged in again after a while); SIGSTOP stalls; unplug and plug of robots and modules;\n"
@@ -79,7 +80,8 @@ void describe(CLI::App& app, SoakArgs& s) {
       "once, every fault recovered within its bound, progress, nothing left behind, memory flat, logs bounded.\n"
       "Progress is printed every 10 s. Ctrl-C stops early and still writes the report.\n"
       "\n"
-      "Exit: 0 every invariant held; 1 a violation (listed in the report); 2 bad arguments, deployment or schedule.");
+      "Exit: 0 every invariant held; 1 a violation (listed in the report); 2 bad arguments, deployment or schedule\n"
+      "(with --judge: no history.pb, or one this build cannot read).");
 }
 
 /// `--judge DIR`: the recorded history judged by this build's checker, the report written again into `out`.
@@ -95,6 +97,12 @@ int judge(const std::string& dir, const std::string& out) {
   const Bounds bounds;
   const Verdict v = check(h, bounds);
   info.command += "  (judged again: tandem soak --judge " + dir + ")";
+  std::error_code ec;
+  std::filesystem::create_directories(out, ec);
+  if (ec) {
+    std::fprintf(stderr, "tandem soak: cannot create the report directory %s: %s\n", out.c_str(), ec.message().c_str());
+    return 2;
+  }
   try {
     write_report(out, info, h, bounds, v);
   } catch (const std::exception& e) {
@@ -122,7 +130,7 @@ int soak_command(const std::vector<std::string>& args) {
   CLI::App app("", "tandem soak");
   describe(app, a);
   if (const int rc = runtime::parse_args(app, args); rc >= 0) return rc;
-  if (!a.judge.empty()) return judge(a.judge, a.report.empty() ? a.judge : a.report);
+  if (!a.judge.empty()) return judge(a.judge, a.report.empty() ? a.judge + "/judged" : a.report);
   if (a.file.empty()) {
     std::fprintf(stderr, "tandem soak: a deployment file is required (or --judge DIR to judge a recorded run); "
                          "see tandem soak --help\n");

@@ -843,20 +843,21 @@ TEST_CASE("unplug of a primary with a standby hands the arm over without braking
   // The leaving robot says so in its last command: the world follows the standby at once (a tick or two), not
   // after 10 silent ticks. The hand-over is the arm's last failover in the log. (A robot stalled 10 ms by the
   // machine is also failed over to its standby and takes the arm back: harmless, equal commands; every such
-  // switch is in the summary, each within 15 ms and with the grasp held.) Paused for load, the robots answer only
-  // the probe samples, one every 10 ticks (OverloadRule::probe_every): the standby's next answer is up to 10 ms
-  // away, with both arms braked meanwhile (the full test command of 2026-11-27: 10.0 ms; CI of 2026-11-28: 23.4 ms,
+  // switch is in the summary, each within 15 ms, 50 ms if the module paused for load, and with the grasp held.)
+  // Paused for load, the robots answer only the probe samples, one every 10 ticks (OverloadRule::probe_every): the
+  // standby's next answer is up to 10 ms away, with both arms braked meanwhile (the full test command of 2026-11-27: 10.0 ms; CI of 2026-11-28: 23.4 ms,
   // a probe answered late on a loaded machine). While paused the arms are braked, so the gap costs the grasp nothing
-  // (the slip and force checks above and below say so): it is then judged against the with-standby failover bound
-  // of the failure model (soak::Bounds::failover_s, 200 ms), a safety bound, not the machine's speed.
+  // (the slip and force checks above and below say so). The bound then: the 10 silent ticks of a failover plus two
+  // probe periods (a probe missed, the next one answered) plus 20 ms for a loaded machine's wake-ups: 50 ms, which
+  // still fails a hand-over that waits for the 10-tick silence and then for a late probe or two.
   const bool paused = kv.at("m1.load_paused_ticks") > 0;
   const std::string key = "m1/left now follows m1/left@50 (was m1/left): failover ";
   const size_t at = log.rfind(key);
   REQUIRE(at != std::string::npos);
-  CHECK(std::stod(log.substr(at + key.size())) < (paused ? 200.0 : 5.0));
+  CHECK(std::stod(log.substr(at + key.size())) < (paused ? 50.0 : 5.0));
   const std::vector<double> gaps = parse_list(text.at("m1.switch_gap_ms"));
   REQUIRE(!gaps.empty());
-  for (double g : gaps) CHECK(g < (paused ? 200.0 : 15.0));
+  for (double g : gaps) CHECK(g < (paused ? 50.0 : 15.0));
   for (double h : parse_list(text.at("m1.switch_hn_min"))) CHECK(h >= 19.62);
   // The standby computed every tick, but those a load pause sent no sample for (robots answer only the probes then:
   // the full test command of 2026-11-27 paused the module at tick 4412 to the end, and the standby computed 4991).

@@ -42,7 +42,8 @@ if(NOT rc EQUAL 2)
 endif()
 # No deployment, --judge of a directory with no recording, and both at once.
 foreach(c "|a deployment file is required" "--judge;${WORK}/bad-soak|cannot open ${WORK}/bad-soak/history.pb"
-          "${SRC}/deploy/soak-small.yaml;--judge;${WORK}/bad-soak|excludes --judge")
+          "${SRC}/deploy/soak-small.yaml;--judge;${WORK}/bad-soak|excludes --judge"
+          "--judge;${WORK}/bad-soak;--seed;3|--judge excludes --seed")
   string(REPLACE "|" ";" parts "${c}")
   list(LENGTH parts n)
   math(EXPR last "${n} - 1")

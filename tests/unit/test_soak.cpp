@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cstdlib>
 #include <fstream>
+#include <iterator>
 #include <set>
 #include <sstream>
 #include <string>
@@ -1073,6 +1074,13 @@ TEST_CASE("soak history file: every recorded field reads back as written, the ve
   f.had_standby = false;
   f.module_tick = 29000;
   h.faults.push_back(f);
+  add_event(h, Event{32.0, Event::Type::State, "m1/left@49", "2 4444"});
+  add_event(h, Event{33.0, Event::Type::Serving, "m1/supervisor@50", "primary"});
+  add_event(h, Event{34.0, Event::Type::QueueBack, "12", "9"});
+  add_event(h, Event{35.0, Event::Type::Parked, "m2", "overload"});
+  h.modules["m2"] = quiet_history(2.0).modules["m1"];  // a second module, with its own h_sg
+  h.modules["m2"][5].world = 3;
+  h.h_sg["m2"] = 21.5;
   h.rss.push_back({12.5, "m1/world", 99, 12.25, 3.5});
   h.log_bytes = {{1.0, 100.0}, {2.0, 250.0}};
   h.tasks_running = {"t99"};
@@ -1116,11 +1124,12 @@ TEST_CASE("soak history file: every recorded field reads back as written, the ve
   CHECK(r.stop_s == h.stop_s);
   CHECK(r.realtime == h.realtime);
   CHECK(r.h_sg == h.h_sg);
-  REQUIRE(r.modules.size() == 1);
-  REQUIRE(r.modules["m1"].size() == h.modules["m1"].size());
-  for (size_t k = 0; k < h.modules["m1"].size(); ++k) {
-    const ModuleSample &a = h.modules["m1"][k], &b = r.modules["m1"][k];
-    INFO("sample " << k);
+  REQUIRE(r.modules.size() == 2);
+  for (const std::string m : {"m1", "m2"}) {
+  REQUIRE(r.modules[m].size() == h.modules[m].size());
+  for (size_t k = 0; k < h.modules[m].size(); ++k) {
+    const ModuleSample &a = h.modules[m][k], &b = r.modules[m][k];
+    INFO(m << " sample " << k);
     CHECK(b.t == a.t);
     CHECK(b.tick == a.tick);
     CHECK(b.normal_min == a.normal_min);
@@ -1136,7 +1145,15 @@ TEST_CASE("soak history file: every recorded field reads back as written, the ve
     CHECK(b.failed == a.failed);
     CHECK(b.world == a.world);
   }
+  }
+  std::set<Event::Type> types;
+  for (const Event& e : h.events) types.insert(e.type);
+  CHECK(types.size() == 8);  // every event type goes through the file
+  REQUIRE(r.heard.size() == 1);
   REQUIRE(r.heard["m1/left"].size() == 2);
+  CHECK(r.heard["m1/left"][0].start == 1.0);
+  CHECK(r.heard["m1/left"][0].end == 20.0);
+  CHECK(r.heard["m1/left"][0].pid == 4242);
   CHECK(r.heard["m1/left"][1].start == 21.0);
   CHECK(r.heard["m1/left"][1].end == 59.0);
   CHECK(r.heard["m1/left"][1].pid == 4343);
@@ -1189,7 +1206,7 @@ TEST_CASE("soak history file: every recorded field reads back as written, the ve
   CHECK(r.launcher_exit == h.launcher_exit);
   CHECK(r.ended_by_itself == h.ended_by_itself);
 
-  // The checker says the same of both, violations and all.
+  // The checker and the report say the same of both: violations, recoveries, statistics, counts.
   const Verdict v1 = check(h, Bounds{}), v2 = check(r, Bounds{});
   REQUIRE_FALSE(v1.ok());
   REQUIRE(v2.violations.size() == v1.violations.size());
@@ -1198,16 +1215,22 @@ TEST_CASE("soak history file: every recorded field reads back as written, the ve
     CHECK(v2.violations[k].t == v1.violations[k].t);
     CHECK(v2.violations[k].text == v1.violations[k].text);
   }
+  CHECK(summary_text(i2, r, Bounds{}, v2) == summary_text(info, h, Bounds{}, v1));
 
-  // Bad files: missing, not a history, an event type this build does not know. The output is left as it was.
+  // Bad files: missing, not a history, an event type this build does not know, cut short, with a field this build
+  // has no place for. Nothing is changed in the output on any of them.
   auto error_loading = [&](const std::string& file) {
-    RunInfo keep_info = info;
-    History keep = quiet_history(4.0);
+    RunInfo keep_info;
+    keep_info.seed = 99;
+    History keep = quiet_history(2.0);
     try {
       load_history(file, keep_info, keep);
     } catch (const std::runtime_error& e) {
-      CHECK(keep_info.seed == 13);
-      CHECK(keep.modules["m1"].size() == 40);
+      CHECK(keep_info.seed == 99);
+      CHECK(keep_info.deployment.empty());
+      CHECK(keep.modules.size() == 1);
+      CHECK(keep.modules["m1"].size() == 20);
+      CHECK(keep.events.size() == quiet_history(2.0).events.size());
       return std::string(e.what());
     }
     return std::string();
@@ -1215,9 +1238,23 @@ TEST_CASE("soak history file: every recorded field reads back as written, the ve
   CHECK(error_loading(dir + "/none.pb").find("cannot open " + dir + "/none.pb") != std::string::npos);
   std::ofstream(dir + "/junk.pb") << "this is not protobuf \xff\xff\xff";
   CHECK(error_loading(dir + "/junk.pb").find("is not a soak history") != std::string::npos);
-  History future = quiet_history(4.0);
-  future.events[0].type = static_cast<Event::Type>(42);
+  History future = h;  // a whole history whose last event is of a type this build does not know
+  future.events.push_back(Event{59.0, static_cast<Event::Type>(42), "m1", ""});
   save_history(dir + "/future.pb", info, future);
-  CHECK(error_loading(dir + "/future.pb").find("an unknown event type (42; this build knows 0..7)") != std::string::npos);
+  CHECK(error_loading(dir + "/future.pb").find("an unknown event type '?'") != std::string::npos);
+  // Cut short: the file without its last 3 bytes, the `complete` field (tag 100: 2 bytes, value 1); what precedes
+  // it is whole, so only the missing marker tells.
+  std::string bytes;
+  {
+    std::ifstream in(path, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  REQUIRE(bytes.size() > 100);
+  std::ofstream(dir + "/cut.pb", std::ios::binary) << bytes.substr(0, bytes.size() - 3);
+  CHECK(error_loading(dir + "/cut.pb").find("cut short") != std::string::npos);
+  // A newer writer's field (number 999, a varint): refused, not judged without it.
+  std::ofstream(dir + "/newer.pb", std::ios::binary) << bytes << std::string("\xb8\x3e\x01", 3);
+  CHECK(error_loading(dir + "/newer.pb").find("fields this build does not know") != std::string::npos);
+  CHECK(error_loading(path).empty());  // the file itself still reads
   REQUIRE(std::system(("rm -rf " + dir).c_str()) == 0);
 }

@@ -630,10 +630,6 @@ class Judge {
           // return is the governor's after a calm of 30 s or more (unit-tested), not a resume (run 63: m2 paused by
           // a 1-core hog at 60.3 s, parked at 66.0 s, back at 121.0 s). One brought back within the bound is judged
           // as any other: its new world's first report not paused is its resume (the review of a first version).
-          if (parked_through(m, f.t, end + b_.hog_s)) {
-            ++v_.left_to_governor["hog: paused modules resume"];
-            continue;
-          }
           bool paused = false;
           double resumed = -1.0;
           for (const ModuleSample& s : series) {
@@ -653,6 +649,10 @@ class Judge {
             if (!paused) break;
           }
           if (!paused) continue;
+          if ((resumed < 0.0 || resumed - end > b_.hog_s) && parked_through(m, f.t, end + b_.hog_s)) {
+            ++v_.left_to_governor["hog: paused modules resume"];  // paused by the hog, then shed: counted, not judged
+            continue;
+          }
           if (resumed < 0.0) {
             stuck = true;
           } else {

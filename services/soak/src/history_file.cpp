@@ -1,6 +1,8 @@
 #include "tandem/soak/history_file.hpp"
 
+#include <cstdio>
 #include <fstream>
+#include <vector>
 #include <stdexcept>
 
 #include "tandem_soak.pb.h"
@@ -9,7 +11,38 @@ namespace tandem::soak {
 namespace pb = tandem::soak_record;
 namespace {
 
-constexpr uint32_t kFormat = 1;
+constexpr uint32_t kFormat = 2;
+
+/// The value of E whose name() is `n` (names are stored, not numbers: a reordered enum reads the same).
+template <class E>
+E by_name(const std::string& n, const char* what) {
+  for (int i = 0; i < 64; ++i) {  // the values are 0, 1, ...: name() says "?" past the last
+    const E e = static_cast<E>(i);
+    const std::string known = name(e);
+    if (known == "?") break;
+    if (n == known) return e;
+  }
+  throw std::runtime_error(std::string("an unknown ") + what + " '" + n + "' (a newer build's?)");
+}
+
+/// Whether `m` or any message inside it holds a field this build's schema has no place for.
+bool has_unknown_fields(const google::protobuf::Message& m) {
+  const google::protobuf::Reflection* r = m.GetReflection();
+  if (!r->GetUnknownFields(m).empty()) return true;
+  std::vector<const google::protobuf::FieldDescriptor*> fields;
+  r->ListFields(m, &fields);
+  for (const auto* f : fields) {
+    if (f->cpp_type() != google::protobuf::FieldDescriptor::CPPTYPE_MESSAGE) continue;
+    if (f->is_repeated()) {
+      for (int i = 0; i < r->FieldSize(m, f); ++i) {
+        if (has_unknown_fields(r->GetRepeatedMessage(m, f, i))) return true;
+      }
+    } else if (has_unknown_fields(r->GetMessage(m, f))) {
+      return true;
+    }
+  }
+  return false;
+}
 
 template <class Seq, class Out>
 void copy_strings(const Seq& in, Out* out) {
@@ -84,7 +117,7 @@ ModuleSample from_pb(const pb::ModuleSample& s) {
 
 void to_pb(const Event& e, pb::Event* o) {
   o->set_t(e.t);
-  o->set_type(static_cast<int32_t>(e.type));
+  o->set_type(name(e.type));
   o->set_subject(e.subject);
   o->set_text(e.text);
   for (const auto& [arm, robot] : e.owners) (*o->mutable_owners())[arm] = robot;
@@ -93,19 +126,10 @@ void to_pb(const Event& e, pb::Event* o) {
   for (const auto& [arm, ticks] : e.handover) (*o->mutable_handover())[arm] = ticks;
 }
 
-template <class E>
-E checked_enum(int32_t v, E last, const char* what) {
-  if (v < 0 || v > static_cast<int32_t>(last)) {
-    throw std::runtime_error(std::string("an unknown ") + what + " (" + std::to_string(v) + "; this build knows 0.." +
-                             std::to_string(static_cast<int32_t>(last)) + ")");
-  }
-  return static_cast<E>(v);
-}
-
 Event from_pb(const pb::Event& e) {
   Event o;
   o.t = e.t();
-  o.type = checked_enum(e.type(), Event::Type::Unparked, "event type");
+  o.type = by_name<Event::Type>(e.type(), "event type");
   o.subject = e.subject();
   o.text = e.text();
   for (const auto& [arm, robot] : e.owners()) o.owners[arm] = robot;
@@ -119,8 +143,8 @@ void to_pb(const FaultRecord& r, pb::FaultRecord* o) {
   pb::Fault* f = o->mutable_fault();
   f->set_index(r.fault.index);
   f->set_at_s(r.fault.at_s);
-  f->set_kind(static_cast<int32_t>(r.fault.kind));
-  f->set_target(static_cast<int32_t>(r.fault.target));
+  f->set_kind(name(r.fault.kind));
+  f->set_target(name(r.fault.target));
   f->set_label(r.fault.label);
   f->set_duration_s(r.fault.duration_s);
   f->set_cores(r.fault.cores);
@@ -141,8 +165,8 @@ FaultRecord from_pb(const pb::FaultRecord& r) {
   const pb::Fault& f = r.fault();
   o.fault.index = f.index();
   o.fault.at_s = f.at_s();
-  o.fault.kind = checked_enum(f.kind(), FaultKind::Hog, "fault kind");
-  o.fault.target = checked_enum(f.target(), Target::None, "fault target");
+  o.fault.kind = by_name<FaultKind>(f.kind(), "fault kind");
+  o.fault.target = by_name<Target>(f.target(), "fault target");
   o.fault.label = f.label();
   o.fault.duration_s = f.duration_s();
   o.fault.cores = f.cores();
@@ -206,10 +230,34 @@ void save_history(const std::string& path, const RunInfo& info, const History& h
   copy_strings(h.leftover_shm, o.mutable_leftover_shm());
   o.set_launcher_exit(h.launcher_exit);
   o.set_ended_by_itself(h.ended_by_itself);
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!out || !o.SerializeToOstream(&out) || !out.flush()) {
+  o.set_complete(true);
+  // Whole or not at all: written aside, then renamed over `path`.
+  const std::string part = path + ".part";
+  {
+    std::ofstream out(part, std::ios::binary | std::ios::trunc);
+    if (!out || !o.SerializeToOstream(&out) || !out.flush()) {
+      std::remove(part.c_str());
+      throw std::runtime_error("cannot write the soak's history " + part);
+    }
+  }
+  if (std::rename(part.c_str(), path.c_str()) != 0) {
+    std::remove(part.c_str());
     throw std::runtime_error("cannot write the soak's history " + path);
   }
+}
+
+const char* name(Event::Type t) {
+  switch (t) {
+    case Event::Type::Owners: return "owners";
+    case Event::Type::State: return "state";
+    case Event::Type::Serving: return "serving";
+    case Event::Type::TaskAssigned: return "task_assigned";
+    case Event::Type::TaskDone: return "task_done";
+    case Event::Type::QueueBack: return "queue_back";
+    case Event::Type::Parked: return "parked";
+    case Event::Type::Unparked: return "unparked";
+  }
+  return "?";
 }
 
 void load_history(const std::string& path, RunInfo& info, History& h) {
@@ -220,6 +268,11 @@ void load_history(const std::string& path, RunInfo& info, History& h) {
   if (o.format() != kFormat) {
     throw std::runtime_error(path + ": history format " + std::to_string(o.format()) + "; this build reads format " +
                              std::to_string(kFormat));
+  }
+  if (!o.complete()) throw std::runtime_error(path + " is cut short (its last field, `complete`, is missing)");
+  if (has_unknown_fields(o)) {
+    throw std::runtime_error(path + " has fields this build does not know (written by a newer one?): judge it with "
+                             "that build");
   }
   History x;
   try {

@@ -443,10 +443,9 @@ std::string write_report(const std::string& dir, const RunInfo& info, const Hist
           << s.load_paused << "," << s.released << "\n";
     }
   }
-  static const char* kTypes[] = {"owners", "state", "serving", "task_assigned", "task_done", "queue_back", "parked", "unparked"};
   ev << "t,type,subject,text,tick\n";  // tick: the world's, for owners (-1 otherwise)
   for (const Event& e : h.events) {
-    ev << e.t << "," << kTypes[static_cast<int>(e.type)] << "," << e.subject << ",\"" << e.text << "\"," << e.tick << "\n";
+    ev << e.t << "," << name(e.type) << "," << e.subject << ",\"" << e.text << "\"," << e.tick << "\n";
   }
   fl << "index,t,kind,target,label,pid,duration_s,end_t,skipped,had_standby,note,module_tick\n";
   for (const FaultRecord& f : h.faults) {

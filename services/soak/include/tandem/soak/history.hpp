@@ -63,6 +63,10 @@ struct Event {
       : t(at), type(what), subject(std::move(subj)), text(std::move(txt)), owners(std::move(arm_owners)) {}
 };
 
+/// An event type's name, as in events.csv and history.pb: owners, state, serving, task_assigned, task_done,
+/// queue_back, parked, unparked.
+const char* name(Event::Type t);
+
 /// What the nemesis did.
 struct FaultRecord {
   Fault fault;                   ///< as scheduled

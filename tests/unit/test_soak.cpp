@@ -758,6 +758,24 @@ TEST_CASE("soak checker: a module paused for load by a hog must resume within 20
   CHECK(find(parked(65.0), "progress") != nullptr);  // nor one after the resume was due
 }
 
+TEST_CASE("soak checker: a task assigned and never done nor running is lost, unless its module was parked since") {
+  History h = quiet_history(120.0);
+  add_event(h, {10.0, Event::Type::TaskAssigned, "tx", "m2"});  // given to m2, then neither done nor running
+  h.task_names.push_back("tx");
+  auto lost = [](const History& x) {
+    const Verdict v = check(x, Bounds{});
+    const Violation* y = find(v, "tasks exactly once");
+    return y != nullptr && y->text.find("task tx was assigned at 10.0 s") != std::string::npos;
+  };
+  CHECK(lost(h));
+  History parked = h;  // m2 parked for load 13 s later: the task went back to the queue, pending
+  add_event(parked, {23.0, Event::Type::Parked, "m2", "overload: the running modules were paused for load 50% of the last 20 s"});
+  CHECK_FALSE(lost(parked));
+  History other = h;  // another module parked excuses nothing
+  add_event(other, {23.0, Event::Type::Parked, "m3", "overload"});
+  CHECK(lost(other));
+}
+
 TEST_CASE("soak checker: anything left behind is a violation") {
   History h = quiet_history(30.0);
   h.leftover_shm.push_back("fast_datasharing_x");

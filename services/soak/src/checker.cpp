@@ -232,8 +232,12 @@ class Judge {
     }
     std::set<std::string> running(h_.tasks_running.begin(), h_.tasks_running.end());
     std::map<std::string, double> first_assigned;
+    std::map<std::string, std::string> last_module;  // the module a task was last assigned to
     for (const Event& e : h_.events) {
-      if (e.type == Event::Type::TaskAssigned) first_assigned.emplace(e.subject, e.t);
+      if (e.type == Event::Type::TaskAssigned) {
+        first_assigned.emplace(e.subject, e.t);
+        last_module[e.subject] = e.text;
+      }
       if (e.type == Event::Type::TaskDone && known.count(e.subject) == 0 && !known.empty()) {
         violate(inv, e.t, 0, "task " + e.subject + " is not in the task list");
       }
@@ -247,6 +251,10 @@ class Judge {
     for (const auto& [name, t] : first_assigned) {
       if (t > h_.stop_s - b_.task_lost_s) continue;
       if (count.count(name) || running.count(name)) continue;
+      // Its module was parked for load after it got the task: the coordinator put the task back at the front of its
+      // queue (pending, not lost), and when it is given out again is progress's to judge (the CI soak loop of
+      // 2026-11-29: m2 parked 13 s after taking soak-10, m1 kept busy by faults on soak-9 until the stop).
+      if (parked_between(last_module[name], t, h_.stop_s)) continue;
       violate(inv, t, fault_before(t), fmt("task %s was assigned at %.1f s and is neither done nor running at the end (lost)",
                                            name.c_str(), t));
     }

@@ -57,3 +57,22 @@ function(tandem_forbid_dependency target forbidden)
     endforeach()
   endwhile()
 endfunction()
+
+# A library of the C++ that protoc generates at build time (never committed) from idl/<name>.proto: target <target>,
+# its headers on the include path of whoever links it.
+function(tandem_proto_library target name)
+  find_package(Protobuf REQUIRED)
+  set(gen ${CMAKE_CURRENT_BINARY_DIR}/generated)
+  set(src ${PROJECT_SOURCE_DIR}/idl/${name}.proto)
+  add_custom_command(
+    OUTPUT ${gen}/${name}.pb.cc ${gen}/${name}.pb.h
+    COMMAND ${CMAKE_COMMAND} -E make_directory ${gen}
+    COMMAND protobuf::protoc --cpp_out=${gen} -I ${PROJECT_SOURCE_DIR}/idl ${src}
+    DEPENDS ${src} protobuf::protoc
+    COMMENT "protoc: generating C++ from idl/${name}.proto"
+    VERBATIM)
+  add_library(${target} ${gen}/${name}.pb.cc)
+  target_include_directories(${target} SYSTEM PUBLIC ${gen})
+  target_link_libraries(${target} PUBLIC protobuf::libprotobuf)
+  target_compile_features(${target} PUBLIC cxx_std_17)
+endfunction()
